@@ -1,0 +1,167 @@
+"""The model's equations (paper Table 1, Sec. 5), compiled with numba.
+
+Symmetric tensors are packed as the six components (11, 22, 33, 12, 13, 23); the traceless fabric
+state as the five (11, 22, 12, 13, 23) with A33 = -A11 - A22. ``Dh`` is the unit deviatoric
+stretching D'/|D'| and ``Wn`` the spin over |D'|, packed as (W12, W13, W23). ``p`` is
+``Params.as_array()``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+# indices into Params.as_array()
+C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C = range(13)
+
+jit = numba.njit(cache=True, fastmath=False, nogil=True)
+
+
+@jit
+def double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23):
+    """A:D for traceless A (A33 = -A11 - A22) and symmetric D."""
+    return a11 * d11 + a22 * d22 - (a11 + a22) * d33 + 2.0 * (a12 * d12 + a13 * d13 + a23 * d23)
+
+
+@jit
+def hardening_variable(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23):
+    """S = |A| - A:D'/|D'| (Eqs. 10/21) for unit D' given as Dh; always >= 0.
+
+    Where A is nearly parallel to D' the difference is formed as |A_perp|^2 / (|A| + A:Dh),
+    A_perp = A - (A:Dh) Dh, so it keeps full relative accuracy down to S = 0.
+    """
+    a33 = -a11 - a22
+    norm_a = math.sqrt(a11 * a11 + a22 * a22 + a33 * a33 + 2.0 * (a12 * a12 + a13 * a13 + a23 * a23))
+    x = double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
+    if x <= 0.0:
+        return norm_a - x
+    q11 = a11 - x * d11
+    q22 = a22 - x * d22
+    q33 = a33 - x * d33
+    q12 = a12 - x * d12
+    q13 = a13 - x * d13
+    q23 = a23 - x * d23
+    perp2 = q11 * q11 + q22 * q22 + q33 * q33 + 2.0 * (q12 * q12 + q13 * q13 + q23 * q23)
+    return perp2 / (norm_a + x)
+
+
+@jit
+def persistence(S, p):
+    """Contact persistence Lambda(S) = S**k (Eqs. 12, 24; paper k = 3/4)."""
+    return S ** p[K_PERSIST]
+
+
+@jit
+def yield_function(S, p):
+    """Y(S) = n + m S (Eq. 22)."""
+    return p[N] + p[M] * S
+
+
+@jit
+def dilatancy_c2(S, p):
+    """c2(S) = c2_coef * S**c2_exponent (Sec. 5; paper 5.6 S**(1/3))."""
+    return p[C2_COEF] * S ** p[C2_EXP]
+
+
+@jit
+def fabric_rates(y, Dh, Wn, p):
+    """Rates per unit |D'| t of the packed fabric and the two dilatancy integrals.
+
+    Returns (n11, n22, n12, n13, n23, lam, g, c2) with
+    Lambda(S) dA/d(|D'|t) = (n11, ..., n23) (Eqs. 13/23 with the Jaumann rate A_dot + A W - W A),
+    g = c1 A:Dh + c2 (phi_c + c3) and c2, from which (Eq. 18, with u = 1/Phi)
+    du/d(|D'|t) = -g u + c2.
+    """
+    a11, a22, a12, a13, a23 = y[0], y[1], y[2], y[3], y[4]
+    d11, d22, d33, d12, d13, d23 = Dh[0], Dh[1], Dh[2], Dh[3], Dh[4], Dh[5]
+    w12, w13, w23 = Wn[0], Wn[1], Wn[2]
+    a33 = -a11 - a22
+    S = hardening_variable(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
+    lam = persistence(S, p)
+    beta1 = p[A1] + p[B1] * S
+    beta2 = p[A2] + p[B2] * S
+    # W A - A W = 2 sym(W A) for symmetric A, antisymmetric W
+    m00 = w12 * a12 + w13 * a13
+    m01 = w12 * a22 + w13 * a23
+    m02 = w12 * a23 + w13 * a33
+    m10 = -w12 * a11 + w23 * a13
+    m11 = -w12 * a12 + w23 * a23
+    m12 = -w12 * a13 + w23 * a33
+    m20 = -w13 * a11 - w23 * a12
+    m21 = -w13 * a12 - w23 * a22
+    n11 = beta1 * d11 + beta2 * a11 + lam * 2.0 * m00
+    n22 = beta1 * d22 + beta2 * a22 + lam * 2.0 * m11
+    n12 = beta1 * d12 + beta2 * a12 + lam * (m01 + m10)
+    n13 = beta1 * d13 + beta2 * a13 + lam * (m02 + m20)
+    n23 = beta1 * d23 + beta2 * a23 + lam * (m12 + m21)
+    c2 = dilatancy_c2(S, p)
+    g = p[C1] * double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23) + c2 * (p[PHI_C] + p[C3])
+    return n11, n22, n12, n13, n23, lam, g, c2
+
+
+@jit
+def _observables(A, Dh, p, S, tau, w_shear, w_vol_base):
+    for i in range(A.shape[0]):
+        a = A[i]
+        d = Dh[i]
+        s = hardening_variable(a[0, 0], a[1, 1], a[0, 1], a[0, 2], a[1, 2],
+                               d[0, 0], d[1, 1], d[2, 2], d[0, 1], d[0, 2], d[1, 2])
+        S[i] = s
+        y = yield_function(s, p)
+        x = 0.0
+        for j in range(3):
+            for k in range(3):
+                tau[i, j, k] = p[C] * a[j, k] + y * d[j, k]
+                x += a[j, k] * d[j, k]
+        w_shear[i] = p[C] * x + y  # tau:D'/(p |D'|) = C A:Dh + Y   (Eq. 17, first term)
+        w_vol_base[i] = p[C1] * x  # c1 A:Dh; the Phi-dependent part is added by the caller
+
+
+@jit
+def _hardening_stack(A, Dh, S):
+    for i in range(A.shape[0]):
+        a = A[i]
+        d = Dh[i]
+        S[i] = hardening_variable(a[0, 0], a[1, 1], a[0, 1], a[0, 2], a[1, 2],
+                                  d[0, 0], d[1, 1], d[2, 2], d[0, 1], d[0, 2], d[1, 2])
+
+
+def _unit_stack(A, D_dev):
+    A = np.ascontiguousarray(A, dtype=float).reshape(-1, 3, 3)
+    D = np.ascontiguousarray(D_dev, dtype=float).reshape(-1, 3, 3)
+    norm = np.sqrt(np.sum(D * D, axis=(1, 2)))
+    if np.any(norm == 0) or not np.all(np.isfinite(norm)):
+        raise ValueError("D' must be finite and non-zero")
+    return A, D / norm[:, None, None]
+
+
+def hardening_variable_stack(A: np.ndarray, D_dev: np.ndarray) -> np.ndarray:
+    """S (Eq. 10) for stacks of fabric (n, 3, 3) and deviatoric stretching (n, 3, 3)."""
+    A, Dh = _unit_stack(A, D_dev)
+    S = np.empty(A.shape[0])
+    _hardening_stack(A, Dh, S)
+    return S
+
+
+def observables(A: np.ndarray, D_dev: np.ndarray, p: np.ndarray, packing_fraction=None) -> dict:
+    """S, tau/p (Eq. 14) and the work rates of Sec. 5 (Eq. 17) per unit p |D'|.
+
+    ``A`` and ``D_dev`` are stacks (n, 3, 3); only the direction of D' matters. With a packing
+    fraction Phi the volumetric work rate p Phi_dot/Phi (Eq. 18) is included.
+    """
+    A, Dh = _unit_stack(A, D_dev)
+    n = A.shape[0]
+    S = np.empty(n)
+    tau = np.empty((n, 3, 3))
+    w_shear = np.empty(n)
+    w_vol = np.empty(n)
+    _observables(A, Dh, np.asarray(p, dtype=float), S, tau, w_shear, w_vol)
+    out = {"S": S, "tau": tau, "w_shear": w_shear}
+    if packing_fraction is not None:
+        phi = np.asarray(packing_fraction, dtype=float)
+        c2 = p[C2_COEF] * S ** p[C2_EXP]
+        w_vol = w_vol + c2 * (p[PHI_C] - phi + p[C3])  # Eq. 18 over |D'|
+        out["w_vol"] = w_vol
+    return out

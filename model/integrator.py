@@ -1,0 +1,358 @@
+"""Compiled integrators for the fabric equation through the reversal singularity.
+
+The fabric rate is dA/dt = [beta1 D' + beta2 |D'| A]/Lambda(S) - A W + W A (Eqs. 13/23) and
+Lambda(S) = S**k vanishes right after a reversal and at an isotropic start. We integrate in a
+regularised variable s (a Sundman transformation) with
+
+    dt/ds = Lambda / ((Lambda + Lambda_ref) |D'|),
+
+so that every rate is bounded for S -> 0 while s ~ |D'| t wherever S >> S_ref. The state is
+y = (A11, A22, A12, A13, A23, t, G, v) with G, v the two integrals that give the packing fraction of
+Eq. 18 in closed form: 1/Phi(t) = exp(-G(t))/Phi(0) + v(t).
+
+``dop853`` is an embedded 8(5,3) Runge-Kutta method (Dormand & Prince, Hairer's DOP853, with its
+7th-order dense output; coefficients from scipy) with adaptive steps that land exactly on segment
+ends. ``explicit_euler`` is the paper's method (Sec. 4): fixed steps in t, no regularisation.
+
+Kernel status codes: 0 success, 1 step size underflow, 2 too many steps, 3 non-finite state,
+4 explicit Euler met S = 0.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate._ivp import dop853_coefficients as _dop
+
+from .equations import fabric_rates, jit
+
+N_STATE = 8
+T_INDEX, G_INDEX, V_INDEX = 5, 6, 7
+N_STAGES = _dop.N_STAGES
+RK_A = np.ascontiguousarray(_dop.A)
+RK_B = np.ascontiguousarray(_dop.B)
+RK_C = np.ascontiguousarray(_dop.C)
+RK_E3 = np.ascontiguousarray(_dop.E3)
+RK_E5 = np.ascontiguousarray(_dop.E5)
+RK_D = np.ascontiguousarray(_dop.D)
+
+SUCCESS, STEP_UNDERFLOW, TOO_MANY_STEPS, NOT_FINITE, EULER_SINGULAR = range(5)
+STATUS_MESSAGES = {
+    SUCCESS: "integration successful",
+    STEP_UNDERFLOW: "step size fell below round-off: the requested tolerance cannot be honoured",
+    TOO_MANY_STEPS: "too many steps: the solution stalls (S stays at 0 with a vanishing fabric rate?)",
+    NOT_FINITE: "the state became non-finite",
+    EULER_SINGULAR: "explicit Euler met S = 0, where the fabric rate is infinite",
+}
+
+
+@jit
+def _rhs_s(y, Dh, Wn, rate, p, lam_ref, out):
+    """dy/ds in the regularised variable s."""
+    n11, n22, n12, n13, n23, lam, g, c2 = fabric_rates(y, Dh, Wn, p)
+    w = 1.0 / (lam + lam_ref)
+    out[0] = n11 * w
+    out[1] = n22 * w
+    out[2] = n12 * w
+    out[3] = n13 * w
+    out[4] = n23 * w
+    dgam = lam * w  # d(|D'| t)/ds
+    out[T_INDEX] = dgam / rate
+    out[G_INDEX] = g * dgam
+    out[V_INDEX] = (c2 - g * y[V_INDEX]) * dgam
+
+
+@jit
+def _dense_eval(F, y_old, x, out):
+    """DOP853 dense output at fraction x of the step (Hairer's form, as in scipy)."""
+    for i in range(y_old.shape[0]):
+        acc = 0.0
+        for j in range(F.shape[0] - 1, -1, -1):
+            acc += F[j, i]
+            if (F.shape[0] - 1 - j) % 2 == 0:
+                acc *= x
+            else:
+                acc *= 1.0 - x
+        out[i] = y_old[i] + acc
+
+
+@jit
+def _dense_time(F, y_old, x):
+    acc = 0.0
+    for j in range(F.shape[0] - 1, -1, -1):
+        acc += F[j, T_INDEX]
+        if (F.shape[0] - 1 - j) % 2 == 0:
+            acc *= x
+        else:
+            acc *= 1.0 - x
+    return y_old[T_INDEX] + acc
+
+
+@jit
+def _dense_solve_time(F, y_old, t_old, t_new, target):
+    """Fraction x in [0, 1] of the step where the interpolated time equals ``target`` (Illinois)."""
+    lo, hi = 0.0, 1.0
+    flo, fhi = t_old - target, t_new - target
+    if flo >= 0.0:
+        return 0.0
+    if fhi <= 0.0:
+        return 1.0
+    side = 0
+    x = 0.5
+    for _ in range(100):
+        x = (lo * fhi - hi * flo) / (fhi - flo)
+        fx = _dense_time(F, y_old, x) - target
+        if fx == 0.0 or hi - lo < 1e-15:
+            break
+        if fx > 0.0:
+            hi, fhi = x, fx
+            if side == -1:
+                flo *= 0.5
+            side = -1
+        else:
+            lo, flo = x, fx
+            if side == 1:
+                fhi *= 0.5
+            side = 1
+    return x
+
+
+@jit
+def _rk_step(y, f0, h, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp):
+    """One DOP853 step of size h in s; fills K[0:13] and y_new."""
+    n = y.shape[0]
+    for i in range(n):
+        K[0, i] = f0[i]
+    for s in range(1, N_STAGES):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += RK_A[s, j] * K[j, i]
+            ytmp[i] = y[i] + h * acc
+        _rhs_s(ytmp, Dh, Wn, rate, p, lam_ref, K[s])
+    for i in range(n):
+        acc = 0.0
+        for j in range(N_STAGES):
+            acc += RK_B[j] * K[j, i]
+        y_new[i] = y[i] + h * acc
+    _rhs_s(y_new, Dh, Wn, rate, p, lam_ref, K[N_STAGES])
+
+
+@jit
+def _error_norm(y, y_new, K, h, rtol, atol):
+    n = y.shape[0]
+    e5 = 0.0
+    e3 = 0.0
+    for i in range(n):
+        scale = atol + rtol * max(abs(y[i]), abs(y_new[i]))
+        a5 = 0.0
+        a3 = 0.0
+        for j in range(N_STAGES + 1):
+            a5 += RK_E5[j] * K[j, i]
+            a3 += RK_E3[j] * K[j, i]
+        e5 += (a5 / scale) ** 2
+        e3 += (a3 / scale) ** 2
+    if e5 == 0.0 and e3 == 0.0:
+        return 0.0
+    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
+
+
+@jit
+def _dense_coefficients(y, y_new, h, Dh, Wn, rate, p, lam_ref, K, F, ytmp):
+    """The three extra stages and the 7 interpolation coefficients of DOP853."""
+    n = y.shape[0]
+    for s in range(N_STAGES + 1, RK_A.shape[0]):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += RK_A[s, j] * K[j, i]
+            ytmp[i] = y[i] + h * acc
+        _rhs_s(ytmp, Dh, Wn, rate, p, lam_ref, K[s])
+    for i in range(n):
+        dy = y_new[i] - y[i]
+        F[0, i] = dy
+        F[1, i] = h * K[0, i] - dy
+        F[2, i] = 2.0 * dy - h * (K[N_STAGES, i] + K[0, i])
+        for r in range(RK_D.shape[0]):
+            acc = 0.0
+            for j in range(RK_D.shape[1]):
+                acc += RK_D[r, j] * K[j, i]
+            F[3 + r, i] = h * acc
+
+
+@jit
+def _initial_step(y, f0, Dh, Wn, rate, p, lam_ref, rtol, atol, span, ytmp, ftmp):
+    """Hairer's starting step (as scipy's select_initial_step), in s."""
+    n = y.shape[0]
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(n):
+        scale = atol + abs(y[i]) * rtol
+        d0 += (y[i] / scale) ** 2
+        d1 += (f0[i] / scale) ** 2
+    d0 = math.sqrt(d0 / n)
+    d1 = math.sqrt(d1 / n)
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    h0 = min(h0, span)
+    for i in range(n):
+        ytmp[i] = y[i] + h0 * f0[i]
+    _rhs_s(ytmp, Dh, Wn, rate, p, lam_ref, ftmp)
+    d2 = 0.0
+    for i in range(n):
+        scale = atol + abs(y[i]) * rtol
+        d2 += ((ftmp[i] - f0[i]) / scale) ** 2
+    d2 = math.sqrt(d2 / n) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+    return min(100.0 * h0, h1, span)
+
+
+@jit
+def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref, max_steps):
+    """Integrate the packed state through consecutive constant-L segments.
+
+    seg_end: (m,) end times; seg_Dh: (m, 6) unit D'; seg_Wn: (m, 3) W/|D'|; seg_rate: (m,) |D'|;
+    t_out: sorted output times within [y0[t], seg_end[-1]].
+    Returns (y_out (len(t_out), 8), y_end (8,), stats (nfev, accepted, rejected, status)).
+    """
+    n = y0.shape[0]
+    y = y0.copy()
+    y_new = np.empty(n)
+    ytmp = np.empty(n)
+    ftmp = np.empty(n)
+    f0 = np.empty(n)
+    K = np.empty((RK_A.shape[0], n))
+    F = np.empty((7, n))
+    y_out = np.full((t_out.shape[0], n), np.nan)
+    nfev = 0
+    accepted = 0
+    rejected = 0
+    status = SUCCESS
+    iout = 0
+    while iout < t_out.shape[0] and t_out[iout] <= y[T_INDEX]:
+        y_out[iout, :] = y
+        iout += 1
+    for iseg in range(seg_end.shape[0]):
+        Dh = seg_Dh[iseg]
+        Wn = seg_Wn[iseg]
+        rate = seg_rate[iseg]
+        t_end = seg_end[iseg]
+        if y[T_INDEX] >= t_end:
+            continue
+        _rhs_s(y, Dh, Wn, rate, p, lam_ref, f0)
+        span = (t_end - y[T_INDEX]) * rate
+        h = _initial_step(y, f0, Dh, Wn, rate, p, lam_ref, rtol, atol, span, ytmp, ftmp)
+        nfev += 2
+        while y[T_INDEX] < t_end:
+            if accepted + rejected >= max_steps:
+                status = TOO_MANY_STEPS
+                break
+            # aim at the segment end when the step is predicted to pass it
+            if f0[T_INDEX] > 0.0 and y[T_INDEX] + h * f0[T_INDEX] > t_end:
+                h = (t_end - y[T_INDEX]) / f0[T_INDEX]
+            if h < 1e-14 * (1.0 + abs(y[T_INDEX]) * rate):
+                status = STEP_UNDERFLOW
+                break
+            _rk_step(y, f0, h, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp)
+            nfev += N_STAGES
+            err = _error_norm(y, y_new, K, h, rtol, atol)
+            if not math.isfinite(err):
+                err = 1e10
+            if err > 1.0:
+                rejected += 1
+                h *= max(0.2, 0.9 * err ** (-1.0 / 8.0))
+                continue
+            accepted += 1
+            factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
+            if y_new[T_INDEX] > t_end:
+                # land exactly on the segment end: retake the step to the interpolated crossing
+                _dense_coefficients(y, y_new, h, Dh, Wn, rate, p, lam_ref, K, F, ytmp)
+                nfev += 3
+                x = _dense_solve_time(F, y, y[T_INDEX], y_new[T_INDEX], t_end)
+                h = h * x
+                _rk_step(y, f0, h, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp)
+                nfev += N_STAGES
+                factor = 1.0
+            if t_end - y_new[T_INDEX] <= 1e-13 * max(1.0, t_end):
+                y_new[T_INDEX] = t_end
+            for i in range(n):
+                if not math.isfinite(y_new[i]):
+                    status = NOT_FINITE
+            if status != SUCCESS:
+                break
+            if iout < t_out.shape[0] and t_out[iout] <= y_new[T_INDEX]:
+                _dense_coefficients(y, y_new, h, Dh, Wn, rate, p, lam_ref, K, F, ytmp)
+                nfev += 3
+                while iout < t_out.shape[0] and t_out[iout] <= y_new[T_INDEX]:
+                    if t_out[iout] == y_new[T_INDEX]:
+                        y_out[iout, :] = y_new
+                    else:
+                        x = _dense_solve_time(F, y, y[T_INDEX], y_new[T_INDEX], t_out[iout])
+                        _dense_eval(F, y, x, y_out[iout])
+                        y_out[iout, T_INDEX] = t_out[iout]
+                    iout += 1
+            for i in range(n):
+                y[i] = y_new[i]
+                f0[i] = K[N_STAGES, i]
+            h *= factor
+        if status != SUCCESS:
+            break
+    stats = np.array([nfev, accepted, rejected, status], dtype=np.int64)
+    return y_out, y, stats
+
+
+@jit
+def explicit_euler(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, strain_step, shear_rate):
+    """The paper's explicit Euler (Sec. 4) with a fixed strain step; outputs interpolated linearly."""
+    n = y0.shape[0]
+    y = y0.copy()
+    y_prev = y0.copy()
+    y_out = np.full((t_out.shape[0], n), np.nan)
+    nfev = 0
+    status = SUCCESS
+    iout = 0
+    while iout < t_out.shape[0] and t_out[iout] <= y[T_INDEX]:
+        y_out[iout, :] = y
+        iout += 1
+    for iseg in range(seg_end.shape[0]):
+        Dh = seg_Dh[iseg]
+        Wn = seg_Wn[iseg]
+        rate = seg_rate[iseg]
+        t_start = y[T_INDEX]
+        duration = seg_end[iseg] - t_start
+        if duration <= 0.0:
+            continue
+        nsteps = max(1, int(round(duration * shear_rate / strain_step)))
+        dt = duration / nsteps
+        dgam = rate * dt
+        for k in range(nsteps):
+            n11, n22, n12, n13, n23, lam, g, c2 = fabric_rates(y, Dh, Wn, p)
+            nfev += 1
+            if lam == 0.0:
+                status = EULER_SINGULAR
+                break
+            for i in range(n):
+                y_prev[i] = y[i]
+            y[0] += dgam * n11 / lam
+            y[1] += dgam * n22 / lam
+            y[2] += dgam * n12 / lam
+            y[3] += dgam * n13 / lam
+            y[4] += dgam * n23 / lam
+            y[G_INDEX] += dgam * g
+            y[V_INDEX] += dgam * (c2 - g * y_prev[V_INDEX])
+            y[T_INDEX] = seg_end[iseg] if k == nsteps - 1 else t_start + (k + 1) * dt
+            while iout < t_out.shape[0] and t_out[iout] <= y[T_INDEX]:
+                x = (t_out[iout] - y_prev[T_INDEX]) / (y[T_INDEX] - y_prev[T_INDEX])
+                for i in range(n):
+                    y_out[iout, i] = y_prev[i] + x * (y[i] - y_prev[i])
+                iout += 1
+        if status != SUCCESS:
+            break
+    for i in range(n):
+        if not math.isfinite(y[i]):
+            status = NOT_FINITE
+    stats = np.array([nfev, nfev, 0, status], dtype=np.int64)
+    return y_out, y, stats

@@ -1,0 +1,355 @@
+"""Drivers: integrate a shear history, find the periodic cycle, steady states, and ``predict``.
+
+Times in the public API are strains t*gamma_dot (``History.shear_rate`` converts); stresses are
+tau/p (tension positive); work rates are per unit p*gamma_dot.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import integrator
+from .equations import fabric_rates, observables
+from .kinematics import History, Segment, deviator, modulus, periodic_cycle, stretching
+from .params import Params
+
+DEFAULT_RTOL = 1e-10
+DEFAULT_ATOL = 1e-12
+DEFAULT_S_REF = 1e-2  # regularisation scale of the s variable; changes cost, not the solution
+DEFAULT_CYCLE_TOL = 1e-10
+OUTPUT_STRAIN_STEP = 0.005
+MIN_RTOL = 1e-13
+FABRIC_BOUNDS = (-1.0 / 3.0, 2.0 / 3.0)  # eigenvalues of A = <n n> - I/3 (Eq. 8)
+
+
+class SolverError(RuntimeError):
+    """The integration failed or cannot deliver what was asked; the message says why."""
+
+
+@dataclass
+class Result:
+    """Solution of the model along a history, sampled at ``strain``.
+
+    Attributes
+    ----------
+    strain : (n,) t*gamma_dot.
+    t : (n,) time, in the units of 1/shear_rate.
+    A : (n, 3, 3) fabric tensor (Eq. 8), traceless and symmetric.
+    tau : (n, 3, 3) tau/p, the stress deviator over the pressure (Eq. 14), tension positive.
+    S : (n,) hardening variable (Eq. 10), >= 0.
+    packing_fraction : (n,) Phi (Eq. 18).
+    D_dev : (n, 3, 3) the acting D'/gamma_dot (a segment owns [start, end)).
+    w_shear, w_vol, w_total : (n,) tau:D', p Phi_dot/Phi and their sum, per unit p*gamma_dot (Eq. 17).
+    nfev, nsteps, nrejected : solver work.
+    periods : number of periods integrated to converge the cycle (0 if not periodic).
+    cycle_residual : max |A(T) - A(0)| of the last period (periodic solutions).
+    phi_contraction : exp(-int g) over one period, the factor by which a period shrinks an error
+        in 1/Phi; plain period iteration would need log(tol)/log(factor) periods for Phi.
+    method, success, message.
+    """
+
+    strain: np.ndarray
+    t: np.ndarray
+    A: np.ndarray
+    tau: np.ndarray
+    S: np.ndarray
+    packing_fraction: np.ndarray
+    D_dev: np.ndarray
+    w_shear: np.ndarray
+    w_vol: np.ndarray
+    w_total: np.ndarray
+    nfev: int
+    nsteps: int
+    nrejected: int
+    method: str
+    periods: int = 0
+    cycle_residual: float = float("nan")
+    phi_contraction: float = float("nan")
+    success: bool = True
+    message: str = "integration successful"
+
+
+@dataclass(frozen=True)
+class _Packed:
+    seg_end: np.ndarray
+    seg_Dh: np.ndarray
+    seg_Wn: np.ndarray
+    seg_rate: np.ndarray
+
+
+def _sym6(M: np.ndarray) -> np.ndarray:
+    return np.array([M[0, 0], M[1, 1], M[2, 2], M[0, 1], M[0, 2], M[1, 2]])
+
+
+def _pack_history(history: History) -> _Packed:
+    Dh, Wn, rate = [], [], []
+    for seg in history.segments:
+        norm = seg.D_dev_norm
+        Dh.append(_sym6(seg.D_dev / norm))
+        W = seg.W / norm
+        Wn.append([W[0, 1], W[0, 2], W[1, 2]])
+        rate.append(norm)
+    return _Packed(history.boundaries[1:].copy(), np.array(Dh), np.array(Wn), np.array(rate))
+
+
+def pack_fabric(A: np.ndarray) -> np.ndarray:
+    """(3, 3) traceless symmetric A -> (A11, A22, A12, A13, A23)."""
+    return np.array([A[0, 0], A[1, 1], A[0, 1], A[0, 2], A[1, 2]])
+
+
+def unpack_fabric(y: np.ndarray) -> np.ndarray:
+    """(..., >=5) packed -> (..., 3, 3) fabric."""
+    y = np.asarray(y)
+    A = np.empty(y.shape[:-1] + (3, 3))
+    A[..., 0, 0], A[..., 1, 1], A[..., 2, 2] = y[..., 0], y[..., 1], -y[..., 0] - y[..., 1]
+    A[..., 0, 1] = A[..., 1, 0] = y[..., 2]
+    A[..., 0, 2] = A[..., 2, 0] = y[..., 3]
+    A[..., 1, 2] = A[..., 2, 1] = y[..., 4]
+    return A
+
+
+def _check_fabric(A0) -> np.ndarray:
+    A0 = np.array(A0, dtype=float)
+    if A0.shape != (3, 3):
+        raise SolverError(f"initial fabric must be 3x3, got shape {A0.shape}")
+    if not np.all(np.isfinite(A0)):
+        raise SolverError("initial fabric has non-finite entries")
+    if not np.allclose(A0, A0.T, atol=1e-12) or abs(np.trace(A0)) > 1e-12:
+        raise SolverError("initial fabric must be symmetric and traceless (Eq. 8)")
+    _check_bounds(A0[None], "initial fabric")
+    return A0
+
+
+def _check_bounds(A: np.ndarray, what: str) -> None:
+    eig = np.linalg.eigvalsh(A)
+    lo, hi = FABRIC_BOUNDS
+    if eig.min() < lo - 1e-9 or eig.max() > hi + 1e-9:
+        raise SolverError(
+            f"{what} leaves the physical bounds of Eq. 8 (eigenvalues {eig.min():.4g}..{eig.max():.4g}, "
+            f"allowed {lo:.4g}..{hi:.4g})"
+        )
+
+
+def _check_tolerances(rtol: float, atol: float) -> None:
+    if not (math.isfinite(rtol) and MIN_RTOL <= rtol < 1.0):
+        raise SolverError(f"rtol={rtol!r} cannot be honoured: use {MIN_RTOL:g} <= rtol < 1")
+    if not (math.isfinite(atol) and atol > 0):
+        raise SolverError(f"atol={atol!r} must be > 0")
+
+
+def _output_strains(history: History, times) -> np.ndarray:
+    total = history.duration * history.shear_rate
+    if times is None:
+        n = int(round(total / OUTPUT_STRAIN_STEP))
+        return np.linspace(0.0, total, n + 1)
+    times = np.atleast_1d(np.asarray(times, dtype=float))
+    if times.ndim != 1 or times.size == 0:
+        raise SolverError("times must be a non-empty 1-D list of strains")
+    bad = times[~np.isfinite(times)]
+    if bad.size:
+        raise SolverError(f"times contains the non-finite value {bad[0]!r}")
+    outside = times[(times < 0) | (times > total * (1 + 1e-12))]
+    if outside.size:
+        raise SolverError(f"time {outside[0]:g} lies outside the history's strain range [0, {total:g}]")
+    if np.any(np.diff(times) < 0):
+        raise SolverError("times must be in increasing order")
+    return times
+
+
+def _run(history, y0, p, strains, method, rtol, atol, s_ref, strain_step, max_steps):
+    packed = _pack_history(history)
+    t_out = strains / history.shear_rate
+    if method == "dop853":
+        lam_ref = s_ref ** p[7]
+        y_out, y_end, stats = integrator.dop853(
+            y0, packed.seg_end, packed.seg_Dh, packed.seg_Wn, packed.seg_rate, p, t_out,
+            rtol, atol, lam_ref, max_steps,
+        )
+    elif method == "euler":
+        if strain_step is None or not strain_step > 0:
+            raise SolverError(f"explicit Euler needs a strain_step > 0, got {strain_step!r}")
+        y_out, y_end, stats = integrator.explicit_euler(
+            y0, packed.seg_end, packed.seg_Dh, packed.seg_Wn, packed.seg_rate, p, t_out,
+            float(strain_step), history.shear_rate,
+        )
+    else:
+        raise SolverError(f"unknown method {method!r}; expected 'dop853' or 'euler'")
+    status = int(stats[3])
+    if status != integrator.SUCCESS:
+        raise SolverError(f"{method}: {integrator.STATUS_MESSAGES[status]} (at t*gamma_dot = "
+                          f"{y_end[integrator.T_INDEX] * history.shear_rate:.6g})")
+    return y_out, y_end, stats
+
+
+def _assemble(history, strains, y_out, p, packing_fraction, stats, method, **extra) -> Result:
+    A = unpack_fabric(y_out)
+    seg = history.segment_index(strains / history.shear_rate)
+    D_dev = np.array([s.D_dev for s in history.segments])[seg] / history.shear_rate
+    obs = observables(A, D_dev, p, packing_fraction)
+    scale = modulus(D_dev)  # |D'| / gamma_dot converts per-|D'| rates to per-gamma_dot
+    w_shear = obs["w_shear"] * scale
+    w_vol = obs["w_vol"] * scale
+    result = Result(
+        strain=strains, t=strains / history.shear_rate, A=A, tau=obs["tau"], S=obs["S"],
+        packing_fraction=np.asarray(packing_fraction, dtype=float), D_dev=D_dev,
+        w_shear=w_shear, w_vol=w_vol, w_total=w_shear + w_vol,
+        nfev=int(stats[0]), nsteps=int(stats[1]), nrejected=int(stats[2]), method=method, **extra,
+    )
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(result.packing_fraction))):
+        raise SolverError(f"{method}: non-finite fabric or packing fraction in the output")
+    if np.any(result.S < 0):
+        raise SolverError(f"{method}: negative S in the output")
+    _check_bounds(A, f"{method}: the fabric")
+    return result
+
+
+def _params(params) -> Params:
+    if params is None:
+        return Params()
+    if not isinstance(params, Params):
+        raise SolverError(f"params must be a model.Params, got {type(params).__name__}")
+    return params
+
+
+def integrate(
+    history: History,
+    *,
+    A0=None,
+    packing_fraction0: float | None = None,
+    params: Params | None = None,
+    times=None,
+    method: str = "dop853",
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
+    s_ref: float = DEFAULT_S_REF,
+    strain_step: float | None = None,
+    max_steps: int = 1_000_000,
+) -> Result:
+    """Integrate the model (Eqs. 13, 14, 18) along ``history`` from a given state.
+
+    Parameters
+    ----------
+    history : the shear history (segments of constant velocity gradient).
+    A0 : (3, 3) initial fabric; default isotropic (A = 0, where S = 0).
+    packing_fraction0 : initial Phi; default ``params.phi_c``.
+    times : output strains t*gamma_dot in [0, total strain]; default every 0.005.
+    method : 'dop853' (adaptive, regularised; default) or 'euler' (the paper's fixed-step baseline,
+        needs ``strain_step``).
+    rtol, atol : local error tolerances of 'dop853'.
+    """
+    params = _params(params)
+    _check_tolerances(rtol, atol)
+    p = params.as_array()
+    A0 = np.zeros((3, 3)) if A0 is None else _check_fabric(A0)
+    phi0 = params.phi_c if packing_fraction0 is None else float(packing_fraction0)
+    if not (math.isfinite(phi0) and 0 < phi0 < 1):
+        raise SolverError(f"packing_fraction0={packing_fraction0!r} must lie in (0, 1)")
+    strains = _output_strains(history, times)
+    y0 = np.zeros(integrator.N_STATE)
+    y0[:5] = pack_fabric(A0)
+    y_out, _, stats = _run(history, y0, p, strains, method, rtol, atol, s_ref, strain_step, max_steps)
+    phi = 1.0 / (np.exp(-y_out[:, integrator.G_INDEX]) / phi0 + y_out[:, integrator.V_INDEX])
+    return _assemble(history, strains, y_out, p, phi, stats, method)
+
+
+@functools.lru_cache(maxsize=256)
+def _steady_state_cached(L_bytes: bytes, p_bytes: bytes, tol: float) -> tuple[np.ndarray, float]:
+    L = np.frombuffer(L_bytes).reshape(3, 3)
+    p = np.frombuffer(p_bytes)
+    segment = Segment(1.0 / modulus(deviator(stretching(L))), L)  # strain |D'| t = 1 per chunk
+    history = History((segment,))
+    y = np.zeros(integrator.N_STATE)
+    for _ in range(200):
+        y0 = y.copy()
+        y0[integrator.T_INDEX:] = 0.0
+        _, y, _ = _run(history, y0, p, np.empty(0), "dop853", 1e-12, 1e-14, DEFAULT_S_REF, None, 1_000_000)
+        if np.max(np.abs(y[:5] - y0[:5])) < tol:
+            break
+    else:
+        raise SolverError("no steady state reached for this velocity gradient")
+    A = unpack_fabric(y[:5])
+    _, _, _, _, _, _, g, c2 = fabric_rates(y, _sym6(segment.D_dev / segment.D_dev_norm),
+                                                       np.zeros(3), p)
+    return A, g / c2  # du/dt = 0 in Eq. 18 with u = 1/Phi: Phi = g / c2
+
+
+def steady_state(L, params: Params | None = None, tol: float = 1e-13) -> tuple[np.ndarray, float]:
+    """Steady fabric A and packing fraction Phi under a constant velocity gradient L.
+
+    Found by integrating from the isotropic state until A changes by less than ``tol`` over a
+    strain |D'| t = 1; Phi then solves Eq. 18 with Phi_dot = 0.
+    """
+    params = _params(params)
+    L = np.ascontiguousarray(L, dtype=float)
+    A, phi = _steady_state_cached(L.tobytes(), params.as_array().tobytes(), tol)
+    return A.copy(), phi
+
+
+def periodic(
+    history: History,
+    *,
+    params: Params | None = None,
+    times=None,
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
+    cycle_tol: float = DEFAULT_CYCLE_TOL,
+    max_periods: int = 100,
+    s_ref: float = DEFAULT_S_REF,
+) -> Result:
+    """The periodic solution of a history repeated forever (paper Sec. 4: start = end of a period).
+
+    The fabric is iterated period by period, starting from the steady state of the last segment,
+    until max |A(T) - A(0)| < ``cycle_tol``; the reported cycle is the last one integrated. The
+    packing fraction follows in closed form: 1/Phi obeys a linear ODE (Eq. 18), so its periodic
+    initial value is v(T) / (1 - exp(-G(T))) without iterating.
+    """
+    params = _params(params)
+    _check_tolerances(rtol, atol)
+    if not (math.isfinite(cycle_tol) and cycle_tol > 0):
+        raise SolverError(f"cycle_tol={cycle_tol!r} must be > 0")
+    p = params.as_array()
+    strains = _output_strains(history, times)
+    A_start, _ = steady_state(history.segments[-1].L, params)
+    nfev = nsteps = nrejected = 0
+    residual = math.inf
+    for period in range(1, max_periods + 1):
+        y0 = np.zeros(integrator.N_STATE)
+        y0[:5] = pack_fabric(A_start)
+        y_out, y_end, stats = _run(history, y0, p, strains, "dop853", rtol, atol, s_ref, None, 1_000_000)
+        nfev, nsteps, nrejected = nfev + stats[0], nsteps + stats[1], nrejected + stats[2]
+        residual = float(np.max(np.abs(y_end[:5] - y0[:5])))
+        A_start = unpack_fabric(y_end[:5])
+        if residual < cycle_tol:
+            break
+    else:
+        raise SolverError(f"the cycle did not converge in {max_periods} periods (residual {residual:.3g} "
+                          f"> cycle_tol {cycle_tol:g})")
+    contraction = math.exp(-y_end[integrator.G_INDEX])
+    u0 = y_end[integrator.V_INDEX] / (1.0 - contraction)
+    phi = 1.0 / (np.exp(-y_out[:, integrator.G_INDEX]) * u0 + y_out[:, integrator.V_INDEX])
+    stats = np.array([nfev, nsteps, nrejected])
+    return _assemble(history, strains, y_out, p, phi, stats, "dop853", periods=period,
+                     cycle_residual=residual, phi_contraction=contraction)
+
+
+def predict(
+    theta_deg: float,
+    *,
+    rotate_at: float = 0.7,
+    params: Params | None = None,
+    times=None,
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
+    cycle_tol: float = DEFAULT_CYCLE_TOL,
+) -> Result:
+    """Converged periodic cycle of the paper's protocol (Fig. 1; Fig. 7 with ``rotate_at``).
+
+    phi = 0 for 0 <= t*gamma_dot < rotate_at, phi = theta_deg up to the period 1.4; ``times`` are
+    strains from the start of a period (default every 0.005 from 0 to 1.4).
+    """
+    history = periodic_cycle(theta_deg, rotate_at=rotate_at)
+    return periodic(history, params=params, times=times, rtol=rtol, atol=atol, cycle_tol=cycle_tol)
