@@ -10,9 +10,8 @@ so that every rate is bounded for S -> 0 while s ~ |D'| t wherever S >> S_ref. T
 y = (A11, A22, A12, A13, A23, t, G, v) with G, v the two integrals that give the packing fraction of
 Eq. 18 in closed form: 1/Phi(t) = exp(-G(t))/Phi(0) + v(t).
 
-``dop853`` is an embedded 8(5,3) Runge-Kutta method (Dormand & Prince, Hairer's DOP853, with its
-7th-order dense output; coefficients from scipy) with adaptive steps that land exactly on segment
-ends. ``explicit_euler`` is the paper's method (Sec. 4): fixed steps in t, no regularisation.
+``dop853`` is an embedded 8(5,3) Runge-Kutta method (Dormand & Prince, Hairer's DOP853;
+coefficients from scipy) with adaptive steps that land exactly on segment ends and output times. ``explicit_euler`` is the paper's method (Sec. 4): fixed steps in t, no regularisation.
 
 Kernel status codes: 0 success, 1 step size underflow, 2 too many steps, 3 non-finite state,
 4 explicit Euler met S = 0.
@@ -28,6 +27,8 @@ from scipy.integrate._ivp import dop853_coefficients as _dop
 from .equations import fabric_rates, jit
 
 N_STATE = 8
+ROUNDOFF = 1e-13  # relative time difference treated as equal (segment ends vs output times)
+NEAR_END = 1e-3  # a crossing this close to a step's end is taken from the interpolant
 T_INDEX, G_INDEX, V_INDEX = 5, 6, 7
 N_STAGES = _dop.N_STAGES
 RK_A = np.ascontiguousarray(_dop.A)
@@ -215,10 +216,13 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
     """Integrate the packed state through consecutive constant-L segments.
 
     seg_end: (m,) end times; seg_Dh: (m, 6) unit D'; seg_Wn: (m, 3) W/|D'|; seg_rate: (m,) |D'|;
-    t_out: sorted output times within [y0[t], seg_end[-1]].
+    t_out: sorted output times within [y0[t], seg_end[-1]]. Steps land exactly on every output
+    time and segment end (the interpolant only locates the crossing), so outputs carry the
+    accuracy of the steps themselves.
     Returns (y_out (len(t_out), 8), y_end (8,), stats (nfev, accepted, rejected, status)).
     """
     n = y0.shape[0]
+    n_out = t_out.shape[0]
     y = y0.copy()
     y_new = np.empty(n)
     ytmp = np.empty(n)
@@ -226,13 +230,13 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
     f0 = np.empty(n)
     K = np.empty((RK_A.shape[0], n))
     F = np.empty((7, n))
-    y_out = np.full((t_out.shape[0], n), np.nan)
+    y_out = np.full((n_out, n), np.nan)
     nfev = 0
     accepted = 0
     rejected = 0
     status = SUCCESS
     iout = 0
-    while iout < t_out.shape[0] and t_out[iout] <= y[T_INDEX]:
+    while iout < n_out and t_out[iout] <= y[T_INDEX]:
         y_out[iout, :] = y
         iout += 1
     for iseg in range(seg_end.shape[0]):
@@ -250,9 +254,16 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
             if accepted + rejected >= max_steps:
                 status = TOO_MANY_STEPS
                 break
-            # aim at the segment end when the step is predicted to pass it
-            if f0[T_INDEX] > 0.0 and y[T_INDEX] + h * f0[T_INDEX] > t_end:
-                h = (t_end - y[T_INDEX]) / f0[T_INDEX]
+            # outputs within round-off of the current time take the current state
+            while iout < n_out and t_out[iout] - y[T_INDEX] <= ROUNDOFF * max(1.0, abs(y[T_INDEX])):
+                y_out[iout, :] = y
+                y_out[iout, T_INDEX] = t_out[iout]
+                iout += 1
+            t_stop = min(t_end, t_out[iout]) if iout < n_out else t_end
+            h_free = h
+            landing = f0[T_INDEX] > 0.0 and y[T_INDEX] + h * f0[T_INDEX] > t_stop
+            if landing:
+                h = (t_stop - y[T_INDEX]) / f0[T_INDEX]
             if h < 1e-14 * (1.0 + abs(y[T_INDEX]) * rate):
                 status = STEP_UNDERFLOW
                 break
@@ -267,39 +278,44 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
                 continue
             accepted += 1
             factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
-            if y_new[T_INDEX] > t_end:
-                # land exactly on the segment end: retake the step to the interpolated crossing
+            h_next = h * factor
+            if landing:
+                h_next = max(h_next, h_free)  # a short landing step does not shrink the next one
+            if y_new[T_INDEX] > t_stop:
+                # passed the stop: locate the crossing on the interpolant; close to the step end
+                # (where the interpolant matches y_new and its slope) take the interpolated state,
+                # otherwise retake the step to the crossing
                 _dense_coefficients(y, y_new, h, Dh, Wn, rate, p, lam_ref, K, F, ytmp)
                 nfev += 3
-                x = _dense_solve_time(F, y, y[T_INDEX], y_new[T_INDEX], t_end)
-                h = h * x
-                _rk_step(y, f0, h, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp)
-                nfev += N_STAGES
-                factor = 1.0
-            if t_end - y_new[T_INDEX] <= 1e-13 * max(1.0, t_end):
-                y_new[T_INDEX] = t_end
+                x = _dense_solve_time(F, y, y[T_INDEX], y_new[T_INDEX], t_stop)
+                if x > 1.0 - NEAR_END:
+                    _dense_eval(F, y, x, y_new)
+                    _rhs_s(y_new, Dh, Wn, rate, p, lam_ref, K[N_STAGES])
+                    nfev += 1
+                else:
+                    _rk_step(y, f0, h * x, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp)
+                    nfev += N_STAGES
+            if abs(t_stop - y_new[T_INDEX]) <= ROUNDOFF * max(1.0, t_stop):
+                y_new[T_INDEX] = t_stop
             for i in range(n):
                 if not math.isfinite(y_new[i]):
                     status = NOT_FINITE
             if status != SUCCESS:
                 break
-            if iout < t_out.shape[0] and t_out[iout] <= y_new[T_INDEX]:
-                _dense_coefficients(y, y_new, h, Dh, Wn, rate, p, lam_ref, K, F, ytmp)
-                nfev += 3
-                while iout < t_out.shape[0] and t_out[iout] <= y_new[T_INDEX]:
-                    if t_out[iout] == y_new[T_INDEX]:
-                        y_out[iout, :] = y_new
-                    else:
-                        x = _dense_solve_time(F, y, y[T_INDEX], y_new[T_INDEX], t_out[iout])
-                        _dense_eval(F, y, x, y_out[iout])
-                        y_out[iout, T_INDEX] = t_out[iout]
-                    iout += 1
+            while iout < n_out and t_out[iout] <= y_new[T_INDEX]:
+                y_out[iout, :] = y_new
+                y_out[iout, T_INDEX] = t_out[iout]
+                iout += 1
             for i in range(n):
                 y[i] = y_new[i]
                 f0[i] = K[N_STAGES, i]
-            h *= factor
+            h = h_next
         if status != SUCCESS:
             break
+    while status == SUCCESS and iout < n_out and t_out[iout] - y[T_INDEX] <= ROUNDOFF * max(1.0, abs(y[T_INDEX])):
+        y_out[iout, :] = y
+        y_out[iout, T_INDEX] = t_out[iout]
+        iout += 1
     stats = np.array([nfev, accepted, rejected, status], dtype=np.int64)
     return y_out, y, stats
 

@@ -80,11 +80,17 @@ def modulus(M: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Segment:
-    """A constant velocity gradient ``L`` (1/time) applied for ``duration`` (time)."""
+    """A constant velocity gradient ``L`` (1/time) applied for ``duration`` (time).
+
+    Derived on construction: ``D_dev`` = D' and ``W`` (1/time), ``D_dev_norm`` = |D'|.
+    """
 
     duration: float
     L: np.ndarray = field(repr=False)
     label: str = ""
+    D_dev: np.ndarray = field(init=False, repr=False, compare=False)
+    W: np.ndarray = field(init=False, repr=False, compare=False)
+    D_dev_norm: float = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         object.__setattr__(self, "duration", _positive("duration", self.duration))
@@ -93,23 +99,16 @@ class Segment:
             raise HistoryError(f"velocity gradient must be 3x3, got shape {L.shape}")
         if not np.all(np.isfinite(L)):
             raise HistoryError("velocity gradient has non-finite entries")
-        if modulus(deviator(stretching(L))) == 0:
+        D_dev = deviator(stretching(L))
+        if modulus(D_dev) == 0:
             raise HistoryError("velocity gradient has no deviatoric stretching (|D'| = 0)")
-        L.setflags(write=False)
+        W = spin(L)
+        for array in (L, D_dev, W):
+            array.setflags(write=False)
         object.__setattr__(self, "L", L)
-
-    @property
-    def D_dev(self) -> np.ndarray:
-        return deviator(stretching(self.L))
-
-    @property
-    def W(self) -> np.ndarray:
-        return spin(self.L)
-
-    @property
-    def D_dev_norm(self) -> float:
-        """|D'| (1/time)."""
-        return float(modulus(self.D_dev))
+        object.__setattr__(self, "D_dev", D_dev)
+        object.__setattr__(self, "W", W)
+        object.__setattr__(self, "D_dev_norm", float(modulus(D_dev)))
 
     def rotated(self, R: np.ndarray) -> Segment:
         return Segment(self.duration, R @ self.L @ R.T, self.label)

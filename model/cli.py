@@ -1,0 +1,122 @@
+"""Command line: ``python -m model predict --theta DEG --out FILE.csv`` and ``python -m model params``."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .kinematics import HistoryError
+from .params import ParameterError, Params
+from .solver import SolverError, predict
+
+COMPONENTS = ((0, 0, "11"), (0, 1, "12"), (0, 2, "13"), (1, 1, "22"), (1, 2, "23"), (2, 2, "33"))
+CSV_COLUMNS = (
+    ["t_gd"] + [f"A{c}" for _, _, c in COMPONENTS] + [f"tau{c}" for _, _, c in COMPONENTS]
+    + ["S", "phi", "w_shear", "w_vol"]
+)
+
+
+def _finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    value = _finite_float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+    return value
+
+
+def _strain_list(text: str) -> np.ndarray:
+    items = [item for item in text.split(",") if item.strip()]
+    if not items:
+        raise argparse.ArgumentTypeError("expected a comma-separated list of strains")
+    return np.array([_finite_float(item.strip()) for item in items])
+
+
+def result_table(result) -> np.ndarray:
+    """The CSV columns of ``CSV_COLUMNS`` as an (n, 17) array."""
+    cols = [result.strain]
+    cols += [result.A[:, i, j] for i, j, _ in COMPONENTS]
+    cols += [result.tau[:, i, j] for i, j, _ in COMPONENTS]
+    cols += [result.S, result.packing_fraction, result.w_shear, result.w_vol]
+    return np.column_stack(cols)
+
+
+def write_csv(path: Path, table: np.ndarray) -> None:
+    """Write atomically: a temporary file beside the target, then rename."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    np.savetxt(tmp, table, delimiter=",", header=",".join(CSV_COLUMNS), comments="", fmt="%.12g")
+    tmp.replace(path)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage dump)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="python -m model",
+        description="Kinematic-hardening model of transient fabric and stress (Rojas & Kamrin 2025).",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    pred = sub.add_parser(
+        "predict",
+        help="write the converged periodic cycle of the Fig. 1 protocol as CSV",
+        description=(
+            "Converged periodic cycle: shear along e1 for 0 <= t*gamma_dot < ROTATE_AT, then along "
+            "s = cos(theta) e1 + sin(theta) e3 up to the period 1.4. Columns: t_gd (strain from the start "
+            "of a period), A_ij (fabric, Eq. 8), tau_ij (tau/p, Eq. 14, tension positive), S (Eq. 10), "
+            "phi (packing fraction, Eq. 18), w_shear = tau:D' and w_vol = p Phi_dot/Phi per unit p*gamma_dot."
+        ),
+    )
+    pred.add_argument("--theta", type=_finite_float, required=True, metavar="DEG",
+                      help="rotation angle of the shear direction in degrees (paper: 30 ... 180)")
+    pred.add_argument("--rotate-at", type=_positive_float, default=0.7, metavar="STRAIN",
+                      help="strain t*gamma_dot within the period at which the direction turns to theta "
+                           "(default 0.7; Fig. 7 uses 0.1 and 0.2)")
+    pred.add_argument("--params", type=Path, metavar="FILE.json",
+                      help="model parameters as JSON with every key of `python -m model params` "
+                           "(default: the paper's Table 2)")
+    pred.add_argument("--times", type=_strain_list, metavar="t1,t2,...",
+                      help="output strains within [0, 1.4], increasing (default: every 0.005)")
+    pred.add_argument("--out", type=Path, required=True, metavar="FILE.csv", help="output CSV file")
+    par = sub.add_parser("params", help="print the default parameters (Table 2) as JSON",
+                         description="Print the default parameters (paper Table 2, Sec. 5) as JSON, or "
+                                     "write them with --out, ready to edit and pass to --params.")
+    par.add_argument("--out", type=Path, metavar="FILE.json", help="write to this file instead of stdout")
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "params":
+            if args.out:
+                Params().save(args.out)
+            else:
+                sys.stdout.write(Params().to_json())
+            return 0
+        params = Params.load(args.params) if args.params else Params()
+        result = predict(args.theta, rotate_at=args.rotate_at, params=params, times=args.times)
+        write_csv(args.out, result_table(result))
+        print(f"theta={args.theta:g} deg: cycle converged in {result.periods} periods "
+              f"(residual {result.cycle_residual:.1e}), {len(result.strain)} rows -> {args.out}")
+        return 0
+    except (ParameterError, HistoryError, SolverError, OSError) as exc:
+        print(f"python -m model: error: {exc}", file=sys.stderr)
+        return 2
