@@ -1,0 +1,70 @@
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from model import Params, predict
+from model.cli import CSV_COLUMNS, main
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, "-m", "model", *args], capture_output=True, text=True)
+
+
+def test_predict_writes_the_cycle_as_csv(tmp_path):
+    out = tmp_path / "sub" / "cycle.csv"
+    assert main(["predict", "--theta", "90", "--rotate-at", "0.2", "--times", "0,0.2,0.5,1.4",
+                 "--out", str(out)]) == 0
+    table = pd.read_csv(out)
+    assert list(table.columns) == list(CSV_COLUMNS)
+    expected = predict(90, rotate_at=0.2, times=[0, 0.2, 0.5, 1.4])
+    np.testing.assert_allclose(table["tau23"], expected.tau[:, 1, 2], rtol=1e-10)
+    np.testing.assert_allclose(table["phi"], expected.packing_fraction, rtol=1e-10)
+    np.testing.assert_allclose(table["w_shear"] + table["w_vol"], expected.w_total, rtol=1e-9)
+    assert not list(tmp_path.rglob("*.tmp"))
+
+
+def test_params_file_round_trip(tmp_path):
+    path = tmp_path / "p.json"
+    assert main(["params", "--out", str(path)]) == 0
+    path.write_text(path.read_text().replace('"C": -5.6', '"C": -4.0'))
+    out = tmp_path / "c.csv"
+    assert main(["predict", "--theta", "180", "--params", str(path), "--times", "1.4", "--out", str(out)]) == 0
+    expected = predict(180, params=Params().replace(C=-4.0), times=[1.4])
+    assert pd.read_csv(out)["tau12"].iloc[0] == pytest.approx(expected.tau[0, 0, 1], rel=1e-10)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--theta", "abc"], "--theta: 'abc' is not a number"),
+        (["--theta", "nan"], "--theta: 'nan' is not a finite number"),
+        (["--theta", "90", "--rotate-at", "-0.1"], "--rotate-at: '-0.1' must be > 0"),
+        (["--theta", "90", "--times", "0,x"], "'x' is not a number"),
+        (["--theta", "90", "--times", "0,2"], "time 2 lies outside"),
+    ],
+)
+def test_bad_input_is_one_line_and_nonzero(tmp_path, args, message):
+    proc = run_cli("predict", *args, "--out", str(tmp_path / "x.csv"))
+    assert proc.returncode == 2
+    assert message in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert "Traceback" not in proc.stderr
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_params_file_with_unknown_or_missing_keys(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"C": -5.6, "mu": 0.3}')
+    proc = run_cli("predict", "--theta", "90", "--params", str(bad), "--out", str(tmp_path / "x.csv"))
+    assert proc.returncode == 2
+    assert "unknown keys mu; missing keys n, m" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_help_explains_every_option():
+    text = run_cli("predict", "--help").stdout
+    for option in ("--theta", "--rotate-at", "--params", "--times", "--out", "t_gd", "tau/p"):
+        assert option in text
