@@ -65,29 +65,22 @@ def _rhs_s(y, Dh, Wn, rate, p, lam_ref, out):
 
 
 @jit
-def _dense_eval(F, y_old, x, out):
-    """DOP853 dense output at fraction x of the step (Hairer's form, as in scipy)."""
-    for i in range(y_old.shape[0]):
-        acc = 0.0
-        for j in range(F.shape[0] - 1, -1, -1):
-            acc += F[j, i]
-            if (F.shape[0] - 1 - j) % 2 == 0:
-                acc *= x
-            else:
-                acc *= 1.0 - x
-        out[i] = y_old[i] + acc
-
-
-@jit
-def _dense_time(F, y_old, x):
+def _dense_component(F, y_old, x, i):
+    """Component i of the DOP853 dense output at fraction x of the step (Hairer's form, as in scipy)."""
     acc = 0.0
     for j in range(F.shape[0] - 1, -1, -1):
-        acc += F[j, T_INDEX]
+        acc += F[j, i]
         if (F.shape[0] - 1 - j) % 2 == 0:
             acc *= x
         else:
             acc *= 1.0 - x
-    return y_old[T_INDEX] + acc
+    return y_old[i] + acc
+
+
+@jit
+def _dense_eval(F, y_old, x, out):
+    for i in range(y_old.shape[0]):
+        out[i] = _dense_component(F, y_old, x, i)
 
 
 @jit
@@ -103,7 +96,7 @@ def _dense_solve_time(F, y_old, t_old, t_new, target):
     x = 0.5
     for _ in range(100):
         x = (lo * fhi - hi * flo) / (fhi - flo)
-        fx = _dense_time(F, y_old, x) - target
+        fx = _dense_component(F, y_old, x, T_INDEX) - target
         if fx == 0.0 or hi - lo < 1e-15:
             break
         if fx > 0.0:
@@ -120,18 +113,25 @@ def _dense_solve_time(F, y_old, t_old, t_new, target):
 
 
 @jit
-def _rk_step(y, f0, h, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp):
-    """One DOP853 step of size h in s; fills K[0:13] and y_new."""
+def _stages(y, h, first, last, Dh, Wn, rate, p, lam_ref, K, ytmp):
+    """Runge-Kutta stages first..last-1: K[s] = f(y + h sum_j A[s, j] K[j])."""
     n = y.shape[0]
-    for i in range(n):
-        K[0, i] = f0[i]
-    for s in range(1, N_STAGES):
+    for s in range(first, last):
         for i in range(n):
             acc = 0.0
             for j in range(s):
                 acc += RK_A[s, j] * K[j, i]
             ytmp[i] = y[i] + h * acc
         _rhs_s(ytmp, Dh, Wn, rate, p, lam_ref, K[s])
+
+
+@jit
+def _rk_step(y, f0, h, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp):
+    """One DOP853 step of size h in s; fills K[0:13] and y_new."""
+    n = y.shape[0]
+    for i in range(n):
+        K[0, i] = f0[i]
+    _stages(y, h, 1, N_STAGES, Dh, Wn, rate, p, lam_ref, K, ytmp)
     for i in range(n):
         acc = 0.0
         for j in range(N_STAGES):
@@ -163,13 +163,7 @@ def _error_norm(y, y_new, K, h, rtol, atol):
 def _dense_coefficients(y, y_new, h, Dh, Wn, rate, p, lam_ref, K, F, ytmp):
     """The three extra stages and the 7 interpolation coefficients of DOP853."""
     n = y.shape[0]
-    for s in range(N_STAGES + 1, RK_A.shape[0]):
-        for i in range(n):
-            acc = 0.0
-            for j in range(s):
-                acc += RK_A[s, j] * K[j, i]
-            ytmp[i] = y[i] + h * acc
-        _rhs_s(ytmp, Dh, Wn, rate, p, lam_ref, K[s])
+    _stages(y, h, N_STAGES + 1, RK_A.shape[0], Dh, Wn, rate, p, lam_ref, K, ytmp)
     for i in range(n):
         dy = y_new[i] - y[i]
         F[0, i] = dy
