@@ -11,7 +11,8 @@ y = (A11, A22, A12, A13, A23, t, G, v) with G, v the two integrals that give the
 Eq. 18 in closed form: 1/Phi(t) = exp(-G(t))/Phi(0) + v(t).
 
 ``dop853`` is an embedded 8(5,3) Runge-Kutta method (Dormand & Prince, Hairer's DOP853;
-coefficients from scipy) with adaptive steps that land exactly on segment ends and output times. ``explicit_euler`` is the paper's method (Sec. 4): fixed steps in t, no regularisation.
+coefficients from scipy) with adaptive steps that land exactly on segment ends and output times.
+``explicit_euler`` is the paper's method (Sec. 4): fixed steps in t, no regularisation.
 
 Kernel status codes: 0 success, 1 step size underflow, 2 too many steps, 3 non-finite state,
 4 explicit Euler met S = 0.
@@ -62,6 +63,17 @@ def _rhs_s(y, Dh, Wn, rate, p, lam_ref, out):
     out[T_INDEX] = dgam / rate
     out[G_INDEX] = g * dgam
     out[V_INDEX] = (c2 - g * y[V_INDEX]) * dgam
+
+
+@jit
+def _emit_state(y, t_out, iout, y_out):
+    """Outputs at t_out[iout:] up to y's time (within round-off) take the state y; returns the next index."""
+    limit = y[T_INDEX] + ROUNDOFF * max(1.0, abs(y[T_INDEX]))
+    while iout < t_out.shape[0] and t_out[iout] <= limit:
+        y_out[iout, :] = y
+        y_out[iout, T_INDEX] = t_out[iout]
+        iout += 1
+    return iout
 
 
 @jit
@@ -229,10 +241,7 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
     accepted = 0
     rejected = 0
     status = SUCCESS
-    iout = 0
-    while iout < n_out and t_out[iout] <= y[T_INDEX]:
-        y_out[iout, :] = y
-        iout += 1
+    iout = _emit_state(y, t_out, 0, y_out)
     for iseg in range(seg_end.shape[0]):
         Dh = seg_Dh[iseg]
         Wn = seg_Wn[iseg]
@@ -248,11 +257,7 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
             if accepted + rejected >= max_steps:
                 status = TOO_MANY_STEPS
                 break
-            # outputs within round-off of the current time take the current state
-            while iout < n_out and t_out[iout] - y[T_INDEX] <= ROUNDOFF * max(1.0, abs(y[T_INDEX])):
-                y_out[iout, :] = y
-                y_out[iout, T_INDEX] = t_out[iout]
-                iout += 1
+            iout = _emit_state(y, t_out, iout, y_out)
             t_stop = min(t_end, t_out[iout]) if iout < n_out else t_end
             h_free = h
             landing = f0[T_INDEX] > 0.0 and y[T_INDEX] + h * f0[T_INDEX] > t_stop
@@ -296,20 +301,15 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
                     status = NOT_FINITE
             if status != SUCCESS:
                 break
-            while iout < n_out and t_out[iout] <= y_new[T_INDEX]:
-                y_out[iout, :] = y_new
-                y_out[iout, T_INDEX] = t_out[iout]
-                iout += 1
+            iout = _emit_state(y_new, t_out, iout, y_out)
             for i in range(n):
                 y[i] = y_new[i]
                 f0[i] = K[N_STAGES, i]
             h = h_next
         if status != SUCCESS:
             break
-    while status == SUCCESS and iout < n_out and t_out[iout] - y[T_INDEX] <= ROUNDOFF * max(1.0, abs(y[T_INDEX])):
-        y_out[iout, :] = y
-        y_out[iout, T_INDEX] = t_out[iout]
-        iout += 1
+    if status == SUCCESS:
+        _emit_state(y, t_out, iout, y_out)
     stats = np.array([nfev, accepted, rejected, status], dtype=np.int64)
     return y_out, y, stats
 
@@ -323,10 +323,7 @@ def explicit_euler(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, strain_step,
     y_out = np.full((t_out.shape[0], n), np.nan)
     nfev = 0
     status = SUCCESS
-    iout = 0
-    while iout < t_out.shape[0] and t_out[iout] <= y[T_INDEX]:
-        y_out[iout, :] = y
-        iout += 1
+    iout = _emit_state(y, t_out, 0, y_out)
     for iseg in range(seg_end.shape[0]):
         Dh = seg_Dh[iseg]
         Wn = seg_Wn[iseg]

@@ -112,6 +112,13 @@ def unpack_fabric(y: np.ndarray) -> np.ndarray:
     return A
 
 
+def _initial_state(A: np.ndarray) -> np.ndarray:
+    """Kernel state at t = 0: packed fabric, G = v = 0 (see ``model.integrator``)."""
+    y0 = np.zeros(integrator.N_STATE)
+    y0[:5] = pack_fabric(A)
+    return y0
+
+
 def _check_fabric(A0) -> np.ndarray:
     A0 = np.array(A0, dtype=float)
     if A0.shape != (3, 3):
@@ -253,9 +260,7 @@ def integrate(
     if not (math.isfinite(phi0) and 0 < phi0 < 1):
         raise SolverError(f"packing_fraction0={packing_fraction0!r} must lie in (0, 1)")
     strains = _output_strains(history, times)
-    y0 = np.zeros(integrator.N_STATE)
-    y0[:5] = pack_fabric(A0)
-    y_out, _, stats = _run(history, y0, p, strains, method, rtol, atol, s_ref, strain_step, max_steps)
+    y_out, _, stats = _run(history, _initial_state(A0), p, strains, method, rtol, atol, s_ref, strain_step, max_steps)
     phi = 1.0 / (np.exp(-y_out[:, integrator.G_INDEX]) / phi0 + y_out[:, integrator.V_INDEX])
     return _assemble(history, strains, y_out, p, phi, stats, method)
 
@@ -266,7 +271,7 @@ def _steady_state_cached(L_bytes: bytes, p_bytes: bytes, tol: float) -> tuple[np
     p = np.frombuffer(p_bytes)
     segment = Segment(1.0 / modulus(deviator(stretching(L))), L)  # strain |D'| t = 1 per chunk
     history = History((segment,))
-    y = np.zeros(integrator.N_STATE)
+    y = _initial_state(np.zeros((3, 3)))
     for _ in range(200):
         y0 = y.copy()
         y0[integrator.T_INDEX:] = 0.0
@@ -324,8 +329,7 @@ def periodic(
     nfev = nsteps = nrejected = 0
     for period in range(1, max_periods + 1):
         # iterate without outputs; the converged start is then integrated once more with them
-        y0 = np.zeros(integrator.N_STATE)
-        y0[:5] = pack_fabric(A_start)
+        y0 = _initial_state(A_start)
         _, y_end, stats = _run(history, y0, p, no_output, "dop853", rtol, atol, s_ref, None, 1_000_000, packed)
         nfev, nsteps, nrejected = nfev + stats[0], nsteps + stats[1], nrejected + stats[2]
         residual = float(np.max(np.abs(y_end[:5] - y0[:5])))
@@ -335,9 +339,7 @@ def periodic(
     else:
         raise SolverError(f"the cycle did not converge in {max_periods} periods (residual {residual:.3g} "
                           f"> cycle_tol {cycle_tol:g})")
-    y0 = np.zeros(integrator.N_STATE)
-    y0[:5] = pack_fabric(A_start)
-    y_out, y_end, stats = _run(history, y0, p, strains, "dop853", rtol, atol, s_ref, None, 1_000_000, packed)
+    y_out, y_end, stats = _run(history, _initial_state(A_start), p, strains, "dop853", rtol, atol, s_ref, None, 1_000_000, packed)
     nfev, nsteps, nrejected = nfev + stats[0], nsteps + stats[1], nrejected + stats[2]
     period += 1
     contraction = math.exp(-y_end[integrator.G_INDEX])

@@ -101,11 +101,12 @@ def time_at_error(df: pd.DataFrame, target: float) -> float:
     x, y = np.log(df.error.to_numpy()), np.log(df.ms.to_numpy())
     if len(x) < 2:
         return float("nan")
-    inside = (x.min() <= np.log(target) <= x.max())
-    if inside:
-        return float(np.exp(np.interp(np.log(target), x, y)))
-    slope, intercept = np.polyfit(x[:2] if np.log(target) < x.min() else x[-2:], y[:2] if np.log(target) < x.min() else y[-2:], 1)
-    return float(np.exp(intercept + slope * np.log(target)))
+    xt = np.log(target)
+    if x.min() <= xt <= x.max():
+        return float(np.exp(np.interp(xt, x, y)))
+    edge = slice(0, 2) if xt < x.min() else slice(-2, None)  # the two measured points nearest the target
+    slope, intercept = np.polyfit(x[edge], y[edge], 1)
+    return float(np.exp(intercept + slope * xt))
 
 
 def sweep_rows() -> tuple[list[dict], float, float]:
