@@ -1,0 +1,1 @@
+"""Yade scene scripts of the Couette experiment and their numpy-only measurement helpers."""

@@ -1,0 +1,424 @@
+"""Yade scene: the 3D planar Couette cell of Rojas & Kamrin (2025), Sec. 2 and Fig. 1.
+
+Run by ``python -m pipeline.dem`` as ``yade -n -x dem/couette.py RUN_DIR``; RUN_DIR holds
+``spec.json`` (every parameter, resolved and validated by ``pipeline/dem_config.py``) and receives
+checkpoints and ``raw.npz``. Units: d = p = rho = 1 (time in d sqrt(rho/p)); strain t*gamma_dot.
+
+Cell: periodic along e1 and e3 (period W), walls normal to e2. Each wall is a rigid, non-dynamic
+clump of spheres of diameter d: a compact square layer plus, towards the grains, a checkerboard of
+spheres in its hollows (roughness). The "inner plane" of a wall is the centre plane of that rough
+layer; the gap H is the distance between the two inner planes.
+
+Contacts: linear visco-elastic (ViscElMat) with constant k_n = p d / (delta/d), k_t = kt_over_kn k_n
+and damping constants c_n, c_t set so that two grains of diameter d collide with the restitution
+``restitution`` (so e varies with the pair's masses); Coulomb friction. ViscElMat combines the
+material values in series, hence the factor 2 below.
+
+Protocol (strain s = t*gamma_dot measured from the start of the first period):
+compaction under p -> s in [-pre_strain, 0): phi = theta -> n_cycles periods with phi = 0 for
+s mod T in [0, rotate_at) and phi = theta after. The top wall moves with U s(phi) + v_y e2, the
+bottom wall with -U s(phi), s(phi) = cos(phi) e1 + sin(phi) e3, U = gamma_dot H0 / 2 with H0 the
+gap when shearing starts; v_y = (sigma_wall/p - 1) H (delta/d) / control_time holds the normal
+stress on the top wall at p.
+
+Exit status: 0 done (raw.npz written), 3 the run went wrong (diagnostic on stderr),
+130/143 interrupted by SIGINT/SIGTERM after writing a checkpoint.
+"""
+
+import json
+import math
+import os
+import signal
+import sys
+import time
+
+import numpy as np
+import yade.config
+from yade import O, pack, utils
+from yade.wrapper import (
+    Bo1_Sphere_Aabb, ForceResetter, Ig2_Sphere_Sphere_ScGeom, InsertionSortCollider, InteractionLoop,
+    Ip2_ViscElMat_ViscElMat_ViscElPhys, Law2_ScGeom_ViscElPhys_Basic, NewtonIntegrator, PyRunner, ViscElMat,
+)
+from yade._minieigenHP import Vector3
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0]))))  # yade runs scripts with exec
+from dem import measure  # noqa: E402
+
+RUN_DIR = sys.argv[1]
+SPEC = json.load(open(os.path.join(RUN_DIR, "spec.json")))
+CHECKPOINT = os.path.join(RUN_DIR, "checkpoint.yade.gz")
+RAW = os.path.join(RUN_DIR, "raw.npz")
+
+E2 = Vector3(0, 1, 0)
+ROUGH_HEIGHT = 1 / math.sqrt(2)  # rough layer above the compact layer (sphere in a square hollow)
+WALL_RADIUS = 0.5
+
+
+# ---------------------------------------------------------------- contact law parameters (Sec. 2)
+def contact_constants(spec):
+    """k_n, k_t, c_n, c_t of a contact; damping set for the mean pair (two grains of diameter d)."""
+    kn = 1.0 / spec["overlap_ratio"]  # p d^2 / delta with d = p = 1
+    kt = spec["kt_over_kn"] * kn
+    log_e = math.log(spec["restitution"])
+    zeta = -log_e / math.sqrt(math.pi**2 + log_e**2)  # damping ratio of a linear spring-dashpot
+    m_eff = (math.pi / 6) / 2  # reduced mass of two unit-density spheres of diameter d
+    return kn, kt, 2 * zeta * math.sqrt(kn * m_eff), 2 * zeta * math.sqrt(kt * m_eff)
+
+
+# ---------------------------------------------------------------- scene construction
+def wall_spheres(y_compact, towards, width, material):
+    """A wall: a compact square layer at y_compact plus a checkerboard of spheres in its hollows."""
+    spheres = [utils.sphere((i + 0.5, y_compact, k + 0.5), WALL_RADIUS, material=material)
+               for i in range(width) for k in range(width)]
+    y_rough = y_compact + towards * ROUGH_HEIGHT
+    spheres += [utils.sphere((i + 1.0, y_rough, k + 1.0), WALL_RADIUS, material=material)
+                for i in range(width) for k in range(width) if (i + k) % 2 == 0]
+    clump_id, member_ids = O.bodies.appendClumped(spheres)
+    O.bodies[clump_id].dynamic = False
+    return clump_id, list(member_ids)
+
+
+def build(spec):
+    """Create the cell, walls, grains and engines; protocol state goes to O.tags['state']."""
+    kn, kt, cn, ct = contact_constants(spec)
+    width = int(spec["width_d"])
+    gap = spec["gap_d"]
+    d_min, d_max = spec["diameter_min_d"], spec["diameter_max_d"]
+    mean_volume = math.pi / 6 * (d_max**4 - d_min**4) / (4 * (d_max - d_min))  # <d^3> pi/6
+    n_grains = int(round(spec["fill_packing_fraction"] * width * width * gap / mean_volume))
+    loose_gap = gap * spec["fill_packing_fraction"] / 0.35  # the cloud starts at packing fraction ~0.35
+    y_bottom = 1.0
+    y_top = y_bottom + 2 * ROUGH_HEIGHT + loose_gap + d_max
+    O.periodic = True
+    O.cell.setBox(width, 2 * (y_top + 2.0), width)
+    material = O.materials.append(ViscElMat(kn=2 * kn, ks=2 * kt, cn=2 * cn, cs=2 * ct,
+                                            frictionAngle=math.radians(spec["friction_deg"]), density=1.0))
+    bottom = wall_spheres(y_bottom, +1, width, material)
+    top = wall_spheres(y_top, -1, width, material)
+    first_grain = len(O.bodies)
+    cloud = pack.SpherePack()
+    lo = y_bottom + ROUGH_HEIGHT + WALL_RADIUS
+    hi = y_top - ROUGH_HEIGHT - WALL_RADIUS
+    made = cloud.makeCloud((0, lo, 0), (width, hi, width), rMean=(d_min + d_max) / 4,
+                           rRelFuzz=(d_max - d_min) / (d_max + d_min), num=n_grains, periodic=False,
+                           seed=int(spec["seed"]) + 1)
+    if made != n_grains:
+        raise RuntimeError(f"placed only {made} of {n_grains} grains in the initial cloud")
+    O.bodies.append([utils.sphere(c, r, material=material) for c, r in cloud])
+    m_min = min(b.state.mass for b in O.bodies if b.id >= first_grain)
+    O.dt = spec["dt_safety"] * math.sqrt(m_min / kn)
+    O.engines = [
+        ForceResetter(),
+        InsertionSortCollider([Bo1_Sphere_Aabb()]),
+        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_ViscElMat_ViscElMat_ViscElPhys()],
+                        [Law2_ScGeom_ViscElPhys_Basic()]),
+        NewtonIntegrator(damping=0.0, gravity=(0, 0, 0)),
+        PyRunner(iterPeriod=int(spec["control_every_steps"]), command="control()", label="controller"),
+    ]
+    O.tags["spec"] = json.dumps(SPEC)
+    y_rough_bottom, y_rough_top = y_bottom + ROUGH_HEIGHT, y_top - ROUGH_HEIGHT
+    O.tags["state"] = json.dumps({
+        "phase": "compaction", "bottom": bottom, "top": top, "first_grain": first_grain,
+        "n_grains": n_grains,
+        "bottom_inner_offset": y_rough_bottom - O.bodies[bottom[0]].state.pos[1],
+        "top_inner_offset": y_rough_top - O.bodies[top[0]].state.pos[1], "kn": kn, "kt": kt, "cn": cn, "ct": ct, "hold_since": None,
+        "t_shear0": None, "gap0": None, "wall_speed": None, "next_sample": 0, "alarm_samples": 0,
+        "samples_file": None, "callback_seconds": 0.0, "loop_seconds": 0.0,
+    })
+
+
+# ---------------------------------------------------------------- runtime state (restored from O.tags)
+class Run:
+    """Python-side state of the running scene; everything persistent lives in ``self.state``."""
+
+    def __init__(self):
+        self.state = json.loads(O.tags["state"])
+        st = self.state
+        self.top_clump, self.top_members = O.bodies[st["top"][0]], st["top"][1]
+        self.bottom_clump, self.bottom_members = O.bodies[st["bottom"][0]], st["bottom"][1]
+        self.grain_ids = list(range(st["first_grain"], st["first_grain"] + st["n_grains"]))
+        self.grains = [O.bodies[i] for i in self.grain_ids]
+        self.radius = np.array([b.shape.radius for b in self.grains])
+        self.mass = np.array([b.state.mass for b in self.grains])
+        self.area = SPEC["width_d"] ** 2
+        self.gain = SPEC["gap_d"] * SPEC["overlap_ratio"] / SPEC["control_time"]
+        self.gamma_dot = SPEC["inertial_number"]  # I = d gamma_dot / sqrt(p/rho) with d = p = rho = 1
+        self.samples = load_samples(st["samples_file"])
+        self.err_sum, self.err_n, self.err_max = 0.0, 0, 0.0
+        self.failure = None
+        self.last_print = (time.time(), O.iter)
+        self.next_percent = 0.0
+
+    def inner_planes(self):
+        """Heights of the walls' inner planes (centres of their rough layers)."""
+        return (self.bottom_clump.state.pos[1] + self.state["bottom_inner_offset"],
+                self.top_clump.state.pos[1] + self.state["top_inner_offset"])
+
+    def wall_stress(self):
+        """Normal stress on the top wall (force of the grains along +e2 per cell area; p > 0)."""
+        return utils.sumForces(self.top_members, E2) / self.area
+
+    # protocol
+    def strain(self):
+        st = self.state
+        return (O.time - st["t_shear0"]) * self.gamma_dot - SPEC["pre_strain"]
+
+    def direction_deg(self, strain):
+        if strain < 0:
+            return SPEC["theta_deg"]
+        within = strain - SPEC["period_strain"] * math.floor(strain / SPEC["period_strain"] + 1e-12)
+        return 0.0 if within < SPEC["rotate_at_strain"] - 1e-12 else SPEC["theta_deg"]
+
+    def end_strain(self):
+        return SPEC["n_cycles"] * SPEC["period_strain"]
+
+    # the controller: every control_every_steps steps
+    def control(self):
+        tic = time.perf_counter()
+        st = self.state
+        err = self.wall_stress() - 1.0
+        vy = self.gain * err
+        if st["phase"] == "compaction":
+            vy = max(-0.1, min(0.1, vy))
+            self.top_clump.state.vel = Vector3(0, vy, 0)
+            self.compaction_check(err)
+        elif st["phase"] == "shear":
+            self.err_sum += err
+            self.err_n += 1
+            self.err_max = max(self.err_max, abs(err))
+            strain = self.strain()
+            phi = math.radians(self.direction_deg(strain))
+            u = st["wall_speed"] * Vector3(math.cos(phi), 0, math.sin(phi))
+            self.top_clump.state.vel = u + Vector3(0, vy, 0)
+            self.bottom_clump.state.vel = -u
+            if strain >= st["next_sample"] * SPEC["sample_strain"] - SPEC["pre_strain"] - 1e-12:
+                self.sample(strain)
+        st["callback_seconds"] += time.perf_counter() - tic
+
+    def compaction_check(self, err):
+        st = self.state
+        if time.time() - self.last_print[0] > 10:
+            y_bottom, y_top = self.inner_planes()
+            print(f"compaction: t = {O.time:.1f}, sigma_wall/p - 1 = {err:+.3f}, gap = {y_top - y_bottom:.2f} d",
+                  flush=True)
+            self.last_print = (time.time(), O.iter)
+        if abs(err) < SPEC["compaction_tolerance"]:
+            if st["hold_since"] is None:
+                st["hold_since"] = O.time
+            elif O.time - st["hold_since"] >= SPEC["compaction_hold_time"]:
+                y_bottom, y_top = self.inner_planes()
+                st.update(phase="shear", t_shear0=O.time, gap0=y_top - y_bottom,
+                          wall_speed=self.gamma_dot * (y_top - y_bottom) / 2)
+                print(f"compaction done at t = {O.time:.1f}: gap H0 = {st['gap0']:.3f} d, "
+                      f"U = {st['wall_speed']:.3g}; shearing", flush=True)
+        else:
+            st["hold_since"] = None
+        if O.time > SPEC["compaction_max_time"]:
+            self.fail(f"compaction did not converge within t = {SPEC['compaction_max_time']} "
+                      f"(sigma_wall/p - 1 = {err:+.3f})")
+
+    # sampling
+    def gather(self):
+        contacts = [
+            (i.id1, i.id2, *i.geom.normal, *i.geom.contactPoint, *(i.phys.normalForce + i.phys.shearForce),
+             i.geom.refR1 + i.geom.refR2 - i.geom.penetrationDepth)
+            for i in O.interactions if i.isReal
+        ]
+        c = np.array(contacts, dtype=float).reshape(-1, 12)
+        kin = np.array([(*b.state.pos, *b.state.vel) for b in self.grains], dtype=float)
+        return (
+            {"id1": c[:, 0].astype(np.int64), "id2": c[:, 1].astype(np.int64), "normal": c[:, 2:5],
+             "point": c[:, 5:8], "force": c[:, 8:11], "branch": c[:, 11]},
+            {"id": np.array(self.grain_ids), "pos": kin[:, :3], "vel": kin[:, 3:], "radius": self.radius,
+             "mass": self.mass},
+        )
+
+    def sample(self, strain):
+        st = self.state
+        contacts, grains = self.gather()
+        y_bottom, y_top = self.inner_planes()
+        gap = y_top - y_bottom
+        margin = SPEC["region_margin_d"]
+        n_bins = max(1, int(round(st["gap0"] / SPEC["profile_bin_d"])))
+        edges = np.linspace(y_bottom, y_top, n_bins + 1)
+        row = measure.measure(contacts, grains, st["first_grain"], self.area, (y_bottom + margin, y_top - margin),
+                              edges)
+        force = lambda ids: [utils.sumForces(ids, Vector3(*e)) for e in np.eye(3)]  # noqa: E731
+        row.update(
+            iteration=O.iter, time=O.time, strain=strain, direction_deg=self.direction_deg(strain),
+            gap=gap, region=[y_bottom + margin, y_top - margin], profile_edges=edges,
+            top_position=list(self.top_clump.state.pos), bottom_position=list(self.bottom_clump.state.pos),
+            top_velocity=list(self.top_clump.state.vel), bottom_velocity=list(self.bottom_clump.state.vel),
+            top_force=force(self.top_members), bottom_force=force(self.bottom_members),
+            wall_stress_error_mean=self.err_sum / max(self.err_n, 1), wall_stress_error_max=self.err_max,
+        )
+        self.err_sum, self.err_n, self.err_max = 0.0, 0, 0.0
+        self.samples.append(row)
+        st["next_sample"] += 1
+        self.check(row, grains, y_bottom, y_top)
+        self.progress(strain, row)
+        if strain >= self.end_strain() - 1e-9 and self.failure is None:
+            st["phase"] = "done"
+            O.pause()
+
+    def check(self, row, grains, y_bottom, y_top):
+        """Stop with a diagnostic when the run goes wrong."""
+        st = self.state
+        for key in ("stress_contact", "fabric", "packing_fraction", "gap"):
+            if not np.all(np.isfinite(row[key])):
+                return self.fail(f"{key} is not finite at strain {row['strain']:.3f}")
+        if not np.all(np.isfinite(grains["pos"])) or not np.all(np.isfinite(grains["vel"])):
+            return self.fail(f"NaN grain position or velocity at strain {row['strain']:.3f}")
+        y = grains["pos"][:, 1]
+        out = np.flatnonzero((y < y_bottom - WALL_RADIUS) | (y > y_top + WALL_RADIUS))
+        if len(out):
+            return self.fail(f"{len(out)} grain(s) escaped the walls (first: id {grains['id'][out[0]]}, "
+                             f"y = {y[out[0]]:.2f}, walls at {y_bottom:.2f} and {y_top:.2f})")
+        if not 0.5 * st["gap0"] < row["gap"] < 1.5 * st["gap0"]:
+            return self.fail(f"wall gap ran away: {row['gap']:.2f} d (H0 = {st['gap0']:.2f} d)")
+        if abs(row["wall_stress_error_mean"]) > SPEC["stress_alarm"]:
+            st["alarm_samples"] += 1
+            if st["alarm_samples"] * SPEC["sample_strain"] >= SPEC["stress_alarm_strain"]:
+                return self.fail(f"wall normal stress off target by {row['wall_stress_error_mean']:+.0%} "
+                                 f"for {SPEC['stress_alarm_strain']} strain")
+        else:
+            st["alarm_samples"] = 0
+        return None
+
+    def progress(self, strain, row):
+        total = self.end_strain() + SPEC["pre_strain"]
+        done = (strain + SPEC["pre_strain"]) / total
+        now = time.time()
+        if done * 100 < self.next_percent and now - self.last_print[0] < 60:
+            return
+        self.next_percent = math.floor(done * 50 + 1e-9) * 2 + 2
+        rate = (O.iter - self.last_print[1]) / max(now - self.last_print[0], 1e-9)
+        steps_left = (total - strain - SPEC["pre_strain"]) / (self.gamma_dot * O.dt)
+        eta = steps_left / rate if rate > 0 else float("nan")
+        print(f"[{done:4.0%}] strain {strain:+.3f} / {self.end_strain():.2f}  "
+              f"sigma_wall/p - 1 = {row['wall_stress_error_mean']:+.2%}  tau12/p = {row['stress_contact'][0, 1]:+.3f}  "
+              f"{rate:.0f} steps/s  ETA {format_seconds(eta)}", flush=True)
+        self.last_print = (now, O.iter)
+
+    def fail(self, message):
+        self.failure = message
+        self.state["phase"] = "failed"
+        O.pause()
+
+
+def format_seconds(seconds):
+    if not math.isfinite(seconds):
+        return "?"
+    seconds = int(seconds)
+    return f"{seconds // 3600}h{seconds % 3600 // 60:02d}m" if seconds >= 3600 else f"{seconds // 60}m{seconds % 60:02d}s"
+
+
+# ---------------------------------------------------------------- persistence (atomic: temp file, then rename)
+def stack(samples):
+    keys = samples[0].keys() if samples else []
+    return {key: np.array([row[key] for row in samples]) for key in keys}
+
+
+def load_samples(name):
+    if not name:
+        return []
+    with np.load(os.path.join(RUN_DIR, name)) as data:
+        columns = {key: data[key] for key in data.files}
+    n = len(next(iter(columns.values()))) if columns else 0
+    return [{key: columns[key][i] for key in columns} for i in range(n)]
+
+
+def save_npz(path, arrays):
+    tmp = path + ".tmp.npz"
+    np.savez(tmp, **arrays)
+    os.replace(tmp, path)
+
+
+def checkpoint(run):
+    """Samples first (a new file), then the scene that names it; old sample files go last."""
+    name = f"samples_{O.iter:012d}.npz"
+    save_npz(os.path.join(RUN_DIR, name), stack(run.samples))
+    previous = run.state["samples_file"]
+    run.state["samples_file"] = name
+    O.tags["state"] = json.dumps(run.state)
+    tmp = os.path.join(RUN_DIR, "checkpoint.tmp.yade.gz")
+    O.save(tmp)
+    os.replace(tmp, CHECKPOINT)
+    if previous and previous != name:
+        os.remove(os.path.join(RUN_DIR, previous))
+
+
+def write_raw(run):
+    st = run.state
+    meta = {
+        "spec": SPEC, "yade_version": yade.config.version,
+        "dt": O.dt, "kn": st["kn"], "kt": st["kt"], "cn": st["cn"], "ct": st["ct"], "n_grains": st["n_grains"],
+        "n_wall_spheres": len(st["top"][1]) + len(st["bottom"][1]), "gap0": st["gap0"], "wall_speed": st["wall_speed"],
+        "gamma_dot_nominal": run.gamma_dot, "t_shear0": st["t_shear0"], "iterations": O.iter,
+        "callback_seconds": st["callback_seconds"], "loop_seconds": st["loop_seconds"],
+        "grain_radius": run.radius.tolist(),
+    }
+    arrays = stack(run.samples)
+    arrays["meta_json"] = np.array(json.dumps(meta))
+    save_npz(RAW, arrays)
+
+
+# ---------------------------------------------------------------- main loop
+RUN = None
+
+
+def control():
+    """The PyRunner's entry point; an exception stops the run with its message instead of hanging Yade."""
+    try:
+        RUN.control()
+    except Exception as exc:  # noqa: BLE001 - reported to the user and turned into exit status 3
+        RUN.fail(f"{type(exc).__name__}: {exc} (in the controller)")
+
+
+def main():
+    global RUN
+    stop = {"signal": None}
+
+    def on_signal(signum, _frame):
+        stop["signal"] = signum
+        O.pause()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    if os.path.exists(CHECKPOINT):
+        O.load(CHECKPOINT)
+        if json.loads(O.tags["spec"]) != SPEC:
+            sys.stderr.write(f"error: checkpoint {CHECKPOINT} belongs to another spec; delete the run folder\n")
+            sys.exit(2)
+        print(f"resumed from checkpoint at iteration {O.iter}", flush=True)
+    else:
+        build(SPEC)
+        print(f"built: {json.loads(O.tags['state'])['n_grains']} grains, dt = {O.dt:.4g}", flush=True)
+    RUN = Run()
+    interval = 60 * SPEC["checkpoint_minutes"]
+    last_checkpoint = time.time()
+    while True:
+        tic = time.time()
+        O.run()
+        while O.running:
+            time.sleep(0.05)
+            if time.time() - last_checkpoint >= interval:
+                O.pause()
+        O.wait()
+        RUN.state["loop_seconds"] += time.time() - tic
+        phase = RUN.state["phase"]
+        if phase == "failed":
+            sys.stderr.write(f"error: {RUN.failure}\n")
+            sys.exit(3)
+        if phase == "done":
+            write_raw(RUN)
+            print(f"done: {len(RUN.samples)} samples, {O.iter} steps", flush=True)
+            return
+        checkpoint(RUN)
+        last_checkpoint = time.time()
+        if stop["signal"] is not None:
+            print(f"interrupted: checkpoint at iteration {O.iter}", flush=True)
+            sys.exit(128 + stop["signal"])
+
+
+main()

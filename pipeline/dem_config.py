@@ -1,0 +1,168 @@
+"""DEM run specification: presets from ``config/dem.toml``, overrides, validation, names and paths.
+
+One source of truth for the Couette experiment's parameters. A *spec* is the fully resolved,
+validated dict that the Yade scene (``dem/couette.py``) reads; it carries every value it uses.
+Units: lengths in mean diameters d, stresses in the wall normal stress p, densities in the grain
+density rho (time in d sqrt(rho/p)); strain is t * gamma_dot; angles in degrees.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import tomllib
+from pathlib import Path
+
+from .paths import CONFIG_DIR, RESULTS_DIR
+
+PRESETS_FILE = CONFIG_DIR / "dem.toml"
+SPEC_VERSION = 1
+
+INTEGER_KEYS = {"n_cycles", "control_every_steps", "seed"}
+#: keys that must be > 0 (everything else numeric must be >= 0 or is checked specifically)
+POSITIVE_KEYS = {
+    "width_d", "gap_d", "diameter_min_d", "diameter_max_d", "fill_packing_fraction", "overlap_ratio",
+    "kt_over_kn", "restitution", "inertial_number", "period_strain", "sample_strain", "profile_bin_d",
+    "dt_safety", "control_time", "control_every_steps", "compaction_tolerance", "compaction_hold_time",
+    "compaction_max_time", "stress_alarm", "stress_alarm_strain", "checkpoint_minutes", "n_cycles",
+}
+
+
+class SpecError(ValueError):
+    """A bad run specification; the one-line message names the bad value."""
+
+
+def load_presets(path: Path = PRESETS_FILE) -> dict[str, dict]:
+    """All presets of ``path``, each merged onto ``[defaults]``."""
+    try:
+        with open(path, "rb") as fh:
+            table = tomllib.load(fh)
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise SpecError(f"cannot read presets {path}: {exc}") from None
+    defaults = table.pop("defaults", None)
+    if not isinstance(defaults, dict):
+        raise SpecError(f"{path}: no [defaults] table")
+    presets = {}
+    for name, values in table.items():
+        unknown = sorted(set(values) - set(defaults))
+        if unknown:
+            raise SpecError(f"{path}: preset [{name}] has unknown key(s) {', '.join(unknown)}")
+        presets[name] = {**defaults, **values}
+    return presets
+
+
+def parse_overrides(items: list[str] | tuple[str, ...]) -> dict[str, float]:
+    """``["key=value", ...]`` -> ``{key: float}``; a malformed item is a :class:`SpecError`."""
+    out = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise SpecError(f"override {item!r} is not of the form key=value")
+        try:
+            out[key] = float(text)
+        except ValueError:
+            raise SpecError(f"override {key}={text.strip()!r} is not a number") from None
+    return out
+
+
+def _check_values(values: dict) -> None:
+    problems = []
+    for key, value in values.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            problems.append(f"{key}={value!r} is not a number")
+        elif not math.isfinite(value):
+            problems.append(f"{key}={value!r} is not finite")
+        elif key in INTEGER_KEYS and value != int(value):
+            problems.append(f"{key}={value!r} must be an integer")
+        elif key in POSITIVE_KEYS and value <= 0:
+            problems.append(f"{key}={value!r} must be > 0")
+        elif value < 0:
+            problems.append(f"{key}={value!r} must be >= 0")
+    if not problems:
+        w = values["width_d"]
+        if w != int(w) or int(w) % 2:
+            problems.append(f"width_d={w!r} must be an even integer (the wall pattern repeats every 2d)")
+        if values["diameter_min_d"] >= values["diameter_max_d"]:
+            problems.append(f"diameter_min_d={values['diameter_min_d']!r} must be < diameter_max_d")
+        if 2 * values["region_margin_d"] >= values["gap_d"]:
+            problems.append(f"region_margin_d={values['region_margin_d']!r} leaves no central region")
+        if values["restitution"] >= 1:
+            problems.append(f"restitution={values['restitution']!r} must be < 1")
+        if values["friction_deg"] >= 90:
+            problems.append(f"friction_deg={values['friction_deg']!r} must be < 90")
+        if values["sample_strain"] >= values["period_strain"] / 2:
+            problems.append(f"sample_strain={values['sample_strain']!r} must be < period_strain/2")
+    if problems:
+        raise SpecError("; ".join(problems))
+
+
+def run_name(theta_deg: float, rotate_at: float, default_rotate_at: float) -> str:
+    """File stem of a run: ``theta090``, ``theta092.5``, ``theta090_rot0.10``."""
+    theta = f"{theta_deg:05.1f}" if theta_deg != int(theta_deg) else f"{int(theta_deg):03d}"
+    name = f"theta{theta}".replace("-", "m")
+    if not math.isclose(rotate_at, default_rotate_at, abs_tol=1e-12):
+        name += f"_rot{rotate_at:.2f}"
+    return name
+
+
+def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | None = None,
+            presets_file: Path = PRESETS_FILE) -> dict:
+    """Validate everything and return the run spec (a JSON-able dict); raises :class:`SpecError`.
+
+    ``theta_deg``: rotation of the second half-period's shear direction about e2, in degrees
+    (positive turns e1 towards e3). ``rotate_at``: strain within each period at which the direction
+    turns from e1 to theta (default: half the period, Fig. 1).
+    """
+    try:
+        theta = float(theta_deg)
+    except (TypeError, ValueError):
+        raise SpecError(f"theta={theta_deg!r} is not a number") from None
+    if not math.isfinite(theta):
+        raise SpecError(f"theta={theta_deg!r} is not a finite number")
+    presets = load_presets(presets_file)
+    if preset not in presets:
+        raise SpecError(f"unknown preset {preset!r} (known: {', '.join(presets)})")
+    overrides = dict(overrides or {})
+    unknown = sorted(set(overrides) - set(presets[preset]))
+    if unknown:
+        raise SpecError(f"unknown override key(s) {', '.join(unknown)} (see {presets_file.name})")
+    values = {**presets[preset], **overrides}
+    _check_values(values)
+    for key in INTEGER_KEYS:
+        values[key] = int(values[key])
+    period = values["period_strain"]
+    default_rotate_at = period / 2
+    if rotate_at is None:
+        rotate_at = default_rotate_at
+    try:
+        rotate_at = float(rotate_at)
+    except (TypeError, ValueError):
+        raise SpecError(f"rotate_at={rotate_at!r} is not a number") from None
+    if not (math.isfinite(rotate_at) and 0 < rotate_at < period):
+        raise SpecError(f"rotate_at={rotate_at!r} must lie strictly between 0 and period_strain={period}")
+    folder = preset
+    if overrides:
+        digest = hashlib.sha1(json.dumps(overrides, sort_keys=True).encode()).hexdigest()[:8]
+        folder = f"{preset}-{digest}"
+    return {
+        "spec_version": SPEC_VERSION,
+        "preset": preset,
+        "overrides": overrides,
+        "theta_deg": theta,
+        "rotate_at_strain": rotate_at,
+        "name": run_name(theta, rotate_at, default_rotate_at),
+        "folder": folder,
+        **values,
+    }
+
+
+def output_path(spec: dict, results_dir: Path = RESULTS_DIR) -> Path:
+    """The run's HDF5 file: ``results/<folder>/dem/<name>.h5``."""
+    return results_dir / spec["folder"] / "dem" / f"{spec['name']}.h5"
+
+
+def work_dir(spec: dict, results_dir: Path = RESULTS_DIR) -> Path:
+    """Scratch folder of a run (spec, checkpoints, raw samples, log) beside its HDF5 file."""
+    return output_path(spec, results_dir).with_suffix(".run")
