@@ -10,15 +10,26 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 THETAS := 030 060 090 120 150 180
 MODEL_DIR := results/model
 
-.PHONY: help demo test bench venv system model-cycles clean
+# DEM runs: make dem THETA=90 [PRESET=quick] [ROTATE_AT=0.1] [SET="key=value ..."] [FRESH=1] [THREADS=1]
+THETA ?= 180
+PRESET ?= quick
+ROTATE_AT ?=
+SET ?=
+FRESH ?=
+RESUME ?=
+THREADS ?= 1
+DEM_ARGS = --preset $(PRESET) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
+	$(if $(filter 1 yes true,$(FRESH)),--fresh) --threads $(THREADS)
+
+.PHONY: help demo test bench venv system model-cycles dem demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
 
-demo: system venv model-cycles ## set up everything, then run the pipeline on the small default
-	@echo "demo done: model cycles in $(MODEL_DIR)/"
+demo: system venv model-cycles demo-dem ## set up everything, then run the pipeline on the small default
+	@echo "demo done: model cycles in $(MODEL_DIR)/, DEM runs in results/quick/dem/"
 
-test: venv ## run the test suite
+test: system venv ## run the test suite (the DEM tests run the real Yade)
 	$(PY) -m pytest -q
 
 bench: venv ## numerics report: work-precision table and plot in results/bench/
@@ -44,5 +55,14 @@ model-cycles: $(foreach t,$(THETAS),$(MODEL_DIR)/theta$(t).csv) ## model cycles 
 $(MODEL_DIR)/theta%.csv: $(VENV_STAMP) model/*.py
 	$(PY) -m model predict --theta $* --out $@
 
+dem: system venv ## one DEM run -> results/<preset>/dem/theta<THETA>.h5 (resumes from its checkpoint; see README)
+	$(PY) -m pipeline.dem run --theta $(THETA) $(DEM_ARGS)
+
+demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 90, both at once
+	$(MAKE) --no-print-directory -j2 demo-dem-180 demo-dem-90
+
+demo-dem-%:
+	$(PY) -m pipeline.dem run --theta $* --preset quick
+
 clean: ## remove generated results (keeps the venv)
-	rm -rf results/model results/bench
+	rm -rf results/model results/bench results/quick results/tiny

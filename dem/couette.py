@@ -9,10 +9,7 @@ clump of spheres of diameter d: a compact square layer plus, towards the grains,
 spheres in its hollows (roughness). The "inner plane" of a wall is the centre plane of that rough
 layer; the gap H is the distance between the two inner planes.
 
-Contacts: linear visco-elastic (ViscElMat) with constant k_n = p d / (delta/d), k_t = kt_over_kn k_n
-and damping constants c_n, c_t set so that two grains of diameter d collide with the restitution
-``restitution`` (so e varies with the pair's masses); Coulomb friction. ViscElMat combines the
-material values in series, hence the factor 2 below.
+Contacts: ``dem/contact.py`` (linear visco-elastic, constant k_n, damping set for the mean pair).
 
 Protocol (strain s = t*gamma_dot measured from the start of the first period):
 compaction under p -> s in [-pre_strain, 0): phi = theta -> n_cycles periods with phi = 0 for
@@ -37,12 +34,13 @@ import yade.config
 from yade import O, pack, utils
 from yade.wrapper import (
     Bo1_Sphere_Aabb, ForceResetter, Ig2_Sphere_Sphere_ScGeom, InsertionSortCollider, InteractionLoop,
-    Ip2_ViscElMat_ViscElMat_ViscElPhys, Law2_ScGeom_ViscElPhys_Basic, NewtonIntegrator, PyRunner, ViscElMat,
+    Ip2_ViscElMat_ViscElMat_ViscElPhys, Law2_ScGeom_ViscElPhys_Basic, NewtonIntegrator, PyRunner,
 )
 from yade._minieigenHP import Vector3
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0]))))  # yade runs scripts with exec
 from dem import measure  # noqa: E402
+from dem.contact import contact_constants, contact_material  # noqa: E402
 
 RUN_DIR = sys.argv[1]
 SPEC = json.load(open(os.path.join(RUN_DIR, "spec.json")))
@@ -52,17 +50,6 @@ RAW = os.path.join(RUN_DIR, "raw.npz")
 E2 = Vector3(0, 1, 0)
 ROUGH_HEIGHT = 1 / math.sqrt(2)  # rough layer above the compact layer (sphere in a square hollow)
 WALL_RADIUS = 0.5
-
-
-# ---------------------------------------------------------------- contact law parameters (Sec. 2)
-def contact_constants(spec):
-    """k_n, k_t, c_n, c_t of a contact; damping set for the mean pair (two grains of diameter d)."""
-    kn = 1.0 / spec["overlap_ratio"]  # p d^2 / delta with d = p = 1
-    kt = spec["kt_over_kn"] * kn
-    log_e = math.log(spec["restitution"])
-    zeta = -log_e / math.sqrt(math.pi**2 + log_e**2)  # damping ratio of a linear spring-dashpot
-    m_eff = (math.pi / 6) / 2  # reduced mass of two unit-density spheres of diameter d
-    return kn, kt, 2 * zeta * math.sqrt(kn * m_eff), 2 * zeta * math.sqrt(kt * m_eff)
 
 
 # ---------------------------------------------------------------- scene construction
@@ -91,8 +78,7 @@ def build(spec):
     y_top = y_bottom + 2 * ROUGH_HEIGHT + loose_gap + d_max
     O.periodic = True
     O.cell.setBox(width, 2 * (y_top + 2.0), width)
-    material = O.materials.append(ViscElMat(kn=2 * kn, ks=2 * kt, cn=2 * cn, cs=2 * ct,
-                                            frictionAngle=math.radians(spec["friction_deg"]), density=1.0))
+    material = O.materials.append(contact_material(spec))
     bottom = wall_spheres(y_bottom, +1, width, material)
     top = wall_spheres(y_top, -1, width, material)
     first_grain = len(O.bodies)
@@ -123,7 +109,8 @@ def build(spec):
         "bottom_inner_offset": y_rough_bottom - O.bodies[bottom[0]].state.pos[1],
         "top_inner_offset": y_rough_top - O.bodies[top[0]].state.pos[1], "kn": kn, "kt": kt, "cn": cn, "ct": ct, "hold_since": None,
         "t_shear0": None, "gap0": None, "wall_speed": None, "next_sample": 0, "alarm_samples": 0,
-        "samples_file": None, "callback_seconds": 0.0, "loop_seconds": 0.0,
+        "samples_file": None, "next_checkpoint": int(spec["checkpoint_steps"]), "err_sum": 0.0, "err_n": 0, "err_max": 0.0,
+        "callback_seconds": 0.0, "loop_seconds": 0.0,
     })
 
 
@@ -144,7 +131,6 @@ class Run:
         self.gain = SPEC["gap_d"] * SPEC["overlap_ratio"] / SPEC["control_time"]
         self.gamma_dot = SPEC["inertial_number"]  # I = d gamma_dot / sqrt(p/rho) with d = p = rho = 1
         self.samples = load_samples(st["samples_file"])
-        self.err_sum, self.err_n, self.err_max = 0.0, 0, 0.0
         self.failure = None
         self.last_print = (time.time(), O.iter)
         self.next_percent = 0.0
@@ -176,6 +162,9 @@ class Run:
     def control(self):
         tic = time.perf_counter()
         st = self.state
+        if O.iter >= st["next_checkpoint"]:
+            st["next_checkpoint"] += SPEC["checkpoint_steps"]
+            O.pause()  # the main loop saves and reloads the checkpoint, then goes on
         err = self.wall_stress() - 1.0
         vy = self.gain * err
         if st["phase"] == "compaction":
@@ -183,9 +172,9 @@ class Run:
             self.top_clump.state.vel = Vector3(0, vy, 0)
             self.compaction_check(err)
         elif st["phase"] == "shear":
-            self.err_sum += err
-            self.err_n += 1
-            self.err_max = max(self.err_max, abs(err))
+            st["err_sum"] += err
+            st["err_n"] += 1
+            st["err_max"] = max(st["err_max"], abs(err))
             strain = self.strain()
             phi = math.radians(self.direction_deg(strain))
             u = st["wall_speed"] * Vector3(math.cos(phi), 0, math.sin(phi))
@@ -250,9 +239,9 @@ class Run:
             top_position=list(self.top_clump.state.pos), bottom_position=list(self.bottom_clump.state.pos),
             top_velocity=list(self.top_clump.state.vel), bottom_velocity=list(self.bottom_clump.state.vel),
             top_force=force(self.top_members), bottom_force=force(self.bottom_members),
-            wall_stress_error_mean=self.err_sum / max(self.err_n, 1), wall_stress_error_max=self.err_max,
+            wall_stress_error_mean=st["err_sum"] / max(st["err_n"], 1), wall_stress_error_max=st["err_max"],
         )
-        self.err_sum, self.err_n, self.err_max = 0.0, 0, 0.0
+        st.update(err_sum=0.0, err_n=0, err_max=0.0)
         self.samples.append(row)
         st["next_sample"] += 1
         self.check(row, grains, y_bottom, y_top)
@@ -376,12 +365,23 @@ def control():
 
 
 def main():
+    """Build or resume, then run; at every checkpoint save, reload and go on (see ``checkpoint_steps``).
+
+    Every run, interrupted or not, continues from each checkpoint as freshly loaded, so resuming is
+    bit-identical (one thread). A first SIGINT/SIGTERM stops at the next checkpoint; a second one
+    checkpoints at once (the run then resumes correctly but not bit-identically).
+    """
     global RUN
-    stop = {"signal": None}
+    stop = {"count": 0, "signal": 0}
 
     def on_signal(signum, _frame):
+        stop["count"] += 1
         stop["signal"] = signum
-        O.pause()
+        if stop["count"] == 1:
+            print(f"signal {signum}: stopping at the next checkpoint (iteration {RUN.state['next_checkpoint']}); "
+                  "signal again to stop at once", flush=True)
+        else:
+            O.pause()
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
@@ -395,15 +395,11 @@ def main():
         build(SPEC)
         print(f"built: {json.loads(O.tags['state'])['n_grains']} grains, dt = {O.dt:.4g}", flush=True)
     RUN = Run()
-    interval = 60 * SPEC["checkpoint_minutes"]
-    last_checkpoint = time.time()
     while True:
         tic = time.time()
         O.run()
         while O.running:
             time.sleep(0.05)
-            if time.time() - last_checkpoint >= interval:
-                O.pause()
         O.wait()
         RUN.state["loop_seconds"] += time.time() - tic
         phase = RUN.state["phase"]
@@ -412,12 +408,20 @@ def main():
             sys.exit(3)
         if phase == "done":
             write_raw(RUN)
+            for name in os.listdir(RUN_DIR):
+                if name.startswith(("checkpoint", "samples_")):
+                    os.remove(os.path.join(RUN_DIR, name))
             print(f"done: {len(RUN.samples)} samples, {O.iter} steps", flush=True)
             return
         checkpoint(RUN)
-        last_checkpoint = time.time()
-        if stop["signal"] is not None:
-            print(f"interrupted: checkpoint at iteration {O.iter}", flush=True)
+        if stop["count"] >= 2:
+            print(f"interrupted: checkpoint at iteration {O.iter} (off the regular checkpoints: "
+                  "the resumed run will not be bit-identical)", flush=True)
+            sys.exit(128 + stop["signal"])
+        O.load(CHECKPOINT)
+        RUN = Run()
+        if stop["count"] == 1:
+            print(f"interrupted: checkpoint at iteration {O.iter}; rerun the same command to resume", flush=True)
             sys.exit(128 + stop["signal"])
 
 

@@ -19,13 +19,13 @@ from .paths import CONFIG_DIR, RESULTS_DIR
 PRESETS_FILE = CONFIG_DIR / "dem.toml"
 SPEC_VERSION = 1
 
-INTEGER_KEYS = {"n_cycles", "control_every_steps", "seed"}
+INTEGER_KEYS = {"n_cycles", "control_every_steps", "checkpoint_steps", "seed"}
 #: keys that must be > 0 (everything else numeric must be >= 0 or is checked specifically)
 POSITIVE_KEYS = {
     "width_d", "gap_d", "diameter_min_d", "diameter_max_d", "fill_packing_fraction", "overlap_ratio",
     "kt_over_kn", "restitution", "inertial_number", "period_strain", "sample_strain", "profile_bin_d",
     "dt_safety", "control_time", "control_every_steps", "compaction_tolerance", "compaction_hold_time",
-    "compaction_max_time", "stress_alarm", "stress_alarm_strain", "checkpoint_minutes", "n_cycles",
+    "compaction_max_time", "stress_alarm", "stress_alarm_strain", "checkpoint_steps", "n_cycles",
 }
 
 

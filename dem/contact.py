@@ -1,0 +1,66 @@
+"""Contact law of the Couette experiment (Sec. 2): linear visco-elastic with Coulomb friction.
+
+Constant normal stiffness k_n = p d^2 / delta (the mean overlap delta/d = ``overlap_ratio``),
+tangential stiffness k_t = ``kt_over_kn`` k_n, and constant damping coefficients c_n, c_t chosen so
+that the *mean pair* (two grains of diameter d) has the restitution ``restitution`` in both the
+normal and the tangential spring-dashpot. A pair of other masses then has another restitution
+(zeta = c / (2 sqrt(k m_eff)) changes with the reduced mass m_eff): k_n, c_n and c_t are constants,
+as the paper states, rather than e. Units d = p = rho = 1.
+"""
+
+import math
+
+
+def restitution_of_damping_ratio(zeta):
+    """Restitution of a linear spring-dashpot collision that ends when the contact force vanishes.
+
+    Yade's contact carries no tension, so the grains part when k x + c x' = 0, before the overlap x
+    returns to zero. With x = (v0/w_d) exp(-zeta w0 t) sin(w_d t), w_d = w0 sqrt(1 - zeta^2), the force
+    vanishes at w_d t* = pi - atan2(2 zeta sqrt(1 - zeta^2), 1 - 2 zeta^2), and e = -x'(t*)/v0.
+    """
+    if zeta >= 1:
+        return 0.0
+    root = math.sqrt(1 - zeta**2)
+    phase = math.pi - math.atan2(2 * zeta * root, 1 - 2 * zeta**2)
+    ratio = zeta / root
+    return -math.exp(-ratio * phase) * (math.cos(phase) - ratio * math.sin(phase))
+
+
+def damping_ratio(restitution):
+    """The damping ratio zeta that gives ``restitution`` (inverse of the above, by bisection)."""
+    lo, hi = 0.0, 1.0
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if restitution_of_damping_ratio(mid) > restitution else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def restitution(stiffness, damping, reduced_mass):
+    """Restitution of a pair with the given contact stiffness, damping and reduced mass."""
+    return restitution_of_damping_ratio(damping / (2 * math.sqrt(stiffness * reduced_mass)))
+
+
+def pair_reduced_mass(d1, d2):
+    """Reduced mass of two unit-density spheres of diameters d1, d2."""
+    m1, m2 = math.pi / 6 * d1**3, math.pi / 6 * d2**3
+    return m1 * m2 / (m1 + m2)
+
+
+def contact_constants(spec):
+    """(k_n, k_t, c_n, c_t) of a contact, damping set for the mean pair."""
+    kn = 1.0 / spec["overlap_ratio"]
+    kt = spec["kt_over_kn"] * kn
+    zeta = damping_ratio(spec["restitution"])
+    m_eff = pair_reduced_mass(1.0, 1.0)
+    return kn, kt, 2 * zeta * math.sqrt(kn * m_eff), 2 * zeta * math.sqrt(kt * m_eff)
+
+
+def contact_material(spec):
+    """The Yade material of every sphere. ViscElMat combines two materials' kn, ks, cn, cs in series,
+    so each material carries twice the contact value (given kn/ks it must not be given en/et:
+    Yade then silently derives the stiffness from Young's modulus instead)."""
+    from yade.wrapper import ViscElMat
+
+    kn, kt, cn, ct = contact_constants(spec)
+    return ViscElMat(kn=2 * kn, ks=2 * kt, cn=2 * cn, cs=2 * ct, frictionAngle=math.radians(spec["friction_deg"]),
+                     density=1.0)

@@ -1,0 +1,140 @@
+"""Run the DEM experiment: ``python -m pipeline.dem run --theta 90 --preset quick [...]``.
+
+Validates everything before Yade starts, runs ``dem/couette.py`` under Debian's ``yade`` in the run
+folder ``results/<preset>/dem/<name>.run/`` (resuming from its checkpoint when there is one),
+then writes the self-describing HDF5 file ``results/<preset>/dem/<name>.h5`` atomically.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+from . import dem_config
+from .dem_h5 import write_h5
+from .paths import RESULTS_DIR, ROOT, SCENE
+
+YADE_NOISE = ("TCP python prompt", "XMLRPC info provider", "Welcome to Yade", "Using python version", "Running script")
+
+
+def git_commit() -> str:
+    try:
+        out = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True, check=True)
+        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, check=True).stdout.strip()
+        return out.stdout.strip() + ("-dirty" if dirty else "")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def write_json(path: Path, data) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1, sort_keys=True))
+    os.replace(tmp, path)
+
+
+def prepare(spec: dict, results_dir: Path, fresh: bool) -> Path:
+    """The run folder with its ``spec.json``; refuses to mix a checkpoint with another spec."""
+    run_dir = dem_config.work_dir(spec, results_dir)
+    if fresh and run_dir.exists():
+        shutil.rmtree(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    spec_file = run_dir / "spec.json"
+    if spec_file.exists() and json.loads(spec_file.read_text()) != spec:
+        if (run_dir / "checkpoint.yade.gz").exists():
+            raise dem_config.SpecError(f"{run_dir} holds a checkpoint of another spec: rerun with --fresh (FRESH=1)")
+        spec_file.unlink()
+    if not spec_file.exists():
+        write_json(spec_file, spec)
+    return run_dir
+
+
+def run_yade(run_dir: Path, threads: int) -> int:
+    """Run the scene, echoing its progress lines and logging them to ``run_dir/log.txt``."""
+    yade = shutil.which("yade")
+    if yade is None:
+        raise dem_config.SpecError("yade not found on PATH: run `make system` (apt-get install yade python3-h5py)")
+    env = {**os.environ, "OMP_NUM_THREADS": str(threads)}
+    command = [yade, "-n", "-x", "-j", str(threads), str(SCENE), str(run_dir)]
+    with open(run_dir / "log.txt", "a") as log:
+        log.write(f"# {dt.datetime.now().isoformat(timespec='seconds')} {' '.join(command)}\n")
+        proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+                                cwd=run_dir, start_new_session=True)
+
+        def forward(signum, _frame):
+            proc.send_signal(signum)
+
+        previous = {s: signal.signal(s, forward) for s in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            for line in proc.stdout:
+                log.write(line)
+                if line.strip() and not line.startswith(YADE_NOISE):
+                    print(line, end="", flush=True)
+            return proc.wait()
+        finally:
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+
+
+def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, threads: int = 1) -> Path:
+    """Run (or resume) one DEM run and write its HDF5 file; returns the file's path."""
+    out = dem_config.output_path(spec, results_dir)
+    if out.exists() and not fresh:
+        print(f"{out} is up to date (FRESH=1 / --fresh reruns it)")
+        return out
+    run_dir = prepare(spec, results_dir, fresh)
+    provenance_file = run_dir / "provenance.json"
+    provenance = json.loads(provenance_file.read_text()) if provenance_file.exists() else {
+        "started": dt.datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(), "sessions": []}
+    provenance["sessions"].append({"command": " ".join(sys.argv), "at": dt.datetime.now().isoformat(timespec="seconds"),
+                                   "threads": threads})
+    write_json(provenance_file, provenance)
+    if not (run_dir / "raw.npz").exists():
+        status = run_yade(run_dir, threads)
+        if status != 0:
+            raise SystemExit(status)
+    provenance["finished"] = dt.datetime.now().isoformat(timespec="seconds")
+    write_h5(run_dir / "raw.npz", out, provenance)
+    return out
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m pipeline.dem", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("run", help="run (or resume) one DEM run and write its HDF5 file")
+    p.add_argument("--theta", required=True, help="rotation angle of the second half period, degrees (e1 towards e3)")
+    p.add_argument("--preset", default="quick", help="preset of config/dem.toml: paper, reduced, quick, tiny")
+    p.add_argument("--rotate-at", default=None, help="strain within each period at which the direction turns to "
+                   "theta (default: half the period, Fig. 1; Fig. 7 uses 0.1 and 0.2)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a preset value (repeatable); the results go to results/<preset>-<hash>/")
+    p.add_argument("--fresh", action="store_true", help="discard the run's checkpoint and start again")
+    p.add_argument("--threads", type=int, default=1, help="Yade threads (default 1: reproducible, resumable "
+                   "bit for bit)")
+    p.add_argument("--results", type=Path, default=RESULTS_DIR, help="results folder (default: results/)")
+    p.add_argument("--print-path", action="store_true", help="print the HDF5 path this run writes, then exit")
+    args = parser.parse_args(argv)
+    try:
+        spec = dem_config.resolve(args.theta, args.preset, args.rotate_at, dem_config.parse_overrides(args.set))
+        if args.threads < 1:
+            raise dem_config.SpecError(f"threads={args.threads} must be >= 1")
+        if args.print_path:
+            print(dem_config.output_path(spec, args.results))
+            return 0
+        out = run(spec, args.results, args.fresh, args.threads)
+    except dem_config.SpecError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,105 @@
+"""From raw DEM samples to model-ready series and the cycle-averaged periodic cycle (numpy only).
+
+Conventions (README): walls normal to e2, shear direction s(phi) = cos(phi) e1 + sin(phi) e3, strain
+t*gamma_dot from the start of the first period (negative in the preceding half period), stress
+tension-positive and normalised by the controlled wall normal stress p (= 1 in the DEM's units),
+tau = sigma', fabric A of Eq. 8, S of Eq. 10, work rates of Sec. 5 per unit p*gamma_dot.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+IDENTITY = np.eye(3)
+
+
+def deviator(m):
+    """Deviatoric part of (..., 3, 3) tensors."""
+    return m - np.trace(m, axis1=-2, axis2=-1)[..., None, None] * IDENTITY / 3
+
+
+def sym(m):
+    return 0.5 * (m + np.swapaxes(m, -1, -2))
+
+
+def shear_rate_tensor(gradient):
+    """D = sym(g e2) for the velocity gradient L = g (x) e2 of a flow between walls normal to e2."""
+    L = np.zeros(gradient.shape[:-1] + (3, 3))
+    L[..., :, 1] = gradient
+    return sym(L)
+
+
+def direction(phi_deg):
+    phi = np.radians(phi_deg)
+    return np.stack([np.cos(phi), np.zeros_like(phi), np.sin(phi)], axis=-1)
+
+
+def hardening_variable(A, D_dev):
+    """S = |A| - A:D'/|D'| (Eq. 10)."""
+    norm_D = np.linalg.norm(D_dev, axis=(-2, -1))
+    return np.linalg.norm(A, axis=(-2, -1)) - np.einsum("...ij,...ij->...", A, D_dev) / norm_D
+
+
+def model_series(raw: dict, meta: dict) -> dict:
+    """Per-sample model-ready quantities (shear phase, preceding half period included).
+
+    ``strain_bulk`` integrates the measured central-region shear rate along the wall direction,
+    ``s . dv/dy``, in time from the start of the first period; ``D_dev_nominal`` is per unit nominal gamma_dot (so |D'| = 1/sqrt(2)),
+    ``D_dev_measured`` is in units of sqrt(p/rho)/d. Work rates use the nominal D' and are per unit
+    p*gamma_dot: ``w_shear = tau:D'``, ``w_vol = (dPhi/dstrain)/Phi``.
+    """
+    strain = raw["strain"]
+    gamma_dot = meta["gamma_dot_nominal"]
+    s = direction(raw["direction_deg"])
+    gradient = raw["velocity_gradient"]
+    parallel_rate = np.einsum("ni,ni->n", s, gradient)
+    rate_for_integral = np.where(np.isfinite(parallel_rate), parallel_rate, gamma_dot)
+    time = raw["time"]
+    strain_bulk = np.concatenate([[0.0], np.cumsum(0.5 * (rate_for_integral[1:] + rate_for_integral[:-1])
+                                                    * np.diff(time))])
+    strain_bulk -= strain_bulk[np.argmin(np.abs(strain))]  # 0 at the start of the first period
+
+    stress = raw["stress_contact"] + raw["stress_kinetic"]
+    p_wall = 1.0  # controlled wall normal stress, the unit of stress
+    tau = deviator(sym(stress)) / p_wall
+    D_nominal = deviator(shear_rate_tensor(s))
+    D_measured = deviator(shear_rate_tensor(gradient))
+    A = raw["fabric"]
+    phi = raw["packing_fraction"]
+    dphi = np.gradient(phi, strain)
+    return {
+        "strain_nominal": strain,
+        "strain_bulk": strain_bulk,
+        "shear_rate_bulk": parallel_rate,
+        "D_dev_nominal": D_nominal,
+        "D_dev_measured": D_measured,
+        "A": A,
+        "tau_over_p": tau,
+        "mean_stress_over_p": -np.trace(stress, axis1=1, axis2=2) / 3 / p_wall,
+        "S": hardening_variable(A, D_nominal),
+        "packing_fraction": phi,
+        "w_shear": np.einsum("nij,nij->n", tau, D_nominal),
+        "w_vol": dphi / phi,
+    }
+
+
+def cycle_average(strain, values: dict, period: float, step: float, n_cycles: int) -> dict:
+    """Mean and standard error across cycles on the grid 0, step, ..., period (inclusive).
+
+    Samples with ``strain < 0`` (the preceding half period) are excluded. Sample ``k`` of cycle
+    ``c`` is the one nearest to strain ``c*period + k*step`` (samples land within a few time steps
+    of the grid). With one cycle the standard error is NaN.
+    """
+    n_grid = int(round(period / step)) + 1
+    grid = np.arange(n_grid) * step
+    targets = np.arange(n_cycles)[:, None] * period + grid[None, :]
+    idx = np.abs(strain[None, None, :] - targets[..., None]).argmin(axis=-1)
+    if np.max(np.abs(strain[idx] - targets)) > 0.5 * step:
+        raise ValueError("samples do not cover every cycle on the sampling grid")
+    out = {"strain": grid}
+    for key, v in values.items():
+        per_cycle = v[idx]  # (n_cycles, n_grid, ...)
+        out[key] = per_cycle.mean(axis=0)
+        out[key + "_sem"] = (per_cycle.std(axis=0, ddof=1) / np.sqrt(n_cycles) if n_cycles > 1
+                             else np.full(per_cycle.shape[1:], np.nan))
+    return out
