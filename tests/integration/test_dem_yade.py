@@ -1,0 +1,134 @@
+"""The real Yade: contact law, a tiny run end to end into HDF5, bit-identical resume, failures."""
+
+import json
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from dem.contact import contact_constants, pair_reduced_mass, restitution
+from pipeline import dem_config
+from pipeline.dem_h5 import SCHEMA, load
+from pipeline.paths import DEM_DIR, ROOT
+
+pytestmark = pytest.mark.yade
+
+
+def launcher(*args, results):
+    return [sys.executable, "-m", "pipeline.dem", "run", *args, "--results", str(results)]
+
+
+def run(*args, results, **kw):
+    return subprocess.run(launcher(*args, results=results), capture_output=True, text=True, cwd=ROOT, **kw)
+
+
+def test_yade_is_installed():
+    assert shutil.which("yade"), "Yade is missing: `make system` installs it (the DEM tests must not be skipped)"
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    results = tmp_path_factory.mktemp("results")
+    proc = run("--theta", "90", "--preset", "tiny", results=results)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return results, proc.stdout
+
+
+def test_collisions_restitution_stiffness_ratio_and_sliding(tmp_path):
+    spec = dem_config.resolve(90, "paper")
+    (tmp_path / "spec.json").write_text(json.dumps(spec))
+    subprocess.run(["yade", "-n", "-x", str(DEM_DIR / "collision.py"), str(tmp_path / "spec.json"),
+                    str(tmp_path / "out.json")], check=True, capture_output=True, cwd=tmp_path)
+    out = json.loads((tmp_path / "out.json").read_text())
+    kn, _, cn, _ = contact_constants(spec)
+    assert out["mean"]["restitution"] == pytest.approx(0.5, abs=0.02)
+    for pair in out.values():
+        d = pair["diameter"]
+        assert pair["restitution"] == pytest.approx(restitution(kn, cn, pair_reduced_mass(d, d)), abs=0.02)
+        assert pair["kt_over_kn"] == pytest.approx(0.5, rel=1e-3)
+        assert pair["kn_over_design"] == pytest.approx(1.0, rel=1e-3)
+        assert pair["sliding_ratio"] == pytest.approx(np.tan(np.radians(24.0)), rel=1e-3)
+    assert out["smallest"]["restitution"] < out["mean"]["restitution"] < out["largest"]["restitution"]
+
+
+def test_tiny_run_end_to_end_into_hdf5(tiny_run):
+    results, stdout = tiny_run
+    assert "ETA" in stdout and "steps/s" in stdout
+    spec = dem_config.resolve(90, "tiny")
+    run_file = load(dem_config.output_path(spec, results))
+    assert run_file.provenance["preset"] == "tiny" and run_file.provenance["yade_version"].startswith("20")
+    assert run_file.spec == spec
+    n = len(run_file.raw["strain"])
+    expected = int(round((spec["pre_strain"] + spec["period_strain"]) / spec["sample_strain"])) + 1
+    assert n == expected
+    assert run_file.raw["fabric"].shape == (n, 3, 3) and run_file.raw["profile_velocity"].shape[::2] == (n, 3)
+    assert all(unit for unit in run_file.units.values())
+    assert run_file.units["raw/stress_contact"] == "p" and run_file.units["raw/time"] == "d*sqrt(rho/p)"
+    A = run_file.series["A"]
+    np.testing.assert_allclose(np.trace(A, axis1=1, axis2=2), 0, atol=1e-12)
+    np.testing.assert_allclose(A, np.swapaxes(A, 1, 2), atol=1e-15)
+    assert np.all(run_file.series["S"] >= -1e-12)
+    # the wall holds p on average; the bulk carries it (tension-positive stress: mean stress > 0 is compression)
+    assert abs(np.mean(run_file.raw["wall_stress_error_mean"])) < 0.1
+    assert np.mean(run_file.series["mean_stress_over_p"]) == pytest.approx(1.0, abs=0.3)
+    # the shear stress follows the wall direction: tau12 > 0 while phi = 0, tau32 > 0 while phi = 90
+    first = (run_file.raw["strain"] > 0.1) & (run_file.raw["strain"] < 0.2)
+    second = run_file.raw["strain"] > 0.3
+    assert run_file.series["tau_over_p"][first, 0, 1].mean() > 0.1
+    assert run_file.series["tau_over_p"][second, 1, 2].mean() > 0.1
+    cycle = run_file.cycle
+    assert cycle["strain"].shape == (41,) and cycle["tau_over_p"].shape == (41, 3, 3)
+    with __import__("h5py").File(run_file.path) as f:
+        assert f.attrs["schema"] == SCHEMA and "conventions" in f.attrs
+    assert not list(results.rglob("*.tmp*")) and not list(results.rglob("checkpoint*"))
+    # rerunning the same command does nothing
+    again = run("--theta", "90", "--preset", "tiny", results=results)
+    assert again.returncode == 0 and "up to date" in again.stdout
+
+
+def test_interrupted_and_resumed_run_is_bit_identical(tiny_run, tmp_path):
+    reference = load(dem_config.output_path(dem_config.resolve(90, "tiny"), tiny_run[0]))
+    proc = subprocess.Popen(launcher("--theta", "90", "--preset", "tiny", results=tmp_path), cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    for line in proc.stdout:
+        if "strain +0.100" in line:
+            proc.send_signal(signal.SIGINT)
+            break
+    output = proc.stdout.read()
+    assert proc.wait() == 130, output
+    assert "interrupted: checkpoint" in output
+    out = dem_config.output_path(dem_config.resolve(90, "tiny"), tmp_path)
+    assert not out.exists()
+    resumed = run("--theta", "90", "--preset", "tiny", results=tmp_path)
+    assert resumed.returncode == 0 and "resumed from checkpoint" in resumed.stdout
+    again = load(out)
+    for key, value in reference.raw.items():
+        np.testing.assert_array_equal(again.raw[key], value, err_msg=key)
+
+
+def test_a_run_that_goes_wrong_stops_with_a_diagnostic(tmp_path):
+    tic = time.time()
+    proc = run("--theta", "90", "--preset", "tiny", "--set", "compaction_max_time=5", results=tmp_path)
+    assert proc.returncode == 3
+    assert "error: compaction did not converge within t = 5.0" in proc.stdout
+    assert not list(tmp_path.rglob("*.h5"))
+    assert time.time() - tic < 60
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--theta", "ninety"], "error: theta='ninety' is not a number"),
+    (["--theta", "inf"], "error: theta='inf' is not a finite number"),
+    (["--theta", "90", "--preset", "giant"], "error: unknown preset 'giant'"),
+    (["--theta", "90", "--set", "gap_d=-1"], "error: gap_d=-1.0 must be > 0"),
+    (["--theta", "90", "--set", "colour=3"], "error: unknown override key(s) colour"),
+])
+def test_bad_input_fails_before_yade_starts(tmp_path, args, message):
+    proc = run(*args, results=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == message or proc.stderr.strip().startswith(message)
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert not any(tmp_path.iterdir())

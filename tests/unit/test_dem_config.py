@@ -1,0 +1,63 @@
+"""Run specifications: presets, overrides, validation with one-line messages, names and paths."""
+
+import math
+
+import pytest
+
+from pipeline import dem_config
+from pipeline.dem_config import SpecError, resolve
+
+
+def test_every_preset_resolves_and_the_paper_preset_is_section_2():
+    presets = dem_config.load_presets()
+    assert {"paper", "reduced", "quick", "tiny"} <= set(presets)
+    for name in presets:
+        resolve(90, name)
+    paper = resolve(90, "paper")
+    assert (paper["width_d"], paper["gap_d"], paper["overlap_ratio"], paper["kt_over_kn"]) == (20, 17, 0.0005, 0.5)
+    assert (paper["friction_deg"], paper["restitution"], paper["inertial_number"]) == (24, 0.5, 2.9e-4)
+    assert (paper["period_strain"], paper["rotate_at_strain"], paper["n_cycles"]) == (1.4, 0.7, 5)
+    reduced = resolve(90, "reduced")
+    assert (reduced["width_d"], reduced["gap_d"], reduced["inertial_number"], reduced["n_cycles"]) == (10, 8.5, 1e-3, 2)
+
+
+def test_names_and_paths():
+    assert resolve(90, "quick")["name"] == "theta090"
+    assert resolve(180, "quick", rotate_at=0.7)["name"] == "theta180"
+    assert resolve(90, "quick", rotate_at=0.1)["name"] == "theta090_rot0.10"
+    assert resolve(92.5, "quick")["name"] == "theta092.5"
+    spec = resolve(30, "reduced")
+    assert dem_config.output_path(spec).parts[-3:] == ("reduced", "dem", "theta030.h5")
+    assert dem_config.work_dir(spec).name == "theta030.run"
+
+
+def test_overrides_change_the_folder_and_are_validated():
+    spec = resolve(90, "quick", overrides=dem_config.parse_overrides(["friction_deg=30", "seed=4"]))
+    assert spec["friction_deg"] == 30 and spec["seed"] == 4 and isinstance(spec["seed"], int)
+    assert spec["folder"].startswith("quick-") and spec["folder"] != "quick"
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"theta_deg": "abc"}, "theta='abc' is not a number"),
+    ({"theta_deg": "nan"}, "theta='nan' is not a finite number"),
+    ({"theta_deg": 90, "preset": "huge"}, "unknown preset 'huge'"),
+    ({"theta_deg": 90, "overrides": {"frction_deg": 1.0}}, "unknown override key(s) frction_deg"),
+    ({"theta_deg": 90, "overrides": {"gap_d": -3.0}}, "gap_d=-3.0 must be > 0"),
+    ({"theta_deg": 90, "overrides": {"width_d": 9.0}}, "width_d=9.0 must be an even integer"),
+    ({"theta_deg": 90, "overrides": {"n_cycles": 1.5}}, "n_cycles=1.5 must be an integer"),
+    ({"theta_deg": 90, "overrides": {"restitution": math.inf}}, "restitution=inf is not finite"),
+    ({"theta_deg": 90, "rotate_at": 1.4}, "rotate_at=1.4 must lie strictly between 0 and period_strain=1.4"),
+    ({"theta_deg": 90, "rotate_at": "x"}, "rotate_at='x' is not a number"),
+])
+def test_bad_input_is_a_one_line_error_naming_the_value(kwargs, message):
+    with pytest.raises(SpecError) as err:
+        resolve(**{"preset": "quick", **kwargs})
+    assert message in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_malformed_override():
+    with pytest.raises(SpecError, match="not of the form key=value"):
+        dem_config.parse_overrides(["gap_d"])
+    with pytest.raises(SpecError, match="gap_d='big' is not a number"):
+        dem_config.parse_overrides(["gap_d=big"])
