@@ -32,8 +32,9 @@ demo: system venv model-cycles demo-dem ## set up everything, then run the pipel
 test: system venv ## run the test suite (the DEM tests run the real Yade)
 	$(PY) -m pytest -q
 
-bench: venv ## numerics report: work-precision table and plot in results/bench/
+bench: venv system ## benchmarks: model numerics and DEM control/measurement cost, in results/bench/
 	$(PY) -m pipeline.bench_model --out results/bench
+	$(PY) -m pipeline.bench_dem --out results/bench
 
 venv: $(VENV_STAMP) ## the project virtualenv from pyproject.toml
 

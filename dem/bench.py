@@ -1,0 +1,76 @@
+"""Yade benchmark: cost of the scene's wall control and in-situ measurement against the bare step loop.
+
+``yade -n -x dem/bench.py RUN_DIR STEPS REPEATS OUT.json`` builds the scene of RUN_DIR/spec.json,
+compacts it and shears it briefly, keeps that state in memory, then times STEPS steps from that
+same state in four modes, REPEATS times each (best time kept):
+``bare`` (no Python in the loop; walls at constant velocity), ``dispatch`` (the PyRunner calls an
+empty command), ``control`` (the wall controller, no sampling) and ``full`` (controller and the
+in-situ sampling every ``sample_strain``, as in a production run).
+"""
+
+import json
+import os
+import sys
+import time
+
+from yade import O
+from yade._minieigenHP import Vector3
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0]))))  # yade runs scripts with exec
+from dem import couette  # noqa: E402
+
+MODES = ("bare", "dispatch", "control", "full")
+
+
+def control():
+    couette.control()
+
+
+def timed(mode, steps):
+    """Reload the kept state, configure ``mode`` and time ``steps`` steps."""
+    O.loadTmp("bench")
+    couette.RUN = couette.Run()
+    state = couette.RUN.state
+    state["next_checkpoint"] = 1 << 62
+    controller = next(e for e in O.engines if e.label == "controller")
+    controller.dead = mode == "bare"
+    if mode == "dispatch":
+        controller.command = "pass"
+    if mode in ("bare", "dispatch"):  # walls at constant velocity: keep the shear, stop the vertical motion
+        for clump in (couette.RUN.top_clump, couette.RUN.bottom_clump):
+            clump.state.vel = clump.state.vel - clump.state.vel[1] * Vector3(0, 1, 0)
+    if mode != "full":
+        state["next_sample"] = 1 << 40
+    tic = time.perf_counter()
+    O.run(steps, True)
+    seconds = time.perf_counter() - tic
+    if state["phase"] != "shear":
+        raise RuntimeError(f"the benchmark left the shear phase: {state['phase']} {couette.RUN.failure}")
+    return seconds
+
+
+def main():
+    steps, repeats, out = int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+    couette.build(couette.SPEC)
+    couette.RUN = couette.Run()
+    state = couette.RUN.state
+    state["next_checkpoint"] = 1 << 62
+    while state["phase"] == "compaction":
+        O.run(20000, True)
+    O.run(steps, True)  # into shear
+    O.tags["state"] = json.dumps(state)
+    O.saveTmp("bench")
+    best = {mode: min(timed(mode, steps) for _ in range(repeats)) for mode in MODES}
+    sample_steps = couette.SPEC["sample_strain"] / (couette.RUN.gamma_dot * O.dt)
+    result = {
+        "preset": couette.SPEC["preset"], "grains": state["n_grains"], "wall_spheres": len(state["top"][1]) * 2,
+        "contacts": len(O.interactions), "steps": steps, "repeats": repeats, "samples_per_run": steps / sample_steps,
+        "control_every_steps": couette.SPEC["control_every_steps"], "dt": O.dt,
+        "seconds": best, "steps_per_second": {mode: steps / t for mode, t in best.items()},
+        "overhead_percent": {mode: 100 * (t / best["bare"] - 1) for mode, t in best.items()},
+    }
+    with open(out, "w") as fh:
+        json.dump(result, fh, indent=1)
+
+
+main()
