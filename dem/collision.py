@@ -12,11 +12,17 @@ import os
 import sys
 
 from yade import O, utils
-from yade.wrapper import (
-    Bo1_Sphere_Aabb, ForceResetter, Ig2_Sphere_Sphere_ScGeom, InsertionSortCollider, InteractionLoop,
-    Ip2_ViscElMat_ViscElMat_ViscElPhys, Law2_ScGeom_ViscElPhys_Basic, NewtonIntegrator,
-)
 from yade._minieigenHP import Vector3
+from yade.wrapper import (
+    Bo1_Sphere_Aabb,
+    ForceResetter,
+    Ig2_Sphere_Sphere_ScGeom,
+    InsertionSortCollider,
+    InteractionLoop,
+    Ip2_ViscElMat_ViscElMat_ViscElPhys,
+    Law2_ScGeom_ViscElPhys_Basic,
+    NewtonIntegrator,
+)
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0]))))  # yade runs scripts with exec
 from dem.contact import contact_constants, contact_material  # noqa: E402
@@ -88,7 +94,8 @@ def main():
     spec = json.load(open(sys.argv[1]))
     d_mean = 0.5 * (spec["diameter_min_d"] + spec["diameter_max_d"])
     out = {}
-    for label, diameter in (("smallest", spec["diameter_min_d"]), ("mean", d_mean), ("largest", spec["diameter_max_d"])):
+    pairs = (("smallest", spec["diameter_min_d"]), ("mean", d_mean), ("largest", spec["diameter_max_d"]))
+    for label, diameter in pairs:
         kt_over_kn, kn_ratio, sliding = shear(spec, diameter)
         out[label] = {"diameter": diameter, "restitution": restitution(spec, diameter), "kt_over_kn": kt_over_kn,
                       "kn_over_design": kn_ratio, "sliding_ratio": sliding}

@@ -32,11 +32,18 @@ import time
 import numpy as np
 import yade.config
 from yade import O, pack, utils
-from yade.wrapper import (
-    Bo1_Sphere_Aabb, ForceResetter, Ig2_Sphere_Sphere_ScGeom, InsertionSortCollider, InteractionLoop,
-    Ip2_ViscElMat_ViscElMat_ViscElPhys, Law2_ScGeom_ViscElPhys_Basic, NewtonIntegrator, PyRunner,
-)
 from yade._minieigenHP import Vector3
+from yade.wrapper import (
+    Bo1_Sphere_Aabb,
+    ForceResetter,
+    Ig2_Sphere_Sphere_ScGeom,
+    InsertionSortCollider,
+    InteractionLoop,
+    Ip2_ViscElMat_ViscElMat_ViscElPhys,
+    Law2_ScGeom_ViscElPhys_Basic,
+    NewtonIntegrator,
+    PyRunner,
+)
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0]))))  # yade runs scripts with exec
 from dem import measure  # noqa: E402
@@ -103,12 +110,12 @@ def build(spec):
     O.tags["spec"] = json.dumps(SPEC)
     y_rough_bottom, y_rough_top = y_bottom + ROUGH_HEIGHT, y_top - ROUGH_HEIGHT
     O.tags["state"] = json.dumps({
-        "phase": "compaction", "bottom": bottom, "top": top, "first_grain": first_grain,
-        "n_grains": n_grains,
+        "phase": "compaction", "bottom": bottom, "top": top, "first_grain": first_grain, "n_grains": n_grains,
         "bottom_inner_offset": y_rough_bottom - O.bodies[bottom[0]].state.pos[1],
-        "top_inner_offset": y_rough_top - O.bodies[top[0]].state.pos[1], "kn": kn, "kt": kt, "cn": cn, "ct": ct, "hold_since": None,
-        "t_shear0": None, "gap0": None, "wall_speed": None, "next_sample": 0, "alarm_samples": 0,
-        "samples_file": None, "next_checkpoint": int(spec["checkpoint_steps"]), "err_sum": 0.0, "err_n": 0, "err_max": 0.0,
+        "top_inner_offset": y_rough_top - O.bodies[top[0]].state.pos[1],
+        "kn": kn, "kt": kt, "cn": cn, "ct": ct, "hold_since": None, "t_shear0": None, "gap0": None,
+        "wall_speed": None, "next_sample": 0, "alarm_samples": 0, "samples_file": None,
+        "next_checkpoint": int(spec["checkpoint_steps"]), "err_sum": 0.0, "err_n": 0, "err_max": 0.0,
         "callback_seconds": 0.0, "loop_seconds": 0.0,
     })
 
@@ -302,7 +309,9 @@ def format_seconds(seconds):
     if not math.isfinite(seconds):
         return "?"
     seconds = int(seconds)
-    return f"{seconds // 3600}h{seconds % 3600 // 60:02d}m" if seconds >= 3600 else f"{seconds // 60}m{seconds % 60:02d}s"
+    if seconds >= 3600:
+        return f"{seconds // 3600}h{seconds % 3600 // 60:02d}m"
+    return f"{seconds // 60}m{seconds % 60:02d}s"
 
 
 # ---------------------------------------------------------------- persistence (atomic: temp file, then rename)

@@ -21,8 +21,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from model import PAPER, Params, SolverError, integrate, periodic_cycle, predict  # noqa: E402
-from model import reference  # noqa: E402
+from model import (  # noqa: E402
+    PAPER,
+    Params,
+    SolverError,
+    integrate,
+    periodic_cycle,
+    predict,
+    reference,  # noqa: E402
+)
 from model.equations import observables  # noqa: E402
 
 CASES = {

@@ -44,9 +44,9 @@ def model_series(raw: dict, meta: dict) -> dict:
     """Per-sample model-ready quantities (shear phase, preceding half period included).
 
     ``strain_bulk`` integrates the measured central-region shear rate along the wall direction,
-    ``s . dv/dy``, in time from the start of the first period; ``D_dev_nominal`` is per unit nominal gamma_dot (so |D'| = 1/sqrt(2)),
-    ``D_dev_measured`` is in units of sqrt(p/rho)/d. Work rates use the nominal D' and are per unit
-    p*gamma_dot: ``w_shear = tau:D'``, ``w_vol = (dPhi/dstrain)/Phi``.
+    ``s . dv/dy``, in time from the start of the first period; ``D_dev_nominal`` is per unit nominal
+    gamma_dot (so |D'| = 1/sqrt(2)); ``D_dev_measured`` is in units of sqrt(p/rho)/d. Work rates use
+    the nominal D' and are per unit p*gamma_dot: ``w_shear = tau:D'``, ``w_vol = (dPhi/dstrain)/Phi``.
     """
     strain = raw["strain"]
     gamma_dot = meta["gamma_dot_nominal"]

@@ -6,10 +6,20 @@ import numpy as np
 import pytest
 
 from model import (
-    PAPER, History, Segment, SolverError, integrate, periodic, periodic_cycle, predict, reversal,
-    rotation_about_e2, steady_shear, steady_state,
+    PAPER,
+    History,
+    Segment,
+    SolverError,
+    integrate,
+    periodic,
+    periodic_cycle,
+    predict,
+    reference,
+    reversal,
+    rotation_about_e2,
+    steady_shear,
+    steady_state,
 )
-from model import reference
 from model.kinematics import deviator, modulus, shear_velocity_gradient, spin, stretching
 
 ANGLES = (30, 60, 90, 120, 150, 180)
