@@ -191,11 +191,13 @@ class Run:
 
     def compaction_check(self, err):
         st = self.state
-        if time.time() - self.last_print[0] > 10:
+        now = time.time()
+        if now - self.last_print[0] > 10:
             y_bottom, y_top = self.inner_planes()
-            print(f"compaction: t = {O.time:.1f}, sigma_wall/p - 1 = {err:+.3f}, gap = {y_top - y_bottom:.2f} d",
-                  flush=True)
-            self.last_print = (time.time(), O.iter)
+            rate = (O.iter - self.last_print[1]) / (now - self.last_print[0])
+            print(f"compaction: t = {O.time:.1f}, sigma_wall/p - 1 = {err:+.3f}, gap = {y_top - y_bottom:.2f} d, "
+                  f"{rate:.0f} steps/s", flush=True)
+            self.last_print = (now, O.iter)
         if abs(err) < SPEC["compaction_tolerance"]:
             if st["hold_since"] is None:
                 st["hold_since"] = O.time
