@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import fcntl
 import json
 import os
 import shutil
@@ -90,6 +91,11 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
         print(f"{out} is up to date (FRESH=1 / --fresh reruns it)")
         return out
     run_dir = prepare(spec, results_dir, fresh)
+    lock = open(run_dir / "lock", "w")  # held until this process ends
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        raise dem_config.SpecError(f"{run_dir} is in use by another run of the same spec") from None
     provenance_file = run_dir / "provenance.json"
     provenance = json.loads(provenance_file.read_text()) if provenance_file.exists() else {
         "started": dt.datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(), "sessions": []}

@@ -132,3 +132,14 @@ def test_bad_input_fails_before_yade_starts(tmp_path, args, message):
     assert proc.stderr.strip() == message or proc.stderr.strip().startswith(message)
     assert len(proc.stderr.strip().splitlines()) == 1
     assert not any(tmp_path.iterdir())
+
+
+def test_a_second_run_of_the_same_spec_is_refused(tmp_path):
+    import fcntl
+
+    run_dir = dem_config.work_dir(dem_config.resolve(90, "tiny"), tmp_path)
+    run_dir.mkdir(parents=True)
+    with open(run_dir / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        proc = run("--theta", "90", "--preset", "tiny", results=tmp_path)
+    assert proc.returncode == 2 and "is in use by another run of the same spec" in proc.stderr
