@@ -57,8 +57,8 @@ def prepare(spec: dict, results_dir: Path, fresh: bool) -> Path:
     return run_dir
 
 
-def run_yade(run_dir: Path, threads: int) -> int:
-    """Run the scene, echoing its progress lines and logging them to ``run_dir/log.txt``."""
+def run_yade(run_dir: Path, threads: int, label: str) -> int:
+    """Run the scene, echoing its progress lines (prefixed by ``label``) and logging them to ``run_dir/log.txt``."""
     yade = shutil.which("yade")
     if yade is None:
         raise dem_config.SpecError("yade not found on PATH: run `make system` (apt-get install yade python3-h5py)")
@@ -77,7 +77,7 @@ def run_yade(run_dir: Path, threads: int) -> int:
             for line in proc.stdout:
                 log.write(line)
                 if line.strip() and not line.startswith(YADE_NOISE):
-                    print(line, end="", flush=True)
+                    print(f"{label}: {line}", end="", flush=True)
             return proc.wait()
         finally:
             for s, handler in previous.items():
@@ -103,7 +103,7 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
                                    "threads": threads})
     write_json(provenance_file, provenance)
     if not (run_dir / "raw.npz").exists():
-        status = run_yade(run_dir, threads)
+        status = run_yade(run_dir, threads, f"{spec['folder']}/{spec['name']}")
         if status != 0:
             raise SystemExit(status)
     provenance["finished"] = dt.datetime.now().isoformat(timespec="seconds")
