@@ -1,0 +1,75 @@
+"""Synthetic DEM runs made by the model: raw samples in the scene's format, with a known truth.
+
+``synthetic_raw(theta_deg, params, n_cycles, noise, seed)`` returns ``(raw, meta)`` as
+``dem/couette.py`` would write them to ``raw.npz``, for the Fig. 1 protocol (the preceding half
+period at theta, then ``n_cycles`` periods), sampled every 0.005 strain, in DEM units (p = 1).
+The fabric, stress and packing fraction are the model's converged periodic cycle plus Gaussian
+noise of standard deviation ``noise`` (fabric and tau/p) and ``noise / 10`` (packing fraction).
+Walls and profiles are placeholders (one bin). Used to test the post-processing against the
+model and to calibrate on data whose parameters are known.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+import model
+
+from .dem_analysis import direction
+
+PERIOD, PRE, STEP = 1.4, 0.7, 0.005
+
+
+def _symmetric_traceless_noise(rng, n, scale):
+    m = rng.normal(scale=scale, size=(n, 3, 3))
+    m = (m + np.swapaxes(m, 1, 2)) / np.sqrt(2)  # off-diagonal components: standard deviation `scale`
+    return m - np.trace(m, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
+
+
+def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles: int = 2, noise: float = 0.0,
+                  seed: int = 0, gamma_dot: float = 1e-3, bulk_ratio: float = 1.0) -> tuple[dict, dict]:
+    """Raw samples and metadata of a synthetic run (rotation at half the period, Fig. 1)."""
+    params = params or model.Params()
+    cycle = model.predict(theta_deg, params=params)  # strain 0, 0.005, ..., 1.4
+    per_period = len(cycle.strain) - 1
+    strain = np.round(np.arange(-PRE, n_cycles * PERIOD + STEP / 2, STEP), 10)
+    # a sample on a period boundary takes the new direction, as in the scene (the model's output at
+    # strain 1.4 still has the old one: only tau, S and the work rates differ there)
+    phase_index = np.round(np.mod(strain, PERIOD) / STEP).astype(int) % per_period
+    n = len(strain)
+    rng = np.random.default_rng(seed)
+    A = cycle.A[phase_index] + _symmetric_traceless_noise(rng, n, noise)
+    tau = cycle.tau[phase_index] + _symmetric_traceless_noise(rng, n, noise)
+    phi = cycle.packing_fraction[phase_index] + rng.normal(scale=noise / 10, size=n)
+    within = strain - PERIOD * np.floor(strain / PERIOD + 1e-12)
+    direction_deg = np.where((strain < 0) | (within >= PERIOD / 2 - 1e-9), float(theta_deg), 0.0)
+    s = direction(direction_deg)
+    edges = np.array([0.0, 8.5])
+    raw = {
+        "iteration": np.arange(n) * 1000, "time": (strain + PRE) / gamma_dot, "strain": strain,
+        "direction_deg": direction_deg, "gap": np.full(n, 8.5), "region": np.tile([2.5, 6.0], (n, 1)),
+        "top_position": np.zeros((n, 3)), "bottom_position": np.zeros((n, 3)), "top_velocity": np.zeros((n, 3)),
+        "bottom_velocity": np.zeros((n, 3)), "top_force": np.zeros((n, 3)), "bottom_force": np.zeros((n, 3)),
+        "wall_stress_error_mean": np.zeros(n), "wall_stress_error_max": np.zeros(n),
+        "stress_contact": tau - np.eye(3), "stress_kinetic": np.zeros((n, 3, 3)), "fabric": A,
+        "contacts": np.full(n, 1000), "grains": np.full(n, 300), "coordination": np.full(n, 4.0),
+        "packing_fraction": phi, "velocity_gradient": bulk_ratio * gamma_dot * s,
+        "profile_edges": np.tile(edges, (n, 1)), "profile_velocity": np.zeros((n, 1, 3)),
+        "profile_packing_fraction": phi[:, None], "profile_stress": (tau - np.eye(3))[:, None],
+        "profile_fabric": A[:, None], "profile_contacts": np.full((n, 1), 1000),
+    }
+    spec = {"preset": "synthetic", "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2, "seed": seed,
+            "overrides": {}, "period_strain": PERIOD, "sample_strain": STEP, "n_cycles": n_cycles,
+            "pre_strain": PRE, "inertial_number": gamma_dot, "noise": noise, "model_params": params.to_dict()}
+    meta = {"spec": spec, "yade_version": "none (synthetic, made by the model)", "dt": 1.0, "kn": 0.0, "kt": 0.0,
+            "cn": 0.0, "ct": 0.0, "n_grains": 300, "n_wall_spheres": 0, "gap0": 8.5, "wall_speed": 0.0,
+            "gamma_dot_nominal": gamma_dot, "t_shear0": 0.0, "iterations": int(n * 1000), "callback_seconds": 0.0,
+            "loop_seconds": 0.0, "grain_radius": [0.5] * 300}
+    return raw, meta
+
+
+def write_raw_npz(path, raw: dict, meta: dict) -> None:
+    """Save in the scene's ``raw.npz`` format (``pipeline.dem_h5.write_h5`` reads it)."""
+    np.savez(path, **raw, meta_json=np.array(json.dumps(meta)))

@@ -1,0 +1,61 @@
+"""The DEM post-processing and HDF5 round trip, on synthetic runs made by the model (known truth)."""
+
+import numpy as np
+import pytest
+
+import model
+from pipeline.dem_h5 import DemFileError, load, write_h5
+from pipeline.synthetic import synthetic_raw, write_raw_npz
+
+
+def make_file(tmp_path, theta, **kw):
+    raw, meta = synthetic_raw(theta, **kw)
+    write_raw_npz(tmp_path / "raw.npz", raw, meta)
+    out = tmp_path / "run.h5"
+    write_h5(tmp_path / "raw.npz", out, {"git_commit": "test", "sessions": []})
+    return load(out)
+
+
+@pytest.mark.parametrize("theta", [90.0, 180.0])
+def test_noise_free_cycle_and_series_reproduce_the_model(tmp_path, theta):
+    run = make_file(tmp_path, theta, n_cycles=2)
+    cycle = model.predict(theta)
+    c = run.cycle
+    np.testing.assert_allclose(c["strain"], cycle.strain, atol=1e-12)
+    np.testing.assert_allclose(c["A"], cycle.A, atol=1e-12)
+    # the last grid point (strain 1.4) is a boundary sample: the DEM records the new direction there,
+    # the model's output the old one
+    inner = slice(0, -1)
+    np.testing.assert_allclose(c["tau_over_p"][inner], cycle.tau[inner], atol=1e-12)
+    # the post-processing's D', S and work rate follow the model's conventions
+    np.testing.assert_allclose(c["S"][inner], cycle.S[inner], atol=1e-9)
+    np.testing.assert_allclose(c["w_shear"][inner], cycle.w_shear[inner], atol=1e-9)
+    np.testing.assert_allclose(c["mean_stress_over_p"], 1.0)
+    np.testing.assert_allclose(c["A_sem"], 0.0, atol=1e-12)
+    first = (run.series["strain_nominal"] >= 0) & (run.series["strain_nominal"] < 0.7)
+    np.testing.assert_allclose(run.series["D_dev_nominal"][first][0], cycle.D_dev[0], atol=1e-15)
+
+
+def test_noisy_cycles_report_standard_errors_that_cover_the_truth(tmp_path):
+    run = make_file(tmp_path, 120.0, n_cycles=5, noise=0.02, seed=3)
+    truth = model.predict(120.0)
+    z = (run.cycle["tau_over_p"][:, 0, 1] - truth.tau[:, 0, 1]) / run.cycle["tau_over_p_sem"][:, 0, 1]
+    assert 0.5 < np.std(z) < 2.0  # t-distributed with 4 degrees of freedom: sd 1.41
+    assert np.sqrt(np.mean(run.cycle["tau_over_p_sem"][:, 0, 1] ** 2)) == pytest.approx(0.02 / np.sqrt(5), rel=0.2)
+
+
+def test_bulk_strain_uses_the_measured_rate(tmp_path):
+    run = make_file(tmp_path, 180.0, n_cycles=1, bulk_ratio=1.3)
+    s = run.series
+    assert s["strain_bulk"][-1] == pytest.approx(1.3 * s["strain_nominal"][-1], rel=1e-9)
+
+
+def test_reading_a_file_of_another_kind_fails_in_one_line(tmp_path):
+    import h5py
+
+    with h5py.File(tmp_path / "other.h5", "w") as f:
+        f.attrs["schema"] = "something-else"
+    with pytest.raises(DemFileError, match="is not a DEM run file"):
+        load(tmp_path / "other.h5")
+    with pytest.raises(DemFileError, match="cannot open"):
+        load(tmp_path / "missing.h5")
