@@ -21,7 +21,7 @@ THREADS ?= 1
 DEM_ARGS = --preset $(PRESET) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
 	$(if $(filter 1 yes true,$(FRESH)),--fresh) --threads $(THREADS)
 
-.PHONY: help demo test bench venv system model-cycles dem demo-dem clean
+.PHONY: help demo test bench venv system model-cycles dem fit demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -58,6 +58,9 @@ $(MODEL_DIR)/theta%.csv: $(VENV_STAMP) model/*.py
 
 dem: system venv ## one DEM run -> results/<preset>/dem/theta<THETA>.h5 (resumes from its checkpoint; see README)
 	$(PY) -m pipeline.dem run --theta $(THETA) $(DEM_ARGS)
+
+fit: venv ## stepwise calibration from the theta = 180 runs -> results/<PRESET>/fit/params.json, fit.json
+	$(PY) -m pipeline.fit --preset $(PRESET)
 
 demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 90, both at once
 	$(MAKE) --no-print-directory -j2 demo-dem-180 demo-dem-90

@@ -4,7 +4,7 @@ Every estimator takes samples along a simple-shear history between walls normal 
 (t*gamma_dot), the fabric A (n, 3, 3), tau/p (n, 3, 3) and D'/gamma_dot (n, 3, 3) (README
 conventions). Nothing here reads files; ``pipeline.fit`` feeds it DEM runs.
 
-- :func:`jaumann_rate`: the Jaumann rate of A per unit strain from A smoothed segment by segment.
+- :func:`smooth_segments`, :func:`jaumann_rate`: smoothing segment by segment, the Jaumann rate of A.
 - :func:`fabric_coefficients`: alpha_1, alpha_2 at every instant from Eq. 9 by least squares.
 - :func:`backstress_constant`: C from Eq. 15, the slope d tau12 / d A12 near steady state after a reversal.
 - :func:`yield_values`: Y at every instant from Eq. 16 (tau/p - C A projected on D'/|D'|).
@@ -52,27 +52,35 @@ def segments(D_dev: np.ndarray, tol: float = 1e-9) -> list[slice]:
     return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
-def jaumann_rate(strain: np.ndarray, A: np.ndarray, D_dev: np.ndarray, window_strain: float = 0.05,
-                 polyorder: int = 2) -> tuple[np.ndarray, np.ndarray]:
-    """Smoothed A and its Jaumann rate dA/dstrain + A W - W A (Eq. 9), per unit gamma_dot.
+def smooth_segments(strain: np.ndarray, X: np.ndarray, D_dev: np.ndarray, window_strain: float = 0.05,
+                    polyorder: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """X (n, ...) smoothed, and its derivative per unit strain, segment by segment of constant D'.
 
-    A Savitzky-Golay filter (``window_strain`` wide, polynomial order ``polyorder``) smooths A and
-    differentiates it within each segment of constant direction, so that the jump of the rate at a
-    rotation is not smeared; a segment shorter than the window is fitted with its own length
-    (NaN when it has fewer than ``polyorder + 2`` samples). Samples must be evenly spaced in strain.
+    A Savitzky-Golay filter (``window_strain`` wide, polynomial order ``polyorder``) within each
+    segment of constant direction, so that the jump of the rates at a rotation is not smeared; a
+    segment shorter than the window is fitted with its own length (NaN when it has fewer than
+    ``polyorder + 2`` samples). Samples must be evenly spaced in strain.
     """
     step = np.median(np.diff(strain))
     if not np.allclose(np.diff(strain), step, rtol=0.05, atol=0):
         raise CalibrationError("samples are not evenly spaced in strain")
-    smooth = np.full_like(A, np.nan)
-    rate = np.full_like(A, np.nan)
+    smooth = np.full_like(X, np.nan)
+    rate = np.full_like(X, np.nan)
     for seg in segments(D_dev):
         n = seg.stop - seg.start
         window = min(int(round(window_strain / step)) | 1, n if n % 2 else n - 1)
         if window < polyorder + 2:
             continue
-        smooth[seg] = savgol_filter(A[seg], window, polyorder, axis=0, mode="interp")
-        rate[seg] = savgol_filter(A[seg], window, polyorder, deriv=1, delta=step, axis=0, mode="interp")
+        smooth[seg] = savgol_filter(X[seg], window, polyorder, axis=0, mode="interp")
+        rate[seg] = savgol_filter(X[seg], window, polyorder, deriv=1, delta=step, axis=0, mode="interp")
+    return smooth, rate
+
+
+def jaumann_rate(strain: np.ndarray, A: np.ndarray, D_dev: np.ndarray, window_strain: float = 0.05,
+                 polyorder: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """Smoothed A and its Jaumann rate dA/dstrain + A W - W A (Eq. 9), per unit gamma_dot
+    (:func:`smooth_segments` for the smoothing)."""
+    smooth, rate = smooth_segments(strain, A, D_dev, window_strain, polyorder)
     L = simple_shear_gradient(D_dev)
     W = 0.5 * (L - np.swapaxes(L, -1, -2))
     return smooth, rate + smooth @ W - W @ smooth

@@ -1,0 +1,55 @@
+"""`python -m pipeline.fit`: the stepwise calibration on synthetic reversal runs made by the model."""
+
+import json
+
+import numpy as np
+import pytest
+
+import model
+from pipeline import fit
+from pipeline.dem_h5 import write_h5
+from pipeline.synthetic import synthetic_raw, write_raw_npz
+
+TRUE = model.Params()
+
+
+def synthetic_file(tmp_path, theta=180.0, name="run", **kw):
+    raw, meta = synthetic_raw(theta, **kw)
+    write_raw_npz(tmp_path / f"{name}.npz", raw, meta)
+    write_h5(tmp_path / f"{name}.npz", tmp_path / f"{name}.h5", {})
+    return tmp_path / f"{name}.h5"
+
+
+def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path):
+    path = synthetic_file(tmp_path, n_cycles=2)
+    assert fit.main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 0
+    report = json.loads((tmp_path / "fit" / "fit.json").read_text())
+    est = {k: v["value"] for k, v in report["estimates"].items()}
+    # the fabric law (Eqs. 9, 12, 13) from the smoothed Jaumann rate
+    assert est["b1"] == pytest.approx(TRUE.b1, rel=0.02) and est["b2"] == pytest.approx(TRUE.b2, rel=0.02)
+    assert est["a1"] == pytest.approx(TRUE.a1, rel=0.05) and est["a2"] == pytest.approx(TRUE.a2, rel=0.15)
+    # Eq. 15 measures C - 2m near steady state after a reversal (smoothing moves it by < 0.1)
+    assert est["C_eq15"] == pytest.approx(TRUE.C - 2 * TRUE.m, abs=0.1)
+    params = model.Params.load(tmp_path / "fit" / "params.json")
+    assert params.C == pytest.approx(est["C_eq15"]) and params.c1 == -params.C  # Eq. 19
+    assert model.predict(180, params=params).success
+
+
+def test_several_seeds_give_a_mean_and_its_standard_error(tmp_path):
+    paths = [synthetic_file(tmp_path, name=f"s{seed}", n_cycles=2, noise=0.002, seed=seed) for seed in range(3)]
+    report = fit.fit(paths, tmp_path / "fit")
+    b2 = report["estimates"]["b2"]
+    assert len(b2["per_run"]) == 3
+    assert b2["standard_error"] == pytest.approx(np.std(b2["per_run"], ddof=1) / np.sqrt(3))
+
+
+def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
+    assert fit.main(["--preset", "no-such-preset", "--out", str(tmp_path / "fit")]) == 2
+    assert "no reversal run found" in capsys.readouterr().err
+    path = synthetic_file(tmp_path, theta=90.0, n_cycles=1)
+    assert fit.main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 2
+    assert "is not a reversal run (theta = 90.0)" in capsys.readouterr().err
+    assert fit.main(["--runs", str(tmp_path / "missing.h5")]) == 2
+    assert "cannot open" in capsys.readouterr().err
+    assert fit.main(["--window", "-1"]) == 2
+    assert not (tmp_path / "fit").exists()
