@@ -27,7 +27,8 @@ help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
 
 demo: system venv model-cycles demo-dem ## set up everything, then run the pipeline on the small default
-	@echo "demo done: model cycles in $(MODEL_DIR)/, DEM runs in results/quick/dem/"
+	$(PY) -m pipeline.fit --preset quick
+	@echo "demo done: model cycles in $(MODEL_DIR)/, DEM runs in results/quick/dem/, fit in results/quick/fit/"
 
 test: system venv ## run the test suite (the DEM tests run the real Yade)
 	$(PY) -m pytest -q
