@@ -8,6 +8,7 @@ conventions). Nothing here reads files; ``pipeline.fit`` feeds it DEM runs.
 - :func:`fabric_coefficients`: alpha_1, alpha_2 at every instant from Eq. 9 by least squares.
 - :func:`backstress_constant`: C from Eq. 15, the slope d tau12 / d A12 near steady state after a reversal.
 - :func:`yield_values`: Y at every instant from Eq. 16 (tau/p - C A projected on D'/|D'|).
+- :func:`backstress_and_yield`: C and Y at every instant from the 12 and 32 components (Sec. 3.3).
 - :func:`linear_fit`, :func:`power_law_exponent`: beta_i = a_i + b_i S and the exponent of Lambda = S^k.
 """
 
@@ -107,6 +108,27 @@ def yield_values(tau: np.ndarray, A: np.ndarray, D_dev: np.ndarray, C: float) ->
     """Y = (tau/p - C A) : D'/|D'| at every instant (Eqs. 14/16)."""
     unit = D_dev / np.linalg.norm(D_dev, axis=(1, 2))[:, None, None]
     return np.einsum("nij,nij->n", tau - C * A, unit)
+
+
+def backstress_and_yield(tau: np.ndarray, A: np.ndarray, D_dev: np.ndarray,
+                         min_sine: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """C and Y at every instant from the 12 and 32 components of Eq. 14 (Sec. 3.3).
+
+    tau_i2 = C A_i2 + Y D'_i2/|D'| for i = 1, 3: two equations in two unknowns, solvable when the
+    fabric is not parallel to the shear direction in the (12, 32) plane: NaN where the sine of the
+    angle between (A12, A32) and (D'12, D'32) is below ``min_sine`` (steady shear, a reversal).
+    """
+    unit = D_dev / np.linalg.norm(D_dev, axis=(1, 2))[:, None, None]
+    a1, a3 = A[:, 0, 1], A[:, 2, 1]
+    u1, u3 = unit[:, 0, 1], unit[:, 2, 1]
+    t1, t3 = tau[:, 0, 1], tau[:, 2, 1]
+    det = a1 * u3 - a3 * u1
+    scale = np.hypot(a1, a3) * np.hypot(u1, u3)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ok = np.abs(det) > min_sine * scale
+        C = np.where(ok, (t1 * u3 - t3 * u1) / det, np.nan)
+        Y = np.where(ok, (a1 * t3 - a3 * t1) / det, np.nan)
+    return C, Y
 
 
 def linear_fit(x: np.ndarray, y: np.ndarray, weights: np.ndarray | None = None) -> LinearFit:

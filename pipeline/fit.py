@@ -19,6 +19,8 @@ A and tau are first smoothed segment by segment (Savitzky-Golay, ``window``).
 4. Dilatancy (Eq. 18) with c1 = -C (Eq. 19) and c2 = c2_coef S^(1/3): dPhi/Phi - c1 A:dE' =
    c2_coef S^(1/3) |dE'| (Phi_c + c3 - Phi) by least squares in c2_coef and c2_coef (Phi_c + c3);
    c3 is held at the paper's 0.14, so Phi_c follows.
+Sec. 3.3 cross-check, on the other angles' runs of the preset: C and Y at every instant from the 12
+and 32 components of Eq. 14 (how constant C is; Y against S beside the reversal's line).
 Across runs: the mean and its standard error (sd / sqrt(runs)); with one run, the regression's
 standard errors.
 """
@@ -110,6 +112,38 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
     }
 
 
+def angle_runs(preset: str, results_dir: Path = RESULTS_DIR) -> list[Path]:
+    """The preset's runs at angles other than 180 deg, rotated at half the period."""
+    paths = []
+    for path in sorted((results_dir / preset / "dem").glob("theta*.h5")):
+        spec = load(path).spec
+        default_rotation = abs(spec["rotate_at_strain"] - spec["period_strain"] / 2) < 1e-9
+        if abs(abs(spec["theta_deg"]) - 180) > 1e-9 and default_rotation:
+            paths.append(path)
+    return paths
+
+
+def cross_check_run(run, window: float = 0.05, min_sine: float = 0.1) -> dict:
+    """Sec. 3.3: C and Y at every instant of the cycle from the 12 and 32 components of Eq. 14,
+    where the fabric and the shear direction are at least ``asin(min_sine)`` apart in that plane."""
+    c = run.cycle
+    strain = c["strain"]
+    angle = np.where(strain < run.spec["rotate_at_strain"] - 1e-9, 0.0, run.spec["theta_deg"])
+    D = deviator(shear_rate_tensor(direction(angle)))
+    A_s, _ = cal.smooth_segments(strain, c["A"], D, window_strain=window)
+    tau_s, _ = cal.smooth_segments(strain, c["tau_over_p"], D, window_strain=window)
+    C, Y = cal.backstress_and_yield(tau_s, A_s, D, min_sine=min_sine)
+    S = hardening_variable(A_s, D)
+    ok = np.isfinite(C) & np.isfinite(S)
+    out = {"path": str(run.path), "theta_deg": run.spec["theta_deg"], "samples": int(ok.sum())}
+    if ok.sum() >= 3:
+        q25, q50, q75 = np.percentile(C[ok], [25, 50, 75])
+        line = cal.linear_fit(S[ok], Y[ok])
+        out.update(C_median=float(q50), C_quartiles=[float(q25), float(q75)], n=line.intercept, m=line.slope,
+                   n_se=line.intercept_se, m_se=line.slope_se)
+    return out
+
+
 ESTIMATES = ("C_eq15", "n", "m", "a1", "b1", "a2", "b2", "persistence_exponent_alpha1",
              "persistence_exponent_alpha2", "c2_coef", "phi_c", "steady_packing_fraction")
 
@@ -141,11 +175,13 @@ def write_json(path: Path, data) -> None:
     os.replace(tmp, path)
 
 
-def fit(paths: list[Path], out_dir: Path, window: float = 0.05) -> dict:
-    """Calibrate from ``paths`` and write ``params.json`` and ``fit.json`` into ``out_dir``."""
+def fit(paths: list[Path], out_dir: Path, window: float = 0.05, cross_paths: tuple[Path, ...] = ()) -> dict:
+    """Calibrate from ``paths`` (reversals), cross-check on ``cross_paths`` (other angles, Sec. 3.3),
+    and write ``params.json`` and ``fit.json`` into ``out_dir``."""
     if not paths:
         raise cal.CalibrationError("no reversal run found (theta = 180): run `make dem THETA=180 PRESET=...` first")
     per_run = [calibrate_run(load(p), window=window) for p in paths]
+    cross = [cross_check_run(load(p), window=window) for p in cross_paths]
     estimates = combine(per_run)
     bad = [k for k in ("C_eq15", "n", "m", "a1", "b1", "a2", "b2") if not math.isfinite(estimates[k]["value"])]
     if bad:
@@ -153,7 +189,7 @@ def fit(paths: list[Path], out_dir: Path, window: float = 0.05) -> dict:
     params = fitted_params(estimates)
     out_dir.mkdir(parents=True, exist_ok=True)
     report = {"method": "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18)", "jaumann_window_strain": window,
-              "runs": per_run, "estimates": estimates, "params": params.to_dict(),
+              "runs": per_run, "estimates": estimates, "params": params.to_dict(), "cross_check": cross,
               "notes": ["C is Eq. 15's slope: on model data it returns C - 2m (Y still drifts near steady state)",
                         "c3 is held at the paper's 0.14; c2_exponent and the persistence exponent at 1/3 and 3/4"]}
     params.save(out_dir / "params.json")
@@ -171,15 +207,21 @@ def main(argv=None) -> int:
     if not (math.isfinite(args.window) and args.window > 0):
         print(f"error: window={args.window} must be a positive strain", file=sys.stderr)
         return 2
-    paths = args.runs if args.runs else reversal_runs(args.preset)
     out = args.out or RESULTS_DIR / args.preset / "fit"
     try:
-        report = fit(paths, out, args.window)
+        paths = args.runs if args.runs else reversal_runs(args.preset)
+        cross = () if args.runs else angle_runs(args.preset)
+        report = fit(paths, out, args.window, cross)
     except (cal.CalibrationError, DemFileError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     for key, e in report["estimates"].items():
         print(f"{key:>30s} = {e['value']:+.4g} ± {e['standard_error']:.2g}")
+    for c in report["cross_check"]:
+        if "C_median" in c:
+            q = c["C_quartiles"]
+            print(f"  Sec. 3.3, theta = {c['theta_deg']:g}: C = {c['C_median']:+.2f} (quartiles {q[0]:+.2f} "
+                  f"{q[1]:+.2f}), Y = {c['n']:+.3f} {c['m']:+.3f} S")
     print(f"wrote {out / 'params.json'} and {out / 'fit.json'} from {len(paths)} run(s)")
     return 0
 

@@ -84,3 +84,18 @@ def test_bad_inputs():
     strain = np.array([0, 0.1, 0.3, 0.35])
     with pytest.raises(cal.CalibrationError, match="not evenly spaced"):
         cal.jaumann_rate(strain, np.zeros((4, 3, 3)), np.zeros((4, 3, 3)))
+
+
+@pytest.mark.parametrize("theta", [30.0, 90.0, 150.0])
+def test_sec33_cross_check_recovers_constant_C_and_the_yield_line(theta):
+    r = model.predict(theta)
+    C, Y = cal.backstress_and_yield(r.tau, r.A, r.D_dev)
+    ok = np.isfinite(C)
+    assert ok.mean() > 0.9  # solvable wherever A is not parallel to the shear direction
+    np.testing.assert_allclose(C[ok], PARAMS.C, rtol=1e-6)
+    np.testing.assert_allclose(Y[ok], PARAMS.n + PARAMS.m * r.S[ok], atol=1e-6)
+
+
+def test_sec33_cross_check_is_undetermined_in_a_reversal(reversal):
+    C, Y = cal.backstress_and_yield(reversal.tau, reversal.A, reversal.D_dev)
+    assert np.isnan(C).all() and np.isnan(Y).all()

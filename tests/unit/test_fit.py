@@ -53,3 +53,12 @@ def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
     assert "cannot open" in capsys.readouterr().err
     assert fit.main(["--window", "-1"]) == 2
     assert not (tmp_path / "fit").exists()
+
+
+def test_sec33_cross_check_on_other_angles_finds_constant_C(tmp_path):
+    reversal = synthetic_file(tmp_path, name="rev", n_cycles=1)
+    angles = [synthetic_file(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=1) for t in (60.0, 120.0)]
+    report = fit.fit([reversal], tmp_path / "fit", cross_paths=angles)
+    for check in report["cross_check"]:
+        assert check["C_median"] == pytest.approx(TRUE.C, rel=0.02)
+        assert check["m"] == pytest.approx(TRUE.m, abs=0.1) and check["n"] == pytest.approx(TRUE.n, abs=0.02)
