@@ -2,7 +2,8 @@
 
 ``python -m pipeline.fit [--preset reduced] [--runs a.h5 b.h5 ...] [--window 0.05] [--out DIR]``
 reads the theta = 180 runs (every seed: ``results/<preset>/dem/theta180.h5`` and
-``results/<preset>-*/dem/theta180.h5`` whose only override is the seed), calibrates each one's
+``results/<preset>-*/dem/theta180.h5`` whose only override is the seed; where results/ has none,
+the committed reference runs under ``data/reference/``), calibrates each one's
 cycle-averaged reversal and writes ``params.json`` (``model.Params``, loadable by
 ``python -m model predict --params``) and ``fit.json`` (every estimate, its standard error, the
 per-run values and the settings) to ``results/<preset>/fit/``.
@@ -43,21 +44,28 @@ from . import calibrate as cal
 from . import global_fit
 from .dem_analysis import deviator, direction, hardening_variable, shear_rate_tensor
 from .dem_h5 import DemFileError, load
-from .paths import RESULTS_DIR
+from .paths import REFERENCE_DIR, RESULTS_DIR
 
 PAPER_C3 = 0.14
 
 
-def reversal_runs(preset: str, results_dir: Path = RESULTS_DIR) -> list[Path]:
-    """The theta = 180 runs of ``preset`` at the default rotation, one per seed."""
-    paths = [results_dir / preset / "dem" / "theta180.h5"]
-    for folder in sorted(results_dir.glob(f"{preset}-*")):
-        path = folder / "dem" / "theta180.h5"
-        if path.exists():
-            overrides = json.loads(load(path).provenance["overrides"])
-            if set(overrides) <= {"seed"}:
-                paths.append(path)
-    return [p for p in paths if p.exists()]
+def _first_existing(relative: Path, roots: tuple[Path, ...]) -> Path | None:
+    return next((root / relative for root in roots if (root / relative).exists()), None)
+
+
+def reversal_runs(preset: str, roots: tuple[Path, ...] = (RESULTS_DIR, REFERENCE_DIR)) -> list[Path]:
+    """The theta = 180 runs of ``preset`` at the default rotation, one per seed (results/ first,
+    then the committed reference dataset)."""
+    folders = {preset} | {f.name for root in roots for f in root.glob(f"{preset}-*")}
+    paths = []
+    for folder in sorted(folders):
+        path = _first_existing(Path(folder) / "dem" / "theta180.h5", roots)
+        if path is None:
+            continue
+        if folder != preset and not set(json.loads(load(path).provenance["overrides"])) <= {"seed"}:
+            continue
+        paths.append(path)
+    return paths
 
 
 def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: float = 0.02) -> dict:
@@ -114,10 +122,12 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
     }
 
 
-def angle_runs(preset: str, results_dir: Path = RESULTS_DIR) -> list[Path]:
+def angle_runs(preset: str, roots: tuple[Path, ...] = (RESULTS_DIR, REFERENCE_DIR)) -> list[Path]:
     """The preset's runs at angles other than 180 deg, rotated at half the period."""
+    names = sorted({p.name for root in roots for p in (root / preset / "dem").glob("theta*.h5")})
     paths = []
-    for path in sorted((results_dir / preset / "dem").glob("theta*.h5")):
+    for name in names:
+        path = _first_existing(Path(preset) / "dem" / name, roots)
         spec = load(path).spec
         default_rotation = abs(spec["rotate_at_strain"] - spec["period_strain"] / 2) < 1e-9
         if abs(abs(spec["theta_deg"]) - 180) > 1e-9 and default_rotation:

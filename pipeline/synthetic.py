@@ -29,7 +29,8 @@ def _symmetric_traceless_noise(rng, n, scale):
 
 
 def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles: int = 2, noise: float = 0.0,
-                  seed: int = 0, gamma_dot: float = 1e-3, bulk_ratio: float = 1.0) -> tuple[dict, dict]:
+                  seed: int = 0, gamma_dot: float = 1e-3, bulk_ratio: float = 1.0,
+                  overrides: dict | None = None) -> tuple[dict, dict]:
     """Raw samples and metadata of a synthetic run (rotation at half the period, Fig. 1)."""
     params = params or model.Params()
     cycle = model.predict(theta_deg, params=params)  # strain 0, 0.005, ..., 1.4
@@ -61,7 +62,7 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
         "profile_fabric": A[:, None], "profile_contacts": np.full((n, 1), 1000),
     }
     spec = {"preset": "synthetic", "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2, "seed": seed,
-            "overrides": {}, "period_strain": PERIOD, "sample_strain": STEP, "n_cycles": n_cycles,
+            "overrides": dict(overrides or {}), "period_strain": PERIOD, "sample_strain": STEP, "n_cycles": n_cycles,
             "pre_strain": PRE, "inertial_number": gamma_dot, "noise": noise, "model_params": params.to_dict()}
     meta = {"spec": spec, "yade_version": "none (synthetic, made by the model)", "dt": 1.0, "kn": 0.0, "kt": 0.0,
             "cn": 0.0, "ct": 0.0, "n_grains": 300, "n_wall_spheres": 0, "gap0": 8.5, "wall_speed": 0.0,

@@ -78,3 +78,17 @@ def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(
         assert abs(value - getattr(TRUE, name)) < 3.5 * se, name
     corr = np.array(g["correlation"])
     np.testing.assert_allclose(np.diag(corr), 1.0) and np.testing.assert_allclose(corr, corr.T)
+
+
+def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path):
+    results, reference = tmp_path / "results", tmp_path / "reference"
+    for root, folder, theta, kw in ((results, "p", 180.0, {}), (reference, "p", 180.0, {}),
+                                    (reference, "p-1a2b", 180.0, {"overrides": {"seed": 2}}),
+                                    (reference, "p-9f9f", 180.0, {"overrides": {"friction_deg": 30}}),
+                                    (reference, "p", 90.0, {})):
+        (root / folder / "dem").mkdir(parents=True, exist_ok=True)
+        path = synthetic_file(root / folder / "dem", theta=theta, name=f"theta{int(theta):03d}", n_cycles=1, **kw)
+        assert path.exists()
+    roots = (results, reference)
+    assert fit.reversal_runs("p", roots) == [results / "p/dem/theta180.h5", reference / "p-1a2b/dem/theta180.h5"]
+    assert fit.angle_runs("p", roots) == [reference / "p/dem/theta090.h5"]
