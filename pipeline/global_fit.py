@@ -4,7 +4,8 @@ Beyond the paper's stepwise method (``pipeline.fit``): the model's converged per
 integrated for each run's protocol (theta, rotate_at) with the strain measured in *bulk* strain
 (the period becomes ``bulk_over_nominal * 1.4``), and ``scipy.optimize.least_squares`` minimises
 the residuals of the off-diagonal and normal components of A and tau/p, each divided by its
-noise scale (the cycle's standard error, floored, or a fixed scale with one cycle). Standard errors
+noise scale: the cycle's standard error, or with one cycle the rms scatter of that component about
+its smoothed cycle; floored at ``FLOOR``. Standard errors
 and the correlation matrix come from the Jacobian at the optimum, scaled by the reduced chi-square.
 """
 
@@ -17,7 +18,8 @@ from scipy.optimize import least_squares
 
 import model
 
-from .calibrate import CalibrationError
+from .calibrate import CalibrationError, smooth_segments
+from .dem_analysis import deviator, direction, shear_rate_tensor
 
 #: the parameters refined (the persistence exponent and the dilatancy stay as given)
 FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")
@@ -44,14 +46,25 @@ class CycleData:
         c = run.cycle
         bulk = np.nanmean(run.series["shear_rate_bulk"][run.series["strain_nominal"] >= 0])
         ratio = float(bulk / run.parameters["gamma_dot_nominal"])
-        A_sem = np.nan_to_num(c["A_sem"], nan=FLOOR["A"])
-        tau_sem = np.nan_to_num(c["tau_over_p_sem"], nan=FLOOR["tau"])
+        A_sem, tau_sem = c["A_sem"], c["tau_over_p_sem"]
+        if np.isnan(A_sem).all():  # one cycle: the scatter about the smoothed cycle, per component
+            angle = np.where(c["strain"] < run.spec["rotate_at_strain"] - 1e-9, 0.0, run.spec["theta_deg"])
+            D = deviator(shear_rate_tensor(direction(angle)))
+            A_sem = _scatter(c["strain"], c["A"], D)
+            tau_sem = _scatter(c["strain"], c["tau_over_p"], D)
         # the last sample closes the period: the DEM has turned back to e1 there, the model's output
         # at the period's end has not, so it is left out
         keep = slice(0, -1)
         return cls(run.spec["theta_deg"], run.spec["rotate_at_strain"], run.spec["period_strain"], ratio,
                    c["strain"][keep], c["A"][keep], c["tau_over_p"][keep], np.maximum(A_sem, FLOOR["A"])[keep],
                    np.maximum(tau_sem, FLOOR["tau"])[keep])
+
+
+def _scatter(strain, X, D, window: float = 0.05) -> np.ndarray:
+    """Per-component rms deviation of X from its segment-wise smoothed self, broadcast to X's shape."""
+    smooth, _ = smooth_segments(strain, X, D, window_strain=window)
+    rms = np.sqrt(np.nanmean((X - smooth) ** 2, axis=0))
+    return np.broadcast_to(rms, X.shape).copy()
 
 
 @dataclass(frozen=True)
