@@ -21,14 +21,15 @@ THREADS ?= 1
 DEM_ARGS = --preset $(PRESET) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
 	$(if $(filter 1 yes true,$(FRESH)),--fresh) --threads $(THREADS)
 
-.PHONY: help demo test bench venv system model-cycles dem fit demo-dem clean
+.PHONY: help demo test bench venv system model-cycles dem fit figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
 
 demo: system venv model-cycles demo-dem ## set up everything, then run the pipeline on the small default
 	$(PY) -m pipeline.fit --preset quick
-	@echo "demo done: model cycles in $(MODEL_DIR)/, DEM runs in results/quick/dem/, fit in results/quick/fit/"
+	$(PY) -m pipeline.figures --preset quick
+	@echo "demo done: model cycles in $(MODEL_DIR)/, DEM runs in results/quick/dem/, fit in results/quick/fit/, figures and report.md in results/quick/"
 
 test: system venv ## run the test suite (the DEM tests run the real Yade)
 	$(PY) -m pytest -q
@@ -62,6 +63,9 @@ dem: system venv ## one DEM run -> results/<preset>/dem/theta<THETA>.h5 (resumes
 
 fit: venv ## stepwise calibration from the theta = 180 runs -> results/<PRESET>/fit/params.json, fit.json
 	$(PY) -m pipeline.fit --preset $(PRESET)
+
+figures: venv ## Figs. 5-7 and report.md -> results/<PRESET>/figures/, results/<PRESET>/report.md
+	$(PY) -m pipeline.figures --preset $(PRESET)
 
 demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 90, both at once
 	$(MAKE) --no-print-directory -j2 demo-dem-180 demo-dem-90

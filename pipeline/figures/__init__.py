@@ -1,0 +1,1 @@
+"""Figures and the report (``make figures``): one module per figure, headless, reading HDF5/JSON only."""
