@@ -5,8 +5,9 @@ reads the theta = 180 runs (every seed: ``results/<preset>/dem/theta180.h5`` and
 ``results/<preset>-*/dem/theta180.h5`` whose only override is the seed; where results/ has none,
 the committed reference runs under ``data/reference/``), calibrates each one's
 cycle-averaged reversal and writes ``params.json`` (``model.Params``, loadable by
-``python -m model predict --params``) and ``fit.json`` (every estimate, its standard error, the
-per-run values and the settings) to ``results/<preset>/fit/``.
+``python -m model predict --params``), ``fit.json`` (every estimate, its standard error, the
+per-run values and the settings) and ``fit.h5`` (the per-sample alpha_i, beta_i, Y and C against S
+behind them) to ``results/<preset>/fit/``.
 
 Per run, on the cycle (two reversals: 180 -> 0 deg at strain 0 and 0 -> 180 deg at 0.7), with
 rates per unit *bulk* strain (the measured central shear rate):
@@ -119,6 +120,9 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
         "persistence_exponent_alpha1": exponents[0], "persistence_exponent_alpha2": exponents[1],
         "c2_coef": float(coef_phi), "phi_c": float(phi_c_plus_c3 - PAPER_C3),
         "steady_packing_fraction": float(np.mean(phi[(strain > rotate_at - 0.2) & (strain < rotate_at)])),
+        "arrays": {"strain": strain, "S": S, "alpha1": alpha1, "alpha2": alpha2, "beta1": alpha1 * S**k,
+                   "beta2": alpha2 * S**k, "Y": Y, "tau12": tau_s[:, 0, 1], "A12": A_s[:, 0, 1],
+                   "backstress12": C * A_s[:, 0, 1], "isotropic12": tau_s[:, 0, 1] - C * A_s[:, 0, 1]},
     }
 
 
@@ -147,7 +151,8 @@ def cross_check_run(run, window: float = 0.05, min_sine: float = 0.1) -> dict:
     C, Y = cal.backstress_and_yield(tau_s, A_s, D, min_sine=min_sine)
     S = hardening_variable(A_s, D)
     ok = np.isfinite(C) & np.isfinite(S)
-    out = {"path": str(run.path), "theta_deg": run.spec["theta_deg"], "samples": int(ok.sum())}
+    out = {"path": str(run.path), "theta_deg": run.spec["theta_deg"], "samples": int(ok.sum()),
+           "arrays": {"strain": strain, "S": S, "C": C, "Y": Y}}
     if ok.sum() >= 3:
         q25, q50, q75 = np.percentile(C[ok], [25, 50, 75])
         line = cal.linear_fit(S[ok], Y[ok])
@@ -187,6 +192,25 @@ def write_json(path: Path, data) -> None:
     os.replace(tmp, path)
 
 
+def write_arrays(path: Path, arrays: dict, per_run: list[dict], cross: list[dict]) -> None:
+    """fit.h5: the per-sample values behind the fit (alpha_i, beta_i, Y, C against S), atomically."""
+    import h5py
+
+    tmp = path.with_name(path.name + ".tmp")
+    with h5py.File(tmp, "w") as f:
+        f.attrs.update(schema="granular-backstress/fit", schema_version=1)
+        for group, items, meta in (("reversal", arrays["reversal"], per_run), ("cross_check", arrays["cross_check"],
+                                                                              cross)):
+            for k, (values, info) in enumerate(zip(items, meta, strict=True)):
+                g = f.create_group(f"{group}/{k}")
+                g.attrs["path"] = info["path"]
+                if "theta_deg" in info:
+                    g.attrs["theta_deg"] = info["theta_deg"]
+                for name, data in values.items():
+                    g.create_dataset(name, data=data).attrs["unit"] = "1"
+    os.replace(tmp, path)
+
+
 def fit(paths: list[Path], out_dir: Path, window: float = 0.05, cross_paths: tuple[Path, ...] = (),
         refine: bool = True) -> dict:
     """Calibrate from ``paths`` (reversals), cross-check on ``cross_paths`` (other angles, Sec. 3.3),
@@ -196,6 +220,7 @@ def fit(paths: list[Path], out_dir: Path, window: float = 0.05, cross_paths: tup
         raise cal.CalibrationError("no reversal run found (theta = 180): run `make dem THETA=180 PRESET=...` first")
     per_run = [calibrate_run(load(p), window=window) for p in paths]
     cross = [cross_check_run(load(p), window=window) for p in cross_paths]
+    arrays = {"reversal": [r.pop("arrays") for r in per_run], "cross_check": [c.pop("arrays") for c in cross]}
     refined = None
     if refine:
         data = [global_fit.CycleData.from_run(load(p)) for p in (*paths, *cross_paths)]
@@ -214,6 +239,7 @@ def fit(paths: list[Path], out_dir: Path, window: float = 0.05, cross_paths: tup
               "global_runs": [str(p) for p in (*paths, *cross_paths)] if refine else [],
               "notes": ["C is Eq. 15's slope: on model data it returns C - 2m (Y still drifts near steady state)",
                         "c3 is held at the paper's 0.14; c2_exponent and the persistence exponent at 1/3 and 3/4"]}
+    write_arrays(out_dir / "fit.h5", arrays, per_run, cross)
     stepwise.save(out_dir / "params_stepwise.json")
     params.save(out_dir / "params.json")
     write_json(out_dir / "fit.json", report)

@@ -1,4 +1,4 @@
-"""``python -m pipeline.figures [--preset reduced] [--params FILE]``: Figs. 5-7 and report.md."""
+"""``python -m pipeline.figures [--preset reduced] [--params FILE]``: Figs. 3-7 and report.md."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import model
 from ..dem_h5 import DemFileError, load
 from ..fit import _first_existing
 from ..paths import REFERENCE_DIR, RESULTS_DIR
-from . import cycles, report
+from . import cycles, laws, report
 
 
 def dem_runs(preset: str, roots=(RESULTS_DIR, REFERENCE_DIR)) -> list:
@@ -43,6 +43,10 @@ def main(argv=None) -> int:
     made = [cycles.plot(default, sets, out / "figures" / "fig5_6_cycles.png", f"{args.preset}: Figs. 5-6")]
     if rotated:
         made.append(cycles.plot(rotated, sets, out / "figures" / "fig7_rotations.png", f"{args.preset}: Fig. 7"))
+    fit_h5 = params_file.with_name("fit.h5")
+    if fit_h5.exists():
+        made.append(laws.fabric_law(fit_h5, fitted, model.Params(), out / "figures" / "fig3_fabric_law.png"))
+        made.append(laws.flow_rule(fit_h5, fitted, model.Params(), out / "figures" / "fig4_flow_rule.png"))
     fit_report = params_file.with_name("fit.json")
     fit_json = json.loads(fit_report.read_text()) if fit_report.exists() else None
     made.append(report.write(runs, sets, fit_json, out / "report.md", args.preset))

@@ -11,8 +11,9 @@ def test_figures_and_report_build_headless(tmp_path):
     fit.fit([rev], tmp_path / "fit", cross_paths=[other])
     assert main(["--runs", str(rev), str(other), "--params", str(tmp_path / "fit" / "params.json"),
                  "--out", str(tmp_path / "out")]) == 0
-    png = tmp_path / "out" / "figures" / "fig5_6_cycles.png"
-    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
+    for name in ("fig3_fabric_law", "fig4_flow_rule", "fig5_6_cycles"):
+        png = tmp_path / "out" / "figures" / f"{name}.png"
+        assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG", name
     report = (tmp_path / "out" / "report.md").read_text()
     assert "| C |" in report and "| theta060 | our fit |" in report and "share of the backstress" in report
     # the model with the true parameters fits the synthetic data to the noise: small normalised errors

@@ -1,0 +1,83 @@
+"""Figs. 3 and 4 from ``fit.h5``: alpha_i and beta_i against S from the reversal (with the fitted
+lines and log-log insets of |alpha_i|), and C and Y against S from the Sec. 3.3 cross-check."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def _save(fig, out: Path) -> Path:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.stem + ".tmp" + out.suffix)
+    fig.tight_layout()
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(out)
+    return out
+
+
+def fabric_law(fit_h5: Path, params, paper, out: Path) -> Path:
+    """Fig. 3: alpha_i (top, log-log insets) and beta_i = alpha_i S^k (bottom) against S."""
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
+    S_line = np.linspace(1e-3, 0.25, 200)
+    k = params.persistence_exponent
+    with h5py.File(fit_h5, "r") as f:
+        groups = [f["reversal"][key] for key in f["reversal"]]
+        for col, i in enumerate((1, 2)):
+            a, b = getattr(params, f"a{i}"), getattr(params, f"b{i}")
+            pa, pb = getattr(paper, f"a{i}"), getattr(paper, f"b{i}")
+            for g in groups:
+                S, alpha, beta = g["S"][()], g[f"alpha{i}"][()], g[f"beta{i}"][()]
+                axes[0, col].plot(S, alpha, ".", ms=3, color="C0", alpha=0.6)
+                axes[1, col].plot(S, beta, ".", ms=3, color="C0", alpha=0.6)
+                inset = axes[0, col].inset_axes([0.55, 0.55, 0.4, 0.4])
+                ok = (S > 0) & np.isfinite(alpha) & (alpha != 0)
+                inset.loglog(S[ok], np.abs(alpha[ok]), ".", ms=2, color="C0")
+                inset.loglog(S_line, np.abs((a + b * S_line) / S_line**k), "C1-", lw=1)
+                inset.tick_params(labelsize=6)
+            axes[0, col].plot(S_line, (a + b * S_line) / S_line**k, "C1-", label="our fit")
+            axes[0, col].plot(S_line, (pa + pb * S_line) / S_line**k, "k--", label="Table 2")
+            axes[1, col].plot(S_line, a + b * S_line, "C1-", label="our fit")
+            axes[1, col].plot(S_line, pa + pb * S_line, "k--", label="Table 2")
+            axes[0, col].set_ylabel(rf"$\alpha_{i}$")
+            axes[1, col].set_ylabel(rf"$\beta_{i} = \alpha_{i} S^{{{k:g}}}$")
+            axes[1, col].set_xlabel("S")
+            lim = np.nanpercentile(np.abs(np.concatenate([g[f"alpha{i}"][()] for g in groups])), 95)
+            axes[0, col].set_ylim(-3 * lim, 3 * lim)
+    axes[1, 0].legend(fontsize=8)
+    fig.suptitle("Fig. 3: fabric coefficients from the reversal (Eqs. 9, 12, 13)", fontsize=10)
+    return _save(fig, out)
+
+
+def flow_rule(fit_h5: Path, params, paper, out: Path) -> Path:
+    """Fig. 4: C (left) and Y (right) against S, from the 12 and 32 components at every angle."""
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    S_line = np.linspace(0, 0.25, 50)
+    with h5py.File(fit_h5, "r") as f:
+        for n, key in enumerate(f.get("cross_check", {})):
+            g = f["cross_check"][key]
+            label = f"θ = {g.attrs['theta_deg']:g}°"
+            axes[0].plot(g["S"][()], g["C"][()], ".", ms=3, color=f"C{n}", label=label)
+            axes[1].plot(g["S"][()], g["Y"][()], ".", ms=3, color=f"C{n}", label=label)
+        for key in f["reversal"]:
+            g = f["reversal"][key]
+            axes[1].plot(g["S"][()], g["Y"][()], "x", ms=3, color="grey", label="reversal (Eq. 16)")
+    axes[0].axhline(params.C, color="C1", label="our fit")
+    axes[0].axhline(paper.C, color="k", ls="--", label="Table 2")
+    axes[1].plot(S_line, params.n + params.m * S_line, "C1-", label="our fit")
+    axes[1].plot(S_line, paper.n + paper.m * S_line, "k--", label="Table 2")
+    axes[0].set_ylim(3 * paper.C, 0)
+    axes[1].set_ylim(-0.2, 0.6)
+    for ax, name in zip(axes, ("C", "Y"), strict=True):
+        ax.set_xlabel("S")
+        ax.set_ylabel(name)
+        ax.legend(fontsize=7)
+    fig.suptitle("Fig. 4: the flow rule (Eq. 14) from the 12 and 32 components", fontsize=10)
+    return _save(fig, out)
