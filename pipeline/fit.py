@@ -121,8 +121,7 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
         "c2_coef": float(coef_phi), "phi_c": float(phi_c_plus_c3 - PAPER_C3),
         "steady_packing_fraction": float(np.mean(phi[(strain > rotate_at - 0.2) & (strain < rotate_at)])),
         "arrays": {"strain": strain, "S": S, "alpha1": alpha1, "alpha2": alpha2, "beta1": alpha1 * S**k,
-                   "beta2": alpha2 * S**k, "Y": Y, "tau12": tau_s[:, 0, 1], "A12": A_s[:, 0, 1],
-                   "backstress12": C * A_s[:, 0, 1], "isotropic12": tau_s[:, 0, 1] - C * A_s[:, 0, 1]},
+                   "beta2": alpha2 * S**k, "Y": Y, "tau12": tau_s[:, 0, 1], "A12": A_s[:, 0, 1]},
     }
 
 

@@ -1,4 +1,4 @@
-"""``python -m pipeline.figures [--preset reduced] [--params FILE]``: Figs. 3-7 and report.md."""
+"""``python -m pipeline.figures [--preset reduced] [--params FILE]``: Figs. 3-9 and report.md."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import model
 from ..dem_h5 import DemFileError, load
 from ..fit import _first_existing
 from ..paths import REFERENCE_DIR, RESULTS_DIR
-from . import cycles, laws, report
+from . import cycles, laws, report, reversal
 
 
 def dem_runs(preset: str, roots=(RESULTS_DIR, REFERENCE_DIR)) -> list:
@@ -47,9 +47,14 @@ def main(argv=None) -> int:
     if fit_h5.exists():
         made.append(laws.fabric_law(fit_h5, fitted, model.Params(), out / "figures" / "fig3_fabric_law.png"))
         made.append(laws.flow_rule(fit_h5, fitted, model.Params(), out / "figures" / "fig4_flow_rule.png"))
+        made.append(reversal.backstress_figure(fit_h5, fitted.C, out / "figures" / "fig8_backstress.png"))
+    reversals = [r for r in runs if abs(abs(r.spec["theta_deg"]) - 180) < 1e-9]
+    if reversals:
+        made.append(reversal.work_figure(reversals, fitted, out / "figures" / "fig9_work_rates.png"))
     fit_report = params_file.with_name("fit.json")
     fit_json = json.loads(fit_report.read_text()) if fit_report.exists() else None
-    made.append(report.write(runs, sets, fit_json, out / "report.md", args.preset))
+    made.append(report.write(runs, sets, fit_json, out / "report.md", args.preset,
+                             fit_h5 if fit_h5.exists() else None))
     for path in made:
         print(f"wrote {path}")
     return 0

@@ -14,7 +14,12 @@ from ..validation import COMPONENTS, backstress_share, errors, model_for
 NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2")
 
 
-def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str) -> Path:
+def _mean(values) -> str:
+    finite = [v for v in values if np.isfinite(v)]
+    return f"{np.mean(finite):.2f}" if finite else "not reached"
+
+
+def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str, fit_h5: Path | None = None) -> Path:
     paper, ours = model.Params(), sets["our fit"]
     se = {}
     if fit_json and fit_json.get("global"):
@@ -42,6 +47,17 @@ def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str)
                   f"- share of the backstress C A12 in the steady shear stress: {share:.0%} with our C "
                   f"(paper: 88 %)",
                   f"- mean packing fraction over the cycle: {phi:.3f} (paper's Phi_c = 0.652)"]
+    if fit_h5 is not None:
+        import h5py
+
+        from .reversal import after_reversal, relaxation_strain
+
+        with h5py.File(fit_h5, "r") as f:
+            parts = [after_reversal(f["reversal"][k], ours.C) for k in f["reversal"]]
+        iso = [relaxation_strain(d["strain"], d["isotropic12"]) for d in parts]
+        back = [relaxation_strain(d["strain"], d["backstress12"]) for d in parts]
+        lines.append(f"- relaxation strain after the reversal (within 5 % of the final value): isotropic part "
+                     f"{_mean(iso)}, backstress {_mean(back)} (paper: 0.25 and 0.6)")
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".tmp")
     tmp.write_text("\n".join(lines) + "\n")

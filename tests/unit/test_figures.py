@@ -1,5 +1,7 @@
 """`python -m pipeline.figures`: headless figures and the report from a tiny synthetic fixture."""
 
+import pytest
+
 from pipeline import fit
 from pipeline.figures.__main__ import main
 from tests.unit.test_fit import synthetic_file
@@ -11,11 +13,12 @@ def test_figures_and_report_build_headless(tmp_path):
     fit.fit([rev], tmp_path / "fit", cross_paths=[other])
     assert main(["--runs", str(rev), str(other), "--params", str(tmp_path / "fit" / "params.json"),
                  "--out", str(tmp_path / "out")]) == 0
-    for name in ("fig3_fabric_law", "fig4_flow_rule", "fig5_6_cycles"):
+    for name in ("fig3_fabric_law", "fig4_flow_rule", "fig5_6_cycles", "fig8_backstress", "fig9_work_rates"):
         png = tmp_path / "out" / "figures" / f"{name}.png"
         assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG", name
     report = (tmp_path / "out" / "report.md").read_text()
     assert "| C |" in report and "| theta060 | our fit |" in report and "share of the backstress" in report
+    assert "relaxation strain after the reversal" in report
     # the model with the true parameters fits the synthetic data to the noise: small normalised errors
     row = next(line for line in report.splitlines() if line.startswith("| theta180 | Table 2 |"))
     assert max(float(x) for x in row.split("|")[3:7]) < 0.15
@@ -27,3 +30,13 @@ def test_missing_inputs_are_one_line_errors(tmp_path, capsys):
     rev = synthetic_file(tmp_path, name="theta180", n_cycles=1)
     assert main(["--runs", str(rev), "--params", str(tmp_path / "none.json"), "--out", str(tmp_path)]) == 2
     assert "cannot read parameters" in capsys.readouterr().err
+
+
+def test_relaxation_strain_of_an_exponential():
+    import numpy as np
+
+    from pipeline.figures.reversal import relaxation_strain
+
+    strain = np.arange(0, 3, 0.005)
+    x = 1 - np.exp(-strain / 0.2)  # within 5 % after 0.2 ln 20 = 0.599
+    assert relaxation_strain(strain, x) == pytest.approx(0.2 * np.log(20), abs=0.01)
