@@ -25,7 +25,8 @@ Sec. 3.3 cross-check, on the other angles' runs of the preset: C and Y at every 
 and 32 components of Eq. 14 (how constant C is; Y against S beside the reversal's line).
 Across runs: the mean and its standard error (sd / sqrt(runs)); with one run, the regression's
 standard errors. Then ``pipeline.global_fit`` refines C, n, m, a_i, b_i on the cycles of every run
-(reversals and other angles) from Table 2: this fit goes to ``params.json``.
+(reversals and other angles) from Table 2, then c2_coef and Phi_c to their packing fractions
+(c1 = -C): this fit goes to ``params.json``.
 """
 
 from __future__ import annotations
@@ -224,17 +225,19 @@ def fit(paths: list[Path], out_dir: Path, window: float = 0.05, cross_paths: tup
     if refine:
         data = [global_fit.CycleData.from_run(load(p)) for p in (*paths, *cross_paths)]
         refined = global_fit.refine(data, model.Params())
+        dilatancy = global_fit.refine_dilatancy(data, refined.params)
     estimates = combine(per_run)
     bad = [k for k in ("C_eq15", "n", "m", "a1", "b1", "a2", "b2") if not math.isfinite(estimates[k]["value"])]
     if bad:
         raise cal.CalibrationError(f"the fit gave no finite value for {', '.join(bad)}")
     stepwise = fitted_params(estimates)
-    params = stepwise if refined is None else refined.params.replace(c1=-refined.params.C)
+    params = stepwise if refined is None else dilatancy.params
     out_dir.mkdir(parents=True, exist_ok=True)
     report = {"method": "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18), then a global least-squares refinement",
               "jaumann_window_strain": window, "runs": per_run, "estimates": estimates,
               "params_stepwise": stepwise.to_dict(), "params": params.to_dict(), "cross_check": cross,
               "global": None if refined is None else refined.to_dict(),
+              "dilatancy": None if refined is None else dilatancy.to_dict(),
               "global_runs": [str(p) for p in (*paths, *cross_paths)] if refine else [],
               "notes": ["C is Eq. 15's slope: on model data it returns C - 2m (Y still drifts near steady state)",
                         "c3 is held at the paper's 0.14; c2_exponent and the persistence exponent at 1/3 and 3/4"]}
@@ -268,8 +271,9 @@ def main(argv=None) -> int:
     if report["global"]:
         g = report["global"]
         print(f"  global fit on {len(report['global_runs'])} run(s), reduced chi2 {g['reduced_chi2']:.2f}:")
-        for name, value, se in zip(g["free"], g["values"], g["standard_errors"], strict=True):
-            print(f"{name:>30s} = {value:+.4g} ± {se:.2g}")
+        for part in (g, report["dilatancy"]):
+            for name, value, se in zip(part["free"], part["values"], part["standard_errors"], strict=True):
+                print(f"{name:>30s} = {value:+.4g} ± {se:.2g}")
     for c in report["cross_check"]:
         if "C_median" in c:
             q = c["C_quartiles"]

@@ -40,6 +40,7 @@ class CycleData:
     tau: np.ndarray
     A_scale: np.ndarray
     tau_scale: np.ndarray
+    phi: np.ndarray
 
     @classmethod
     def from_run(cls, run) -> CycleData:
@@ -57,7 +58,7 @@ class CycleData:
         keep = slice(0, -1)
         return cls(run.spec["theta_deg"], run.spec["rotate_at_strain"], run.spec["period_strain"], ratio,
                    c["strain"][keep], c["A"][keep], c["tau_over_p"][keep], np.maximum(A_sem, FLOOR["A"])[keep],
-                   np.maximum(tau_sem, FLOOR["tau"])[keep])
+                   np.maximum(tau_sem, FLOOR["tau"])[keep], c["packing_fraction"][keep])
 
 
 def _scatter(strain, X, D, window: float = 0.05) -> np.ndarray:
@@ -127,3 +128,34 @@ def refine(data: list[CycleData], start: model.Params, names=FREE, max_nfev: int
     corr = cov / np.outer(se, se)
     params = start.replace(**dict(zip(names, map(float, sol.x), strict=True)))
     return GlobalFit(params, tuple(names), sol.x, se, corr, chi2, int(sol.nfev), bool(sol.success), sol.message)
+
+
+DILATANCY = ("c2_coef", "phi_c")
+
+
+def _dilatancy_residuals(values, data: list[CycleData], base: model.Params) -> np.ndarray:
+    params = base.replace(**dict(zip(DILATANCY, map(float, values), strict=True)))
+    out = []
+    for d in data:
+        try:
+            out.append(predict_cycle(d, params).packing_fraction - d.phi)
+        except (model.SolverError, model.ParameterError):
+            return np.full(sum(len(x.phi) for x in data), 1.0)
+    return np.concatenate(out)
+
+
+def refine_dilatancy(data: list[CycleData], params: model.Params) -> GlobalFit:
+    """c2_coef and Phi_c of Eq. 18 fitted to the DEM's Phi over every cycle, with c1 = -C (Eq. 19)
+    and c3, the c2 exponent and the flow rule and fabric law of ``params`` held fixed."""
+    base = params.replace(c1=-params.C)
+    x0 = np.array([base.c2_coef, float(np.mean(np.concatenate([d.phi for d in data])))])
+    sol = least_squares(_dilatancy_residuals, x0, args=(data, base), x_scale=[1.0, 0.01],
+                        bounds=([1e-3, 0.3], [100.0, 0.9]), max_nfev=100)
+    if not sol.success:
+        raise CalibrationError(f"the dilatancy fit did not converge ({sol.message})")
+    dof = max(sol.fun.size - sol.x.size, 1)
+    chi2 = float(2 * sol.cost / dof)
+    cov = np.linalg.pinv(sol.jac.T @ sol.jac) * chi2
+    se = np.sqrt(np.diag(cov))
+    fitted = base.replace(**dict(zip(DILATANCY, map(float, sol.x), strict=True)))
+    return GlobalFit(fitted, DILATANCY, sol.x, se, cov / np.outer(se, se), chi2, int(sol.nfev), True, sol.message)

@@ -76,6 +76,11 @@ def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(
     assert g["success"] and 0.5 < g["reduced_chi2"] < 3
     for name, value, se in zip(g["free"], g["values"], g["standard_errors"], strict=True):
         assert abs(value - getattr(TRUE, name)) < 3.5 * se, name
+    d = report["dilatancy"]  # Eq. 18 on Phi with c1 = -C, noise 0.001 on Phi
+    values = dict(zip(d["free"], d["values"], strict=True))
+    assert values["phi_c"] == pytest.approx(TRUE.phi_c, abs=0.005)
+    assert values["c2_coef"] == pytest.approx(TRUE.c2_coef, rel=0.15)
+    assert model.Params.load(tmp_path / "fit" / "params.json").phi_c == pytest.approx(values["phi_c"])
     corr = np.array(g["correlation"])
     np.testing.assert_allclose(np.diag(corr), 1.0) and np.testing.assert_allclose(corr, corr.T)
 
