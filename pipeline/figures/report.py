@@ -11,7 +11,7 @@ import model
 
 from ..validation import COMPONENTS, backstress_share, errors, model_for
 
-NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2")
+NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
 
 
 def _mean(values) -> str:
@@ -22,8 +22,9 @@ def _mean(values) -> str:
 def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str, fit_h5: Path | None = None) -> Path:
     paper, ours = model.Params(), sets["our fit"]
     se = {}
-    if fit_json and fit_json.get("global"):
-        se = dict(zip(fit_json["global"]["free"], fit_json["global"]["standard_errors"], strict=True))
+    for part in ("global", "dilatancy"):
+        if fit_json and fit_json.get(part):
+            se.update(zip(fit_json[part]["free"], fit_json[part]["standard_errors"], strict=True))
     lines = [f"# Model against our DEM: preset `{preset}`", "",
              f"{len(runs)} DEM run(s); the model runs in bulk strain for each run's protocol.", "",
              "## Parameters", "", "| parameter | our fit | ± | Table 2 |", "|---|---|---|---|"]
