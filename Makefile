@@ -21,7 +21,7 @@ THREADS ?= 1
 DEM_ARGS = --preset $(PRESET) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
 	$(if $(filter 1 yes true,$(FRESH)),--fresh) --threads $(THREADS)
 
-.PHONY: help demo test bench venv system model-cycles dem fit figures demo-dem clean
+.PHONY: help demo test bench venv system model-cycles dem fit fit-bootstrap figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -63,6 +63,9 @@ dem: system venv ## one DEM run -> results/<preset>/dem/theta<THETA>.h5 (resumes
 
 fit: venv ## stepwise calibration from the theta = 180 runs -> results/<PRESET>/fit/params.json, fit.json
 	$(PY) -m pipeline.fit --preset $(PRESET)
+
+fit-bootstrap: venv ## the fit plus a bootstrap over cycles (BOOT=100 refits) -> fit.json
+	$(PY) -m pipeline.fit --preset $(PRESET) --bootstrap $(or $(BOOT),100)
 
 figures: venv ## Figs. 5-7 and report.md -> results/<PRESET>/figures/, results/<PRESET>/report.md
 	$(PY) -m pipeline.figures --preset $(PRESET)

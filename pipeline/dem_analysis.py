@@ -83,19 +83,25 @@ def model_series(raw: dict, meta: dict) -> dict:
     }
 
 
-def cycle_average(strain, values: dict, period: float, step: float, n_cycles: int) -> dict:
-    """Mean and standard error across cycles on the grid 0, step, ..., period (inclusive).
-
-    Samples with ``strain < 0`` (the preceding half period) are excluded. Sample ``k`` of cycle
-    ``c`` is the one nearest to strain ``c*period + k*step`` (samples land within a few time steps
-    of the grid). With one cycle the standard error is NaN.
-    """
+def cycle_indices(strain, period: float, step: float, n_cycles: int) -> tuple[np.ndarray, np.ndarray]:
+    """The grid 0, step, ..., period and, per cycle, the index of the sample nearest to each grid
+    point (``(n_cycles, n_grid)``); samples land within a few time steps of the grid."""
     n_grid = int(round(period / step)) + 1
     grid = np.arange(n_grid) * step
     targets = np.arange(n_cycles)[:, None] * period + grid[None, :]
     idx = np.abs(strain[None, None, :] - targets[..., None]).argmin(axis=-1)
     if np.max(np.abs(strain[idx] - targets)) > 0.5 * step:
         raise ValueError("samples do not cover every cycle on the sampling grid")
+    return grid, idx
+
+
+def cycle_average(strain, values: dict, period: float, step: float, n_cycles: int) -> dict:
+    """Mean and standard error across cycles on the grid 0, step, ..., period (inclusive).
+
+    Samples with ``strain < 0`` (the preceding half period) are excluded. Sample ``k`` of cycle
+    ``c`` is the one nearest to strain ``c*period + k*step``. With one cycle the standard error is NaN.
+    """
+    grid, idx = cycle_indices(strain, period, step, n_cycles)
     out = {"strain": grid}
     for key, v in values.items():
         per_cycle = v[idx]  # (n_cycles, n_grid, ...)

@@ -19,7 +19,7 @@ from scipy.optimize import least_squares
 import model
 
 from .calibrate import CalibrationError, smooth_segments
-from .dem_analysis import deviator, direction, shear_rate_tensor
+from .dem_analysis import cycle_indices, deviator, direction, shear_rate_tensor
 
 #: the parameters refined (the persistence exponent and the dilatancy stay as given)
 FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")
@@ -159,3 +159,34 @@ def refine_dilatancy(data: list[CycleData], params: model.Params) -> GlobalFit:
     se = np.sqrt(np.diag(cov))
     fitted = base.replace(**dict(zip(DILATANCY, map(float, sol.x), strict=True)))
     return GlobalFit(fitted, DILATANCY, sol.x, se, cov / np.outer(se, se), chi2, int(sol.nfev), True, sol.message)
+
+
+def resampled(data: CycleData, run, rng: np.random.Generator) -> CycleData:
+    """``data`` with its cycle means recomputed from cycles drawn with replacement (same noise scales)."""
+    n = run.spec["n_cycles"]
+    _, idx = cycle_indices(run.series["strain_nominal"], run.spec["period_strain"], run.spec["sample_strain"], n)
+    pick = idx[rng.integers(0, n, n)][:, :-1]  # (n, n_grid - 1): the last sample is left out, as in from_run
+    s = run.series
+    return CycleData(data.theta_deg, data.rotate_at, data.period, data.bulk_over_nominal, data.strain,
+                     s["A"][pick].mean(axis=0), s["tau_over_p"][pick].mean(axis=0), data.A_scale, data.tau_scale,
+                     s["packing_fraction"][pick].mean(axis=0))
+
+
+def bootstrap(runs: list, start: model.Params, replicates: int, seed: int = 0,
+              progress=None) -> dict:
+    """Refit C, n, m, a_i, b_i on ``replicates`` resamplings of every run's cycles (runs with one cycle
+    stay as they are). Returns the replicates' values, standard deviations and 2.5/97.5 percentiles."""
+    if not any(r.spec["n_cycles"] > 1 for r in runs):
+        raise CalibrationError("a bootstrap over cycles needs runs with more than one cycle")
+    rng = np.random.default_rng(seed)
+    base = [CycleData.from_run(r) for r in runs]
+    values = []
+    for k in range(replicates):
+        data = [resampled(d, r, rng) if r.spec["n_cycles"] > 1 else d for d, r in zip(base, runs, strict=True)]
+        values.append(refine(data, start).values)
+        if progress:
+            progress(k + 1, replicates)
+    v = np.array(values)
+    return {"free": list(FREE), "replicates": v.tolist(), "standard_deviation": v.std(axis=0, ddof=1).tolist(),
+            "percentile_2.5": np.percentile(v, 2.5, axis=0).tolist(),
+            "percentile_97.5": np.percentile(v, 97.5, axis=0).tolist(), "seed": seed}

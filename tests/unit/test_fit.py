@@ -97,3 +97,19 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
     roots = (results, reference)
     assert fit.reversal_runs("p", roots) == [results / "p/dem/theta180.h5", reference / "p-1a2b/dem/theta180.h5"]
     assert fit.angle_runs("p", roots) == [reference / "p/dem/theta090.h5"]
+
+
+def test_bootstrap_over_cycles_agrees_with_the_jacobian_standard_errors(tmp_path):
+    paths = [synthetic_file(tmp_path, theta=t, name=f"b{int(t)}", n_cycles=4, noise=0.01, seed=int(t) + 7)
+             for t in (180.0, 90.0)]
+    report = fit.fit(paths[:1], tmp_path / "fit", cross_paths=paths[1:], bootstrap=12)
+    boot, g = report["bootstrap"], report["global"]
+    assert len(boot["replicates"]) == 12
+    ratio = np.array(boot["standard_deviation"]) / np.array(g["standard_errors"])
+    assert np.all((ratio > 0.3) & (ratio < 3)), dict(zip(g["free"], ratio, strict=True))
+
+
+def test_bootstrap_needs_more_than_one_cycle(tmp_path, capsys):
+    path = synthetic_file(tmp_path, n_cycles=1)
+    assert fit.main(["--runs", str(path), "--out", str(tmp_path / "fit"), "--bootstrap", "3"]) == 2
+    assert "needs runs with more than one cycle" in capsys.readouterr().err
