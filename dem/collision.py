@@ -13,30 +13,14 @@ import sys
 
 from yade import O, utils
 from yade._minieigenHP import Vector3
-from yade.wrapper import (
-    Bo1_Sphere_Aabb,
-    ForceResetter,
-    Ig2_Sphere_Sphere_ScGeom,
-    InsertionSortCollider,
-    InteractionLoop,
-    Ip2_ViscElMat_ViscElMat_ViscElPhys,
-    Law2_ScGeom_ViscElPhys_Basic,
-    NewtonIntegrator,
-)
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0]))))  # yade runs scripts with exec
-from dem.contact import contact_constants, contact_material  # noqa: E402
+from dem.contact import contact_constants, contact_engines, contact_material  # noqa: E402
 
 
 def reset(spec, diameter):
     O.reset()
-    O.engines = [
-        ForceResetter(),
-        InsertionSortCollider([Bo1_Sphere_Aabb()]),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_ViscElMat_ViscElMat_ViscElPhys()],
-                        [Law2_ScGeom_ViscElPhys_Basic()]),
-        NewtonIntegrator(damping=0.0, gravity=(0, 0, 0)),
-    ]
+    O.engines = contact_engines()
     mat = O.materials.append(contact_material(spec))
     kn = contact_constants(spec)[0]
     m = math.pi / 6 * diameter**3

@@ -64,3 +64,25 @@ def contact_material(spec):
     kn, kt, cn, ct = contact_constants(spec)
     return ViscElMat(kn=2 * kn, ks=2 * kt, cn=2 * cn, cs=2 * ct, frictionAngle=math.radians(spec["friction_deg"]),
                      density=1.0)
+
+
+def contact_engines():
+    """The engines of a scene of spheres with this contact law: no gravity, no numerical damping."""
+    from yade.wrapper import (
+        Bo1_Sphere_Aabb,
+        ForceResetter,
+        Ig2_Sphere_Sphere_ScGeom,
+        InsertionSortCollider,
+        InteractionLoop,
+        Ip2_ViscElMat_ViscElMat_ViscElPhys,
+        Law2_ScGeom_ViscElPhys_Basic,
+        NewtonIntegrator,
+    )
+
+    return [
+        ForceResetter(),
+        InsertionSortCollider([Bo1_Sphere_Aabb()]),
+        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_ViscElMat_ViscElMat_ViscElPhys()],
+                        [Law2_ScGeom_ViscElPhys_Basic()]),
+        NewtonIntegrator(damping=0.0, gravity=(0, 0, 0)),
+    ]

@@ -33,21 +33,11 @@ import numpy as np
 import yade.config
 from yade import O, pack, utils
 from yade._minieigenHP import Vector3
-from yade.wrapper import (
-    Bo1_Sphere_Aabb,
-    ForceResetter,
-    Ig2_Sphere_Sphere_ScGeom,
-    InsertionSortCollider,
-    InteractionLoop,
-    Ip2_ViscElMat_ViscElMat_ViscElPhys,
-    Law2_ScGeom_ViscElPhys_Basic,
-    NewtonIntegrator,
-    PyRunner,
-)
+from yade.wrapper import PyRunner
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0]))))  # yade runs scripts with exec
 from dem import measure  # noqa: E402
-from dem.contact import contact_constants, contact_material  # noqa: E402
+from dem.contact import contact_constants, contact_engines, contact_material  # noqa: E402
 
 RUN_DIR = sys.argv[1]
 SPEC = json.load(open(os.path.join(RUN_DIR, "spec.json")))
@@ -99,12 +89,7 @@ def build(spec):
     O.bodies.append([utils.sphere(c, r, material=material) for c, r in cloud])
     m_min = min(b.state.mass for b in O.bodies if b.id >= first_grain)
     O.dt = spec["dt_safety"] * math.sqrt(m_min / kn)
-    O.engines = [
-        ForceResetter(),
-        InsertionSortCollider([Bo1_Sphere_Aabb()]),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_ViscElMat_ViscElMat_ViscElPhys()],
-                        [Law2_ScGeom_ViscElPhys_Basic()]),
-        NewtonIntegrator(damping=0.0, gravity=(0, 0, 0)),
+    O.engines = contact_engines() + [
         PyRunner(iterPeriod=int(spec["control_every_steps"]), command="control()", label="controller"),
     ]
     O.tags["spec"] = json.dumps(SPEC)
