@@ -44,10 +44,12 @@ def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str,
     if reversals:
         share = np.mean([backstress_share(r, ours.C) for r in reversals])
         phi = np.mean([r.cycle["packing_fraction"].mean() for r in reversals])
+        paper_phi = model.predict(180, params=paper).packing_fraction
         lines += ["", "## Reversal", "",
                   f"- share of the backstress C A12 in the steady shear stress: {share:.0%} with our C "
                   f"(paper: 88 %)",
-                  f"- mean packing fraction over the cycle: {phi:.3f} (paper's Phi_c = 0.652)"]
+                  f"- mean packing fraction over the cycle: {phi:.3f} (the model with Table 2: "
+                  f"{paper_phi.min():.3f} to {paper_phi.max():.3f}; Phi_c = {paper.phi_c} is not the steady value)"]
     if fit_h5 is not None:
         import h5py
 
