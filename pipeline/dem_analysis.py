@@ -1,4 +1,4 @@
-"""From raw DEM samples to model-ready series and the cycle-averaged periodic cycle (numpy only).
+"""From raw DEM samples to model-ready series and the cycle-averaged periodic cycle (no file I/O).
 
 Conventions (README): walls normal to e2, shear direction s(phi) = cos(phi) e1 + sin(phi) e3, strain
 t*gamma_dot from the start of the first period (negative in the preceding half period), stress
@@ -10,34 +10,20 @@ from __future__ import annotations
 
 import numpy as np
 
-IDENTITY = np.eye(3)
-
-
-def deviator(m):
-    """Deviatoric part of (..., 3, 3) tensors."""
-    return m - np.trace(m, axis1=-2, axis2=-1)[..., None, None] * IDENTITY / 3
-
-
-def sym(m):
-    return 0.5 * (m + np.swapaxes(m, -1, -2))
+from model.equations import hardening_variable_stack
+from model.kinematics import deviator, stretching
 
 
 def shear_rate_tensor(gradient):
     """D = sym(g e2) for the velocity gradient L = g (x) e2 of a flow between walls normal to e2."""
     L = np.zeros(gradient.shape[:-1] + (3, 3))
     L[..., :, 1] = gradient
-    return sym(L)
+    return stretching(L)
 
 
 def direction(phi_deg):
     phi = np.radians(phi_deg)
     return np.stack([np.cos(phi), np.zeros_like(phi), np.sin(phi)], axis=-1)
-
-
-def hardening_variable(A, D_dev):
-    """S = |A| - A:D'/|D'| (Eq. 10)."""
-    norm_D = np.linalg.norm(D_dev, axis=(-2, -1))
-    return np.linalg.norm(A, axis=(-2, -1)) - np.einsum("...ij,...ij->...", A, D_dev) / norm_D
 
 
 def model_series(raw: dict, meta: dict) -> dict:
@@ -61,7 +47,7 @@ def model_series(raw: dict, meta: dict) -> dict:
 
     stress = raw["stress_contact"] + raw["stress_kinetic"]
     p_wall = 1.0  # controlled wall normal stress, the unit of stress
-    tau = deviator(sym(stress)) / p_wall
+    tau = deviator(stretching(stress)) / p_wall
     D_nominal = deviator(shear_rate_tensor(s))
     D_measured = deviator(shear_rate_tensor(gradient))
     A = raw["fabric"]
@@ -76,7 +62,7 @@ def model_series(raw: dict, meta: dict) -> dict:
         "A": A,
         "tau_over_p": tau,
         "mean_stress_over_p": -np.trace(stress, axis1=1, axis2=2) / 3 / p_wall,
-        "S": hardening_variable(A, D_nominal),
+        "S": hardening_variable_stack(A, D_nominal),
         "packing_fraction": phi,
         "w_shear": np.einsum("nij,nij->n", tau, D_nominal),
         "w_vol": dphi / phi,

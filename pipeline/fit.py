@@ -42,10 +42,12 @@ from pathlib import Path
 import numpy as np
 
 import model
+from model.equations import hardening_variable_stack
+from model.kinematics import deviator
 
 from . import calibrate as cal
 from . import global_fit
-from .dem_analysis import deviator, direction, hardening_variable, shear_rate_tensor
+from .dem_analysis import direction, shear_rate_tensor
 from .dem_h5 import DemFileError, load
 from .paths import REFERENCE_DIR, RESULTS_DIR
 
@@ -84,7 +86,7 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
     ratio = bulk / run.parameters["gamma_dot_nominal"]
     if not (math.isfinite(ratio) and ratio > 0):
         raise cal.CalibrationError(f"{run.path}: no measured bulk shear rate")
-    S = hardening_variable(A, D)
+    S = hardening_variable_stack(A, D)
 
     # smoothed A and tau: a regression on noisy A12 would bias the slope of Eq. 15 towards zero
     A_s, rate = cal.jaumann_rate(strain, A, D, window_strain=window)
@@ -150,7 +152,7 @@ def cross_check_run(run, window: float = 0.05, min_sine: float = 0.1) -> dict:
     A_s, _ = cal.smooth_segments(strain, c["A"], D, window_strain=window)
     tau_s, _ = cal.smooth_segments(strain, c["tau_over_p"], D, window_strain=window)
     C, Y = cal.backstress_and_yield(tau_s, A_s, D, min_sine=min_sine)
-    S = hardening_variable(A_s, D)
+    S = hardening_variable_stack(A_s, D)
     ok = np.isfinite(C) & np.isfinite(S)
     out = {"path": str(run.path), "theta_deg": run.spec["theta_deg"], "samples": int(ok.sum()),
            "arrays": {"strain": strain, "S": S, "C": C, "Y": Y}}
@@ -219,12 +221,14 @@ def fit(paths: list[Path], out_dir: Path, window: float = 0.05, cross_paths: tup
     global fit; the stepwise one without ``refine``), ``params_stepwise.json`` and ``fit.json``."""
     if not paths:
         raise cal.CalibrationError("no reversal run found (theta = 180): run `make dem THETA=180 PRESET=...` first")
-    per_run = [calibrate_run(load(p), window=window) for p in paths]
-    cross = [cross_check_run(load(p), window=window) for p in cross_paths]
+    reversal_files = [load(p) for p in paths]
+    cross_files = [load(p) for p in cross_paths]
+    per_run = [calibrate_run(run, window=window) for run in reversal_files]
+    cross = [cross_check_run(run, window=window) for run in cross_files]
     arrays = {"reversal": [r.pop("arrays") for r in per_run], "cross_check": [c.pop("arrays") for c in cross]}
     refined = None
     if refine:
-        data = [global_fit.CycleData.from_run(load(p)) for p in (*paths, *cross_paths)]
+        data = [global_fit.CycleData.from_run(run) for run in (*reversal_files, *cross_files)]
         refined = global_fit.refine(data, model.Params())
         dilatancy = global_fit.refine_dilatancy(data, refined.params)
         boot = None
@@ -236,7 +240,7 @@ def fit(paths: list[Path], out_dir: Path, window: float = 0.05, cross_paths: tup
                 print(f"bootstrap {done}/{total} ({done / total:.0%}), {rate:.2f} fits/s, "
                       f"ETA {(total - done) / rate:.0f} s", flush=True)
 
-            boot = global_fit.bootstrap([load(p) for p in (*paths, *cross_paths)], model.Params(), bootstrap,
+            boot = global_fit.bootstrap([*reversal_files, *cross_files], model.Params(), bootstrap,
                                         progress=progress)
     estimates = combine(per_run)
     bad = [k for k in ("C_eq15", "n", "m", "a1", "b1", "a2", "b2") if not math.isfinite(estimates[k]["value"])]

@@ -17,9 +17,10 @@ import numpy as np
 from scipy.optimize import least_squares
 
 import model
+from model.kinematics import deviator
 
 from .calibrate import CalibrationError, smooth_segments
-from .dem_analysis import cycle_indices, deviator, direction, shear_rate_tensor
+from .dem_analysis import cycle_indices, direction, shear_rate_tensor
 
 #: the parameters refined (the persistence exponent and the dilatancy stay as given)
 FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")
