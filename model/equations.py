@@ -102,7 +102,8 @@ def fabric_rates(y, Dh, Wn, p):
 
 
 @jit
-def _observables(A, Dh, p, S, tau, w_shear, w_vol_base):
+def observables_into(A, Dh, p, S, tau, w_shear, w_vol_base):
+    """Fill S, tau/p (Eq. 14), tau:D'/(p |D'|) and c1 A:Dh for stacks A, Dh = D'/|D'| (n, 3, 3)."""
     for i in range(A.shape[0]):
         a = A[i]
         d = Dh[i]
@@ -157,7 +158,7 @@ def observables(A: np.ndarray, D_dev: np.ndarray, p: np.ndarray, packing_fractio
     tau = np.empty((n, 3, 3))
     w_shear = np.empty(n)
     w_vol = np.empty(n)
-    _observables(A, Dh, np.asarray(p, dtype=float), S, tau, w_shear, w_vol)
+    observables_into(A, Dh, np.asarray(p, dtype=float), S, tau, w_shear, w_vol)
     out = {"S": S, "tau": tau, "w_shear": w_shear}
     if packing_fraction is not None:
         phi = np.asarray(packing_fraction, dtype=float)

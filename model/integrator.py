@@ -25,7 +25,7 @@ import math
 import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
-from .equations import fabric_rates, jit
+from .equations import C2_COEF, C2_EXP, C3, PHI_C, fabric_rates, jit, observables_into
 
 N_STATE = 8
 ROUNDOFF = 1e-13  # relative time difference treated as equal (segment ends vs output times)
@@ -78,15 +78,16 @@ def _emit_state(y, t_out, iout, y_out):
 
 @jit
 def _dense_component(F, y_old, x, i):
-    """Component i of the DOP853 dense output at fraction x of the step (Hairer's form, as in scipy)."""
-    acc = 0.0
-    for j in range(F.shape[0] - 1, -1, -1):
-        acc += F[j, i]
-        if (F.shape[0] - 1 - j) % 2 == 0:
-            acc *= x
-        else:
-            acc *= 1.0 - x
-    return y_old[i] + acc
+    """Component i of the DOP853 dense output at fraction x of the step (Hairer's form, as in scipy):
+    P = y_old + x (F0 + (1-x) (F1 + x (F2 + (1-x) (F3 + x (F4 + (1-x) (F5 + x F6))))))."""
+    u = 1.0 - x
+    q = F[5, i] + x * F[6, i]
+    q = F[4, i] + u * q
+    q = F[3, i] + x * q
+    q = F[2, i] + u * q
+    q = F[1, i] + x * q
+    q = F[0, i] + u * q
+    return y_old[i] + x * q
 
 
 @jit
@@ -96,32 +97,85 @@ def _dense_eval(F, y_old, x, out):
 
 
 @jit
-def _dense_solve_time(F, y_old, t_old, t_new, target):
-    """Fraction x in [0, 1] of the step where the interpolated time equals ``target`` (Illinois)."""
+def _dense_value_slope(F, y_old, x, i):
+    """Component i of the dense output P(x) (see ``_dense_component``) and its slope dP/dx."""
+    u = 1.0 - x
+    q = F[5, i] + x * F[6, i]
+    dq = F[6, i]
+    dq = -q + u * dq
+    q = F[4, i] + u * q
+    dq = q + x * dq
+    q = F[3, i] + x * q
+    dq = -q + u * dq
+    q = F[2, i] + u * q
+    dq = q + x * dq
+    q = F[1, i] + x * q
+    dq = -q + u * dq
+    q = F[0, i] + u * q
+    return y_old[i] + x * q, q + x * dq
+
+
+@jit
+def _dense_defect(F, y_old, h, Dh, Wn, rate, p, lam_ref, rtol, atol, ymid, dmid, fmid):
+    """Defect of the dense output at mid-step, |P'(1/2) - h f(P(1/2))|, in the error norm.
+
+    The step's error estimate controls only its end. Where the stiff fabric relaxation (large
+    |b2|) limits the step, the interpolant P in between can be off by far more; the defect of P in
+    the ODE (its residual, times h) bounds that error for stiff and non-stiff components alike.
+    """
+    n = y_old.shape[0]
+    for i in range(n):
+        ymid[i], dmid[i] = _dense_value_slope(F, y_old, 0.5, i)
+    _rhs_s(ymid, Dh, Wn, rate, p, lam_ref, fmid)
+    acc = 0.0
+    for i in range(n):
+        scale = atol + rtol * abs(ymid[i])
+        acc += ((dmid[i] - h * fmid[i]) / scale) ** 2
+    return math.sqrt(acc / n)
+
+
+@jit
+def _dense_solve_time(F, y_old, target):
+    """Fraction x in [0, 1] of the step where the interpolated time equals ``target``.
+
+    Newton from the linear guess, safeguarded by bisection; t(x) is monotone and nearly linear
+    away from S = 0, so two or three iterations suffice.
+    """
     lo, hi = 0.0, 1.0
-    flo, fhi = t_old - target, t_new - target
-    if flo >= 0.0:
+    t_lo = y_old[T_INDEX]
+    t_hi = y_old[T_INDEX] + F[0, T_INDEX]  # P(1) = y_new
+    if target <= t_lo:
         return 0.0
-    if fhi <= 0.0:
+    if target >= t_hi:
         return 1.0
-    side = 0
-    x = 0.5
-    for _ in range(100):
-        x = (lo * fhi - hi * flo) / (fhi - flo)
-        fx = _dense_component(F, y_old, x, T_INDEX) - target
-        if fx == 0.0 or hi - lo < 1e-15:
-            break
-        if fx > 0.0:
-            hi, fhi = x, fx
-            if side == -1:
-                flo *= 0.5
-            side = -1
+    x = (target - t_lo) / (t_hi - t_lo)
+    for _ in range(60):
+        value, slope = _dense_value_slope(F, y_old, x, T_INDEX)
+        f = value - target
+        if f == 0.0:
+            return x
+        if f > 0.0:
+            hi = x
         else:
-            lo, flo = x, fx
-            if side == 1:
-                fhi *= 0.5
-            side = 1
+            lo = x
+        step = f / slope if slope > 0.0 else math.inf
+        if abs(step) <= 1e-15:
+            return min(max(x - step, lo), hi)
+        x = x - step
+        if not (lo < x < hi):
+            x = 0.5 * (lo + hi)
     return x
+
+
+@jit
+def _dense_outputs(F, y_old, t_out, iout, limit, y_out):
+    """Outputs t_out[iout:] below ``limit`` from the step's dense output; returns the next index."""
+    while iout < t_out.shape[0] and t_out[iout] < limit:
+        x = _dense_solve_time(F, y_old, t_out[iout])
+        _dense_eval(F, y_old, x, y_out[iout])
+        y_out[iout, T_INDEX] = t_out[iout]
+        iout += 1
+    return iout
 
 
 @jit
@@ -222,9 +276,9 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
     """Integrate the packed state through consecutive constant-L segments.
 
     seg_end: (m,) end times; seg_Dh: (m, 6) unit D'; seg_Wn: (m, 3) W/|D'|; seg_rate: (m,) |D'|;
-    t_out: sorted output times within [y0[t], seg_end[-1]]. Steps land exactly on every output
-    time and segment end (the interpolant only locates the crossing), so outputs carry the
-    accuracy of the steps themselves.
+    t_out: sorted output times within [y0[t], seg_end[-1]]. Steps land exactly on every segment
+    end, where the right-hand side jumps; outputs between step ends come from the dense output,
+    so the step size is set by the tolerance alone, not by the output spacing.
     Returns (y_out (len(t_out), 8), y_end (8,), stats (nfev, accepted, rejected, status)).
     """
     n = y0.shape[0]
@@ -233,6 +287,7 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
     y_new = np.empty(n)
     ytmp = np.empty(n)
     ftmp = np.empty(n)
+    fmid = np.empty(n)
     f0 = np.empty(n)
     K = np.empty((RK_A.shape[0], n))
     F = np.empty((7, n))
@@ -257,12 +312,10 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
             if accepted + rejected >= max_steps:
                 status = TOO_MANY_STEPS
                 break
-            iout = _emit_state(y, t_out, iout, y_out)
-            t_stop = min(t_end, t_out[iout]) if iout < n_out else t_end
             h_free = h
-            landing = f0[T_INDEX] > 0.0 and y[T_INDEX] + h * f0[T_INDEX] > t_stop
+            landing = f0[T_INDEX] > 0.0 and y[T_INDEX] + h * f0[T_INDEX] > t_end
             if landing:
-                h = (t_stop - y[T_INDEX]) / f0[T_INDEX]
+                h = (t_end - y[T_INDEX]) / f0[T_INDEX]
             if h < 1e-14 * (1.0 + abs(y[T_INDEX]) * rate):
                 status = STEP_UNDERFLOW
                 break
@@ -280,28 +333,47 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
             h_next = h * factor
             if landing:
                 h_next = max(h_next, h_free)  # a short landing step does not shrink the next one
-            if y_new[T_INDEX] > t_stop:
-                # passed the stop: locate the crossing on the interpolant; close to the step end
-                # (where the interpolant matches y_new and its slope) take the interpolated state,
-                # otherwise retake the step to the crossing
+            dense_ready = False
+            if y_new[T_INDEX] > t_end:
+                # passed the segment end (the RHS jumps there): locate the crossing on the
+                # interpolant; close to the step end (where the interpolant matches y_new and its
+                # slope) take the interpolated state, otherwise retake the step to the crossing
                 _dense_coefficients(y, y_new, h, Dh, Wn, rate, p, lam_ref, K, F, ytmp)
                 nfev += 3
-                x = _dense_solve_time(F, y, y[T_INDEX], y_new[T_INDEX], t_stop)
+                x = _dense_solve_time(F, y, t_end)
                 if x > 1.0 - NEAR_END:
                     _dense_eval(F, y, x, y_new)
-                    _rhs_s(y_new, Dh, Wn, rate, p, lam_ref, K[N_STAGES])
-                    nfev += 1
+                    dense_ready = True  # F still describes this step, up to fraction x
                 else:
-                    _rk_step(y, f0, h * x, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp)
+                    h *= x
+                    _rk_step(y, f0, h, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp)
                     nfev += N_STAGES
-            if abs(t_stop - y_new[T_INDEX]) <= ROUNDOFF * max(1.0, t_stop):
-                y_new[T_INDEX] = t_stop
+            if abs(t_end - y_new[T_INDEX]) <= ROUNDOFF * max(1.0, t_end):
+                y_new[T_INDEX] = t_end
             for i in range(n):
                 if not math.isfinite(y_new[i]):
                     status = NOT_FINITE
             if status != SUCCESS:
                 break
+            # outputs inside the step come from DOP853's 7th-order dense output; an output at the
+            # step's end takes the step's own state
+            limit = y_new[T_INDEX] - ROUNDOFF * max(1.0, abs(y_new[T_INDEX]))
+            if iout < n_out and t_out[iout] < limit:
+                if not dense_ready:
+                    _dense_coefficients(y, y_new, h, Dh, Wn, rate, p, lam_ref, K, F, ytmp)
+                    nfev += 3
+                defect = _dense_defect(F, y, h, Dh, Wn, rate, p, lam_ref, rtol, atol, ytmp, ftmp, fmid)
+                nfev += 1
+                if not defect <= 1.0:
+                    # the interpolant is not good enough for the outputs: retake a shorter step
+                    rejected += 1
+                    h *= max(0.2, 0.9 * defect ** (-1.0 / 8.0)) if math.isfinite(defect) else 0.2
+                    continue
+                iout = _dense_outputs(F, y, t_out, iout, limit, y_out)
             iout = _emit_state(y_new, t_out, iout, y_out)
+            if dense_ready:
+                _rhs_s(y_new, Dh, Wn, rate, p, lam_ref, K[N_STAGES])
+                nfev += 1
             for i in range(n):
                 y[i] = y_new[i]
                 f0[i] = K[N_STAGES, i]
@@ -363,3 +435,43 @@ def explicit_euler(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, strain_step,
             status = NOT_FINITE
     stats = np.array([nfev, nfev, 0, status], dtype=np.int64)
     return y_out, y, stats
+
+
+@jit
+def outputs(y_out, t_out, seg_end, D_unit, rate, shear_rate, p, phi, A, Dh, seg, S, tau, w_shear, w_vol):
+    """Observables at the outputs of a kernel run, filled into the given arrays.
+
+    A, Dh: (n, 3, 3) fabric and D'/|D'|; seg: (n,) acting segment (a segment owns [start, end), the
+    last one its end too); S, tau (Eq. 14) and the work rates of Eqs. 17-18 per unit p*gamma_dot.
+    Returns (all finite, min S, max |A|^2) for the caller's checks.
+    """
+    k = 0
+    finite = True
+    max_norm2 = 0.0
+    for i in range(y_out.shape[0]):
+        while k < seg_end.shape[0] - 1 and t_out[i] >= seg_end[k]:
+            k += 1
+        seg[i] = k
+        a11, a22, a12, a13, a23 = y_out[i, 0], y_out[i, 1], y_out[i, 2], y_out[i, 3], y_out[i, 4]
+        a33 = -a11 - a22
+        A[i, 0, 0], A[i, 1, 1], A[i, 2, 2] = a11, a22, a33
+        A[i, 0, 1] = A[i, 1, 0] = a12
+        A[i, 0, 2] = A[i, 2, 0] = a13
+        A[i, 1, 2] = A[i, 2, 1] = a23
+        d = D_unit[k]
+        Dh[i, 0, 0], Dh[i, 1, 1], Dh[i, 2, 2] = d[0], d[1], d[2]
+        Dh[i, 0, 1] = Dh[i, 1, 0] = d[3]
+        Dh[i, 0, 2] = Dh[i, 2, 0] = d[4]
+        Dh[i, 1, 2] = Dh[i, 2, 1] = d[5]
+        norm2 = a11 * a11 + a22 * a22 + a33 * a33 + 2.0 * (a12 * a12 + a13 * a13 + a23 * a23)
+        max_norm2 = max(max_norm2, norm2)
+        finite = finite and math.isfinite(norm2) and math.isfinite(phi[i])
+    observables_into(A, Dh, p, S, tau, w_shear, w_vol)
+    min_S = math.inf
+    for i in range(y_out.shape[0]):
+        scale = rate[seg[i]] / shear_rate  # per-|D'| rates to per-gamma_dot
+        c2 = p[C2_COEF] * S[i] ** p[C2_EXP]
+        w_vol[i] = (w_vol[i] + c2 * (p[PHI_C] - phi[i] + p[C3])) * scale  # Eq. 18 over |D'|
+        w_shear[i] *= scale
+        min_S = min(min_S, S[i])
+    return finite, min_S, max_norm2

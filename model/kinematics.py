@@ -10,8 +10,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -115,6 +117,19 @@ class Segment:
 
 
 @dataclass(frozen=True)
+class PackedSegments:
+    """Segments as arrays: ``end`` (m,) end times; ``D_unit`` (m, 6) D'/|D'| packed as (11, 22, 33,
+    12, 13, 23); ``W_unit`` (m, 3) W/|D'| packed as (12, 13, 23); ``rate`` (m,) |D'| (1/time);
+    ``D_dev`` (m, 3, 3) D' (1/time)."""
+
+    end: np.ndarray
+    D_unit: np.ndarray
+    W_unit: np.ndarray
+    rate: np.ndarray
+    D_dev: np.ndarray
+
+
+@dataclass(frozen=True)
 class History:
     """A sequence of constant-L segments; ``shear_rate`` converts time to strain t*gamma_dot."""
 
@@ -130,12 +145,31 @@ class History:
 
     @property
     def duration(self) -> float:
-        return float(sum(seg.duration for seg in self.segments))
+        return float(self.boundaries[-1])
 
-    @property
+    @cached_property
     def boundaries(self) -> np.ndarray:
         """Segment start times and the end time, shape (n_segments + 1,)."""
-        return np.concatenate([[0.0], np.cumsum([seg.duration for seg in self.segments])])
+        bounds = np.concatenate([[0.0], np.cumsum([seg.duration for seg in self.segments])])
+        bounds.setflags(write=False)
+        return bounds
+
+    @cached_property
+    def packed(self) -> PackedSegments:
+        """The segments in the compiled kernels' layout (see ``PackedSegments``)."""
+        norms = np.array([seg.D_dev_norm for seg in self.segments])
+        D_unit = np.array([seg.D_dev for seg in self.segments]) / norms[:, None, None]
+        W = np.array([seg.W for seg in self.segments]) / norms[:, None, None]
+        packed = PackedSegments(
+            end=self.boundaries[1:].copy(),
+            D_unit=D_unit[:, [0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]].copy(),
+            W_unit=W[:, [0, 0, 1], [1, 2, 2]].copy(),
+            rate=norms,
+            D_dev=np.array([seg.D_dev for seg in self.segments]),
+        )
+        for array in dataclasses.astuple(packed):
+            array.setflags(write=False)
+        return packed
 
     def segment_index(self, t: np.ndarray) -> np.ndarray:
         """Index of the segment acting at each time; a segment owns [start, end), the last one its end too."""
@@ -161,7 +195,8 @@ def steady_shear(strain: float, phi_deg: float = 0.0, shear_rate: float = 1.0) -
 
 def reversal(pre_strain: float, post_strain: float, shear_rate: float = 1.0) -> History:
     """Shear along e1 for ``pre_strain``, then reversed (theta = 180 deg) for ``post_strain``."""
-    return History((shear_segment(pre_strain, 0.0, shear_rate), shear_segment(post_strain, 180.0, shear_rate)), shear_rate)
+    segments = (shear_segment(pre_strain, 0.0, shear_rate), shear_segment(post_strain, 180.0, shear_rate))
+    return History(segments, shear_rate)
 
 
 PERIOD_STRAIN = 1.4  # paper Fig. 1: T = 1.4 / gamma_dot

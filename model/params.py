@@ -61,14 +61,17 @@ class Params:
                 problems.append(f"phi_c={self.phi_c} must lie in (0, 1)")
         if problems:
             raise ParameterError("invalid model parameters: " + "; ".join(problems))
+        array = np.array([getattr(self, name) for name in self.names()], dtype=float)
+        array.setflags(write=False)
+        object.__setattr__(self, "_array", array)
 
     @classmethod
     def names(cls) -> tuple[str, ...]:
         return tuple(f.name for f in fields(cls))
 
     def as_array(self) -> np.ndarray:
-        """Parameters in declaration order, as the compiled kernels expect them."""
-        return np.array([getattr(self, name) for name in self.names()], dtype=float)
+        """Parameters in declaration order, as the compiled kernels expect them (read-only)."""
+        return self._array
 
     def replace(self, **changes) -> Params:
         return dataclasses.replace(self, **changes)
