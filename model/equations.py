@@ -49,8 +49,11 @@ def hardening_variable(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23):
 
 @jit
 def persistence(S, p):
-    """Contact persistence Lambda(S) = S**k (Eqs. 12, 24; paper k = 3/4)."""
-    return S ** p[K_PERSIST]
+    """Contact persistence Lambda(S) = S**k (Eqs. 12, 24; paper k = 3/4, taken as two square roots)."""
+    k = p[K_PERSIST]
+    if k == 0.75:
+        return math.sqrt(S * math.sqrt(S))
+    return S ** k
 
 
 @jit
@@ -61,8 +64,11 @@ def yield_function(S, p):
 
 @jit
 def dilatancy_c2(S, p):
-    """c2(S) = c2_coef * S**c2_exponent (Sec. 5; paper 5.6 S**(1/3))."""
-    return p[C2_COEF] * S ** p[C2_EXP]
+    """c2(S) = c2_coef * S**c2_exponent (Sec. 5; paper 5.6 S**(1/3), taken as a cube root)."""
+    e = p[C2_EXP]
+    if e == 1.0 / 3.0:
+        return p[C2_COEF] * np.cbrt(S)
+    return p[C2_COEF] * S ** e
 
 
 @jit

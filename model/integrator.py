@@ -25,7 +25,7 @@ import math
 import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
-from .equations import C2_COEF, C2_EXP, C3, PHI_C, fabric_rates, jit, observables_into
+from .equations import C3, PHI_C, dilatancy_c2, fabric_rates, jit, observables_into
 
 N_STATE = 8
 ROUNDOFF = 1e-13  # relative time difference treated as equal (segment ends vs output times)
@@ -470,7 +470,7 @@ def outputs(y_out, t_out, seg_end, D_unit, rate, shear_rate, p, phi, A, Dh, seg,
     min_S = math.inf
     for i in range(y_out.shape[0]):
         scale = rate[seg[i]] / shear_rate  # per-|D'| rates to per-gamma_dot
-        c2 = p[C2_COEF] * S[i] ** p[C2_EXP]
+        c2 = dilatancy_c2(S[i], p)
         w_vol[i] = (w_vol[i] + c2 * (p[PHI_C] - phi[i] + p[C3])) * scale  # Eq. 18 over |D'|
         w_shear[i] *= scale
         min_S = min(min_S, S[i])
