@@ -37,6 +37,10 @@ def test_relaxation_strain_of_an_exponential():
 
     from pipeline.figures.reversal import relaxation_strain
 
-    strain = np.arange(0, 3, 0.005)
-    x = 1 - np.exp(-strain / 0.2)  # within 5 % after 0.2 ln 20 = 0.599
-    assert relaxation_strain(strain, x) == pytest.approx(0.2 * np.log(20), abs=0.01)
+    strain = np.arange(0, 0.7, 0.005)
+    x = 1 - np.exp(-strain / 0.15)  # within 5 % after 0.15 ln 20 = 0.449
+    assert relaxation_strain(strain, x) == pytest.approx(0.15 * np.log(20), rel=1e-6)
+    # noise as large as a tenth of the change moves it by a few per cent, not to the window's end
+    noisy = x + np.random.default_rng(1).normal(0, 0.1, x.size)
+    assert relaxation_strain(strain, noisy) == pytest.approx(0.15 * np.log(20), rel=0.15)
+    assert np.isnan(relaxation_strain(strain, np.random.default_rng(2).normal(0, 1, x.size)))
