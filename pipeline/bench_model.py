@@ -37,8 +37,8 @@ CASES = {
     "theta=90": (90.0, PAPER),
     "theta=180, b2 x 10": (180.0, PAPER.replace(b2=10 * PAPER.b2)),
 }
-RTOLS = (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)
-EULER_STEPS = (1e-2, 1e-3, 1e-4, 1e-5)
+RTOLS = (1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)
+EULER_STEPS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7)  # down to error < 1e-6 in every case: no extrapolation
 SCIPY_RTOLS = (1e-6, 1e-8, 1e-10)
 ANGLES = (30, 60, 90, 120, 150, 180)
 
@@ -196,7 +196,17 @@ def main(argv=None) -> int:
     lines += ["## Targets", "", table(summary_df), ""]
     lines.append(f"Six-angle sweep (30...180 deg), converged cycles at default tolerances: {sweep_ms:.2f} ms in all, "
                  f"max tau/p error {sweep_err:.2g}.")
-    lines += ["", table(sweep_df), "", "## Work-precision", "", table(df.drop(columns=["note"])), ""]
+    lines += ["", table(sweep_df), ""]
+    worst_1e8 = summary_df[summary_df.case == "theta=180"].ms_at_1e8.iloc[0]
+    lines += ["Targets of the model issue:", "",
+              f"- theta = 180 cycle to 1e-8 in <= 2 ms: {worst_1e8:.3f} ms "
+              f"({'met' if worst_1e8 <= 2 else 'NOT met'})",
+              *(f"- {r.case}: {r.speedup_vs_euler_1e6:.0f}x explicit Euler at error 1e-6 "
+                f"({'met' if r.speedup_vs_euler_1e6 >= 1000 else 'NOT met'}: target 1000x)"
+                for r in summary_df.itertuples()),
+              f"- six-angle sweep to 1e-8 in <= 20 ms: {sweep_ms:.2f} ms, max error {sweep_err:.2g} "
+              f"({'met' if sweep_ms <= 20 and sweep_err <= 1e-8 else 'NOT met'})", ""]
+    lines += ["## Work-precision", "", table(df.drop(columns=["note"])), ""]
     notes = df[df.note != ""]
     if len(notes):
         lines += ["Failures:", ""] + [f"- {r.case}, {r.method} {r.setting:g}: {r.note}" for r in notes.itertuples()]
