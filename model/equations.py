@@ -64,11 +64,8 @@ def yield_function(S, p):
 
 @jit
 def dilatancy_c2(S, p):
-    """c2(S) = c2_coef * S**c2_exponent (Sec. 5; paper 5.6 S**(1/3), taken as a cube root)."""
-    e = p[C2_EXP]
-    if e == 1.0 / 3.0:
-        return p[C2_COEF] * np.cbrt(S)
-    return p[C2_COEF] * S ** e
+    """c2(S) = c2_coef * S**c2_exponent (Sec. 5; paper 5.6 S**(1/3))."""
+    return p[C2_COEF] * S ** p[C2_EXP]
 
 
 @jit
