@@ -182,6 +182,22 @@ def combine(per_run: list[dict]) -> dict:
     return out
 
 
+SMOOTHING_WINDOWS = (0.03, 0.05, 0.08)  # Savitzky-Golay windows in strain
+EQ15_WINDOWS = ((0.2, 0.69), (0.3, 0.69), (0.4, 0.69))  # strain after the reversal for Eq. 15's slope
+SENSITIVE = ("C_eq15", "n", "m", "a1", "b1", "a2", "b2", "persistence_exponent_alpha1", "persistence_exponent_alpha2")
+
+
+def sensitivity(runs: list) -> dict:
+    """The stepwise estimates (mean over runs) for each smoothing window, and Eq. 15's C for each
+    strain window after the reversal: how much the calibration hinges on these choices."""
+    def means(**kwargs):
+        per_run = [calibrate_run(run, **kwargs) for run in runs]
+        return {key: float(np.nanmean([r[key] for r in per_run])) for key in SENSITIVE}
+
+    return {"smoothing_window": {f"{w:g}": means(window=w) for w in SMOOTHING_WINDOWS},
+            "eq15_window": {f"{a:g}-{b:g}": means(c_window=(a, b))["C_eq15"] for a, b in EQ15_WINDOWS}}
+
+
 def fitted_params(estimates: dict) -> model.Params:
     """Model parameters from the stepwise estimates (c1 = -C, Eq. 19; k and the c2 exponent kept)."""
     C = estimates["C_eq15"]["value"]
@@ -251,6 +267,7 @@ def fit(paths: list[Path], out_dir: Path, window: float = 0.05, cross_paths: tup
     out_dir.mkdir(parents=True, exist_ok=True)
     report = {"method": "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18), then a global least-squares refinement",
               "jaumann_window_strain": window, "runs": per_run, "estimates": estimates,
+              "sensitivity": sensitivity(reversal_files),
               "params_stepwise": stepwise.to_dict(), "params": params.to_dict(), "cross_check": cross,
               "global": None if refined is None else refined.to_dict(),
               "dilatancy": None if refined is None else dilatancy.to_dict(),

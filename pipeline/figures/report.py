@@ -31,6 +31,20 @@ def model_relaxation(params) -> tuple[float, float]:
     return relaxation_strain(strain, tau12 - back), relaxation_strain(strain, back)
 
 
+def sensitivity_lines(sens: dict) -> list[str]:
+    """The stepwise estimates against the smoothing window, and Eq. 15's C against its strain window."""
+    keys = ("C_eq15", "n", "m", "a1", "b1", "a2", "b2", "persistence_exponent_alpha1", "persistence_exponent_alpha2")
+    heads = ("C (Eq. 15)", "n", "m", "a1", "b1", "a2", "b2", "k from alpha1", "k from alpha2")
+    lines = ["## Stepwise calibration (paper Sec. 4) against its choices", "",
+             "Mean over the reversal runs, per Savitzky-Golay window (strain) used for the smoothing and the "
+             "Jaumann rate:", "", "| window | " + " | ".join(heads) + " |", "|---|" + "---|" * len(heads)]
+    for window, values in sens["smoothing_window"].items():
+        lines.append(f"| {window} | " + " | ".join(f"{values[k]:+.3g}" for k in keys) + " |")
+    lines += ["", "C from Eq. 15 per strain window after the reversal: " + ", ".join(
+        f"{w}: {c:+.2f}" for w, c in sens["eq15_window"].items()) + " (on model data Eq. 15 gives C - 2m)."]
+    return lines
+
+
 def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str, fit_h5: Path | None = None) -> Path:
     paper, ours = model.Params(), sets["our fit"]
     se = {}
@@ -77,6 +91,8 @@ def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str,
                      "the model by the same measure: " + "; ".join(
                          "{}: {:.2f} and {:.2f}".format(label, *model_relaxation(params))
                          for label, params in sets.items()))
+    if fit_json and fit_json.get("sensitivity"):
+        lines += ["", *sensitivity_lines(fit_json["sensitivity"])]
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".tmp")
     tmp.write_text("\n".join(lines) + "\n")
