@@ -37,6 +37,9 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
     for name in ("C", "n", "m", "b1", "b2"):
         assert getattr(refined, name) == pytest.approx(getattr(TRUE, name), rel=0.02), name
     assert refined.c1 == -refined.C
+    # on noise-free data the fabric law does not hinge on the smoothing window
+    for window, values in report["sensitivity"]["smoothing_window"].items():
+        assert values["b2"] == pytest.approx(TRUE.b2, rel=0.02), window
 
 
 def test_several_seeds_give_a_mean_and_its_standard_error(tmp_path):
