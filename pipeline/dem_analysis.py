@@ -95,3 +95,12 @@ def cycle_average(strain, values: dict, period: float, step: float, n_cycles: in
         out[key + "_sem"] = (per_cycle.std(axis=0, ddof=1) / np.sqrt(n_cycles) if n_cycles > 1
                              else np.full(per_cycle.shape[1:], np.nan))
     return out
+
+
+def resampled_cycle(run, rng: np.random.Generator, keys=("A", "tau_over_p", "packing_fraction")) -> dict:
+    """The cycle means of ``keys`` over the run's cycles drawn with replacement (a bootstrap sample),
+    on the grid of ``cycle_indices``."""
+    n = run.spec["n_cycles"]
+    _, idx = cycle_indices(run.series["strain_nominal"], run.spec["period_strain"], run.spec["sample_strain"], n)
+    pick = idx[rng.integers(0, n, n)]
+    return {key: run.series[key][pick].mean(axis=0) for key in keys}

@@ -32,6 +32,7 @@ standard errors. Then ``pipeline.global_fit`` refines C, n, m, a_i, b_i on the c
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import os
@@ -47,7 +48,7 @@ from model.kinematics import deviator
 
 from . import calibrate as cal
 from . import global_fit
-from .dem_analysis import direction, shear_rate_tensor
+from .dem_analysis import direction, resampled_cycle, shear_rate_tensor
 from .dem_h5 import DemFileError, load
 from .paths import REFERENCE_DIR, RESULTS_DIR
 
@@ -198,6 +199,23 @@ def sensitivity(runs: list) -> dict:
             "eq15_window": {f"{a:g}-{b:g}": means(c_window=(a, b))["C_eq15"] for a, b in EQ15_WINDOWS}}
 
 
+def stepwise_bootstrap(runs: list, replicates: int, window: float, seed: int = 0) -> dict:
+    """The stepwise calibration (mean over runs) on ``replicates`` resamplings of every run's cycles."""
+    rng = np.random.default_rng(seed)
+    values = []
+    for _ in range(replicates):
+        per_run = []
+        for run in runs:
+            if run.spec["n_cycles"] > 1:
+                run = dataclasses.replace(run, cycle={**run.cycle, **resampled_cycle(run, rng)})
+            per_run.append(calibrate_run(run, window=window))
+        values.append([np.nanmean([r[key] for r in per_run]) for key in SENSITIVE])
+    v = np.array(values)
+    return {"free": list(SENSITIVE), "standard_deviation": np.nanstd(v, axis=0, ddof=1).tolist(),
+            "percentile_2.5": np.nanpercentile(v, 2.5, axis=0).tolist(),
+            "percentile_97.5": np.nanpercentile(v, 97.5, axis=0).tolist(), "seed": seed}
+
+
 def fitted_params(estimates: dict) -> model.Params:
     """Model parameters from the stepwise estimates (c1 = -C, Eq. 19; k and the c2 exponent kept)."""
     C = estimates["C_eq15"]["value"]
@@ -258,6 +276,7 @@ def fit(paths: list[Path], out_dir: Path, window: float = 0.05, cross_paths: tup
 
             boot = global_fit.bootstrap([*reversal_files, *cross_files], model.Params(), bootstrap,
                                         progress=progress)
+            boot["stepwise"] = stepwise_bootstrap(reversal_files, bootstrap, window)
     estimates = combine(per_run)
     bad = [k for k in ("C_eq15", "n", "m", "a1", "b1", "a2", "b2") if not math.isfinite(estimates[k]["value"])]
     if bad:

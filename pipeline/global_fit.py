@@ -20,7 +20,7 @@ import model
 from model.kinematics import deviator
 
 from .calibrate import CalibrationError, smooth_segments
-from .dem_analysis import cycle_indices, direction, shear_rate_tensor
+from .dem_analysis import direction, resampled_cycle, shear_rate_tensor
 
 #: the parameters refined (the persistence exponent and the dilatancy stay as given)
 FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")
@@ -164,13 +164,9 @@ def refine_dilatancy(data: list[CycleData], params: model.Params) -> GlobalFit:
 
 def resampled(data: CycleData, run, rng: np.random.Generator) -> CycleData:
     """``data`` with its cycle means recomputed from cycles drawn with replacement (same noise scales)."""
-    n = run.spec["n_cycles"]
-    _, idx = cycle_indices(run.series["strain_nominal"], run.spec["period_strain"], run.spec["sample_strain"], n)
-    pick = idx[rng.integers(0, n, n)][:, :-1]  # (n, n_grid - 1): the last sample is left out, as in from_run
-    s = run.series
+    c = resampled_cycle(run, rng)  # the last sample is left out, as in from_run
     return CycleData(data.theta_deg, data.rotate_at, data.period, data.bulk_over_nominal, data.strain,
-                     s["A"][pick].mean(axis=0), s["tau_over_p"][pick].mean(axis=0), data.A_scale, data.tau_scale,
-                     s["packing_fraction"][pick].mean(axis=0))
+                     c["A"][:-1], c["tau_over_p"][:-1], data.A_scale, data.tau_scale, c["packing_fraction"][:-1])
 
 
 def bootstrap(runs: list, start: model.Params, replicates: int, seed: int = 0,

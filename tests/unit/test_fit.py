@@ -110,6 +110,12 @@ def test_bootstrap_over_cycles_agrees_with_the_jacobian_standard_errors(tmp_path
     assert len(boot["replicates"]) == 12
     ratio = np.array(boot["standard_deviation"]) / np.array(g["standard_errors"])
     assert np.all((ratio > 0.3) & (ratio < 3)), dict(zip(g["free"], ratio, strict=True))
+    # the stepwise calibration, bootstrapped the same way: a spread, and an interval around its value
+    step = boot["stepwise"]
+    for key in ("C_eq15", "n", "m", "b1", "b2"):
+        i = step["free"].index(key)
+        assert 0 < step["standard_deviation"][i] < np.inf, key
+        assert step["percentile_2.5"][i] <= report["estimates"][key]["value"] <= step["percentile_97.5"][i], key
 
 
 def test_bootstrap_needs_more_than_one_cycle(tmp_path, capsys):
