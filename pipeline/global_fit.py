@@ -149,11 +149,17 @@ def refine_dilatancy(data: list[CycleData], params: model.Params) -> GlobalFit:
     """c2_coef and Phi_c of Eq. 18 fitted to the DEM's Phi over every cycle, with c1 = -C (Eq. 19)
     and c3, the c2 exponent and the flow rule and fabric law of ``params`` held fixed."""
     base = params.replace(c1=-params.C)
+    lower, upper = np.array([1e-3, 0.3]), np.array([100.0, 0.9])
     x0 = np.array([base.c2_coef, float(np.mean(np.concatenate([d.phi for d in data])))])
+    x0 = np.clip(x0, lower + 1e-3 * (upper - lower), upper - 1e-3 * (upper - lower))
     sol = least_squares(_dilatancy_residuals, x0, args=(data, base), x_scale=[1.0, 0.01],
-                        bounds=([1e-3, 0.3], [100.0, 0.9]), max_nfev=100)
+                        bounds=(lower, upper), max_nfev=100)
     if not sol.success:
         raise CalibrationError(f"the dilatancy fit did not converge ({sol.message})")
+    at_bound = [f"{name} = {value:.4g}" for name, value, active in zip(DILATANCY, sol.x, sol.active_mask, strict=True)
+                if active]
+    if at_bound:
+        raise CalibrationError(f"the dilatancy fit sits at a bound: {', '.join(at_bound)}")
     dof = max(sol.fun.size - sol.x.size, 1)
     chi2 = float(2 * sol.cost / dof)
     cov = np.linalg.pinv(sol.jac.T @ sol.jac) * chi2

@@ -122,3 +122,16 @@ def test_bootstrap_needs_more_than_one_cycle(tmp_path, capsys):
     path = synthetic_file(tmp_path, n_cycles=1)
     assert fit.main(["--runs", str(path), "--out", str(tmp_path / "fit"), "--bootstrap", "3"]) == 2
     assert "needs runs with more than one cycle" in capsys.readouterr().err
+
+
+def test_dilatancy_fit_at_a_bound_is_an_error(tmp_path):
+    import dataclasses
+
+    from pipeline import global_fit
+    from pipeline.calibrate import CalibrationError
+    from pipeline.dem_h5 import load
+
+    data = global_fit.CycleData.from_run(load(synthetic_file(tmp_path, n_cycles=1)))
+    too_dense = dataclasses.replace(data, phi=np.full_like(data.phi, 0.97))  # denser than any Phi_c in bounds
+    with pytest.raises(CalibrationError, match=r"sits at a bound: (c2_coef|phi_c) = "):
+        global_fit.refine_dilatancy([too_dense], TRUE)
