@@ -328,7 +328,6 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
                 rejected += 1
                 h *= max(0.2, 0.9 * err ** (-1.0 / 8.0))
                 continue
-            accepted += 1
             factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
             h_next = h * factor
             if landing:
@@ -370,6 +369,7 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
                     h *= max(0.2, 0.9 * defect ** (-1.0 / 8.0)) if math.isfinite(defect) else 0.2
                     continue
                 iout = _dense_outputs(F, y, t_out, iout, limit, y_out)
+            accepted += 1
             iout = _emit_state(y_new, t_out, iout, y_out)
             if dense_ready:
                 _rhs_s(y_new, Dh, Wn, rate, p, lam_ref, K[N_STAGES])
