@@ -89,7 +89,8 @@ def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str,
         back = [relaxation_strain(strain, np.mean([d["backstress12"] for d in parts], axis=0))]
         lines.append(f"- relaxation strain after the reversal (to within 5 % of the final value, from an exponential "
                      f"fit; 'not resolved' where the fit does not fix it to +-50 %): isotropic part "
-                     f"{_mean(iso)}, backstress {_mean(back)} in our DEM, mean of {len(parts)} reversal run(s) (paper, read off Fig. 8: 0.25 and 0.6); "
+                     f"{_mean(iso)}, backstress {_mean(back)} in our DEM, mean of {len(parts)} reversal run(s) "
+                     "(paper, read off Fig. 8: 0.25 and 0.6); "
                      "the model by the same measure: " + "; ".join(
                          "{}: {:.2f} and {:.2f}".format(label, *model_relaxation(params))
                          for label, params in sets.items()))
