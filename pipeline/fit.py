@@ -74,6 +74,29 @@ def reversal_runs(preset: str, roots: tuple[Path, ...] = (RESULTS_DIR, REFERENCE
     return paths
 
 
+def dilatancy_estimate(strain, phi, dphi, A, D, S, c1: float, bulk_over_nominal: float, rotate_at: float,
+                       c3: float = PAPER_C3, ref_window: float = 0.1) -> tuple[float, float]:
+    """c2_coef and Phi_c of Eq. 18 (c2 = c2_coef S^(1/3)) from Phi(t), with c1 and c3 given.
+
+    Phi barely moves, so Phi_c + c3 and c2 are nearly collinear in a direct regression. Instead
+    Phi_c + c3 is eliminated with Eq. 18 at a reference r, the last ``ref_window`` of strain before
+    the reversal (r_dot = Phi_dot/Phi - c1 A:D' there, and Phi_c + c3 = Phi_r + r_dot / (c2_r |D'|_r)),
+    which leaves one coefficient, regressed through 0:
+    Phi_dot/Phi - c1 A:D' - r_dot (S/S_r)^(1/3) |D'|/|D'|_r = c2_coef S^(1/3) |D'| (Phi_r - Phi).
+    ``dphi`` is dPhi/dstrain (nominal); rates are per unit bulk strain (D per unit rate).
+    """
+    rate = dphi / bulk_over_nominal / phi - c1 * np.einsum("nij,nij->n", A, D)
+    norm_D = np.linalg.norm(D, axis=(1, 2))
+    ref = (strain > rotate_at - ref_window) & (strain < rotate_at)
+    phi_r, rate_r, S_r, norm_r = (float(np.mean(v[ref])) for v in (phi, rate, S, norm_D))
+    x = S ** (1 / 3) * norm_D * (phi_r - phi)
+    y = rate - rate_r * (S / S_r) ** (1 / 3) * norm_D / norm_r
+    ok = np.isfinite(x) & np.isfinite(y) & (S > 0)
+    c2_coef = float(np.dot(x[ok], y[ok]) / np.dot(x[ok], x[ok]))
+    phi_c = phi_r + rate_r / (c2_coef * S_r ** (1 / 3) * norm_r) - c3
+    return c2_coef, float(phi_c)
+
+
 def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: float = 0.02) -> dict:
     """Every stepwise estimate of one reversal run (see the module docstring)."""
     if abs(abs(run.spec["theta_deg"]) - 180) > 1e-9:
@@ -108,13 +131,8 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
         except cal.CalibrationError:
             exponents.append(float("nan"))
 
-    dphi = np.gradient(phi, strain) / ratio / phi  # (dPhi/dstrain_bulk) / Phi
-    norm_D = np.linalg.norm(D, axis=(1, 2))
-    lhs = dphi + C * np.einsum("nij,nij->n", A, D)  # dPhi/Phi - c1 A:D', c1 = -C
-    x = S ** (1 / 3) * norm_D
-    ok = np.isfinite(lhs) & np.isfinite(x) & (S > 0)
-    (coef_phi, coef_const), *_ = np.linalg.lstsq(np.column_stack([-x[ok] * phi[ok], x[ok]]), lhs[ok], rcond=None)
-    phi_c_plus_c3 = coef_const / coef_phi if coef_phi else float("nan")
+    phi_s, dphi = cal.smooth_segments(strain, phi, D, window_strain=window)
+    c2_coef, phi_c = dilatancy_estimate(strain, phi_s, dphi, A_s, D, S, -C, ratio, rotate_at)
     return {
         "path": str(run.path), "seed": run.spec.get("seed"), "bulk_over_nominal": float(ratio),
         "C_eq15": C, "C_eq15_by_reversal": [f.slope for f in fits_C],
@@ -123,7 +141,7 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
         "a1": beta1.intercept, "b1": beta1.slope, "a1_se": beta1.intercept_se, "b1_se": beta1.slope_se,
         "a2": beta2.intercept, "b2": beta2.slope, "a2_se": beta2.intercept_se, "b2_se": beta2.slope_se,
         "persistence_exponent_alpha1": exponents[0], "persistence_exponent_alpha2": exponents[1],
-        "c2_coef": float(coef_phi), "phi_c": float(phi_c_plus_c3 - PAPER_C3),
+        "c2_coef": c2_coef, "phi_c": phi_c,
         "steady_packing_fraction": float(np.mean(phi[(strain > rotate_at - 0.2) & (strain < rotate_at)])),
         "arrays": {"strain": strain, "S": S, "alpha1": alpha1, "alpha2": alpha2, "beta1": alpha1 * S**k,
                    "beta2": alpha2 * S**k, "Y": Y, "tau12": tau_s[:, 0, 1], "A12": A_s[:, 0, 1]},

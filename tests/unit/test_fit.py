@@ -135,3 +135,18 @@ def test_dilatancy_fit_at_a_bound_is_an_error(tmp_path):
     too_dense = dataclasses.replace(data, phi=np.full_like(data.phi, 0.97))  # denser than any Phi_c in bounds
     with pytest.raises(CalibrationError, match=r"sits at a bound: (c2_coef|phi_c) = "):
         global_fit.refine_dilatancy([too_dense], TRUE)
+
+
+def test_dilatancy_estimator_recovers_eq18_given_the_true_c1(tmp_path):
+    from model.equations import hardening_variable_stack
+    from model.kinematics import deviator
+    from pipeline.dem_analysis import direction, shear_rate_tensor
+    from pipeline.dem_h5 import load
+
+    c = load(synthetic_file(tmp_path, n_cycles=1)).cycle
+    strain, A, phi = c["strain"], c["A"], c["packing_fraction"]
+    D = deviator(shear_rate_tensor(direction(np.where(strain < 0.7 - 1e-9, 0.0, 180.0))))
+    c2_coef, phi_c = fit.dilatancy_estimate(strain, phi, np.gradient(phi, strain), A, D,
+                                            hardening_variable_stack(A, D), TRUE.c1, 1.0, 0.7)
+    assert c2_coef == pytest.approx(TRUE.c2_coef, rel=0.01)
+    assert phi_c == pytest.approx(TRUE.phi_c, abs=1e-3)
