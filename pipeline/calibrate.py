@@ -14,9 +14,11 @@ conventions). Nothing here reads files; ``pipeline.fit`` feeds it DEM runs.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import OptimizeWarning, curve_fit
 from scipy.signal import savgol_filter
 
 SQRT_HALF = np.sqrt(0.5)
@@ -168,3 +170,34 @@ def power_law_exponent(S: np.ndarray, alpha: np.ndarray, S_max: float) -> Linear
     """Slope of log|alpha| against log S for 0 < S < S_max: alpha ~ S^-k means slope -k (Eq. 12)."""
     pick = (S > 0) & (S < S_max) & np.isfinite(alpha) & (alpha != 0)
     return linear_fit(np.log(S[pick]), np.log(np.abs(alpha[pick])))
+
+
+def relaxation_strain(strain: np.ndarray, x: np.ndarray, fraction: float = 0.05, skip: float = 0.02) -> float:
+    """Strain after which x stays within ``fraction`` of its total change from its final value.
+
+    From a least-squares fit x = x_end + (x_start - x_end) exp(-(strain - strain[0]) / lam) to the
+    points after ``skip`` (where smoothing blurs a jump): lam ln(1/fraction). A fit rather than a
+    threshold crossing, so that noise of the size of the change does not decide the answer; nan
+    where the fit fails or does not fix lam to better than +-50 %.
+    """
+    s = np.asarray(strain, dtype=float) - strain[0]
+    x = np.asarray(x, dtype=float)
+    keep = (s >= skip) & np.isfinite(x)
+    s, x = s[keep], x[keep]
+    if len(s) < 5:
+        return float("nan")
+    tail = np.mean(x[-max(len(x) // 5, 2):])
+
+    def curve(t, end, start, lam):
+        return end + (start - end) * np.exp(-t / lam)
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", OptimizeWarning)  # an exact fit has no covariance
+            coef, cov = curve_fit(curve, s, x, p0=(tail, x[0], 0.1 * s[-1]), maxfev=5000)
+    except (RuntimeError, ValueError):
+        return float("nan")
+    lam = coef[2]
+    exact = np.max(np.abs(curve(s, *coef) - x)) <= 1e-6 * np.ptp(x)
+    determined = 0 < lam < 10 * s[-1] and (exact or np.sqrt(cov[2, 2]) < 0.5 * lam)
+    return float(lam * np.log(1.0 / fraction)) if determined else float("nan")

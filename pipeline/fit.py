@@ -97,7 +97,8 @@ def dilatancy_estimate(strain, phi, dphi, A, D, S, c1: float, bulk_over_nominal:
     return c2_coef, float(phi_c)
 
 
-def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: float = 0.02) -> dict:
+def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: float = 0.02,
+                  transient_efolds: float = 2.0) -> dict:
     """Every stepwise estimate of one reversal run (see the module docstring)."""
     if abs(abs(run.spec["theta_deg"]) - 180) > 1e-9:
         raise cal.CalibrationError(f"{run.path} is not a reversal run (theta = {run.spec['theta_deg']})")
@@ -122,8 +123,16 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
 
     alpha1, alpha2 = cal.fabric_coefficients(A_s, rate / ratio, D)  # per unit bulk strain
     k = model.Params().persistence_exponent
-    beta1 = cal.linear_fit(S, alpha1 * S**k)
-    beta2 = cal.linear_fit(S, alpha2 * S**k)
+    # near steady state the Jaumann rate is zero plus noise and Eq. 9 fixes no alpha_i: the beta_i
+    # fits use the transients, ``transient_efolds`` times the strain over which A12 relaxes by 1/e
+    # after the reversal, from each change of direction
+    after = strain >= rotate_at - 1e-9
+    transient = transient_efolds * cal.relaxation_strain(strain[after], A_s[after, 0, 1], fraction=math.exp(-1))
+    if not math.isfinite(transient):
+        raise cal.CalibrationError(f"{run.path}: A12 shows no resolvable relaxation after the reversal")
+    moving = np.where(strain < rotate_at - 1e-9, strain, strain - rotate_at) < transient
+    beta1 = cal.linear_fit(S[moving], (alpha1 * S**k)[moving])
+    beta2 = cal.linear_fit(S[moving], (alpha2 * S**k)[moving])
     exponents = []
     for alpha in (alpha1, alpha2):
         try:
@@ -135,6 +144,7 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
     c2_coef, phi_c = dilatancy_estimate(strain, phi_s, dphi, A_s, D, S, -C, ratio, rotate_at)
     return {
         "path": str(run.path), "seed": run.spec.get("seed"), "bulk_over_nominal": float(ratio),
+        "transient_strain": float(transient),
         "C_eq15": C, "C_eq15_by_reversal": [f.slope for f in fits_C],
         "C_eq15_se": float(np.hypot(*[f.slope_se for f in fits_C]) / 2),
         "n": yield_fit.intercept, "m": yield_fit.slope, "n_se": yield_fit.intercept_se, "m_se": yield_fit.slope_se,
@@ -202,6 +212,7 @@ def combine(per_run: list[dict]) -> dict:
 
 
 SMOOTHING_WINDOWS = (0.03, 0.05, 0.08)  # Savitzky-Golay windows in strain
+TRANSIENT_EFOLDS = (1.0, 2.0, 4.0)  # strain after each change used by the beta_i fits, in 1/e strains of A12
 EQ15_WINDOWS = ((0.2, 0.69), (0.3, 0.69), (0.4, 0.69))  # strain after the reversal for Eq. 15's slope
 SENSITIVE = ("C_eq15", "n", "m", "a1", "b1", "a2", "b2", "persistence_exponent_alpha1", "persistence_exponent_alpha2")
 
@@ -214,6 +225,7 @@ def sensitivity(runs: list) -> dict:
         return {key: float(np.nanmean([r[key] for r in per_run])) for key in SENSITIVE}
 
     return {"smoothing_window": {f"{w:g}": means(window=w) for w in SMOOTHING_WINDOWS},
+            "transient_efolds": {f"{f:g}": means(transient_efolds=f) for f in TRANSIENT_EFOLDS},
             "eq15_window": {f"{a:g}-{b:g}": means(c_window=(a, b))["C_eq15"] for a, b in EQ15_WINDOWS}}
 
 

@@ -9,6 +9,7 @@ import numpy as np
 
 import model
 
+from ..calibrate import relaxation_strain
 from ..validation import COMPONENTS, backstress_share, errors, model_for
 
 NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
@@ -22,8 +23,6 @@ def _mean(values) -> str:
 def model_relaxation(params) -> tuple[float, float]:
     """Relaxation strains of the isotropic part and the backstress of tau12/p after the model's
     reversal (the periodic theta = 180 cycle), by the measure applied to the DEM."""
-    from .reversal import relaxation_strain
-
     cycle = model.predict(180, params=params)
     pick = cycle.strain >= 0.7 - 1e-9
     strain, A12, tau12 = cycle.strain[pick], cycle.A[pick, 0, 1], cycle.tau[pick, 0, 1]
@@ -40,6 +39,12 @@ def sensitivity_lines(sens: dict) -> list[str]:
              "Jaumann rate:", "", "| window | " + " | ".join(heads) + " |", "|---|" + "---|" * len(heads)]
     for window, values in sens["smoothing_window"].items():
         lines.append(f"| {window} | " + " | ".join(f"{values[k]:+.3g}" for k in keys) + " |")
+    if "transient_efolds" in sens:
+        lines += ["", "The fabric law per strain after each change of direction used by the beta_i fits (in 1/e "
+                  "relaxation strains of A12 after the reversal; default 2):", "",
+                  "| e-folds | a1 | b1 | a2 | b2 |", "|---|---|---|---|---|"]
+        for efolds, values in sens["transient_efolds"].items():
+            lines.append(f"| {efolds} | " + " | ".join(f"{values[k]:+.3g}" for k in ("a1", "b1", "a2", "b2")) + " |")
     lines += ["", "C from Eq. 15 per strain window after the reversal: " + ", ".join(
         f"{w}: {c:+.2f}" for w, c in sens["eq15_window"].items()) + " (on model data Eq. 15 gives C - 2m)."]
     return lines
@@ -79,7 +84,7 @@ def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str,
     if fit_h5 is not None:
         import h5py
 
-        from .reversal import after_reversal, relaxation_strain
+        from .reversal import after_reversal
 
         with h5py.File(fit_h5, "r") as f:
             parts = [after_reversal(f["reversal"][k], ours.C) for k in f["reversal"]]

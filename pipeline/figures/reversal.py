@@ -4,7 +4,6 @@ p dPhi/dt / Phi and their sum per unit p gamma_dot, and Phi from DEM and from Eq
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import h5py
@@ -13,41 +12,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from scipy.optimize import OptimizeWarning, curve_fit  # noqa: E402
 
 from ..validation import model_for  # noqa: E402
 from .laws import _save  # noqa: E402
-
-
-def relaxation_strain(strain: np.ndarray, x: np.ndarray, fraction: float = 0.05, skip: float = 0.02) -> float:
-    """Strain after which x stays within ``fraction`` of its total change from its final value.
-
-    From a least-squares fit x = x_end + (x_start - x_end) exp(-(strain - strain[0]) / lam) to the
-    points after ``skip`` (where smoothing blurs a jump): lam ln(1/fraction). A fit rather than a
-    threshold crossing, so that noise of the size of the change does not decide the answer; nan
-    where the fit fails or does not fix lam to better than +-50 %.
-    """
-    s = np.asarray(strain, dtype=float) - strain[0]
-    x = np.asarray(x, dtype=float)
-    keep = (s >= skip) & np.isfinite(x)
-    s, x = s[keep], x[keep]
-    if len(s) < 5:
-        return float("nan")
-    tail = np.mean(x[-max(len(x) // 5, 2):])
-
-    def curve(t, end, start, lam):
-        return end + (start - end) * np.exp(-t / lam)
-
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", OptimizeWarning)  # an exact fit has no covariance
-            coef, cov = curve_fit(curve, s, x, p0=(tail, x[0], 0.1 * s[-1]), maxfev=5000)
-    except (RuntimeError, ValueError):
-        return float("nan")
-    lam = coef[2]
-    exact = np.max(np.abs(curve(s, *coef) - x)) <= 1e-6 * np.ptp(x)
-    determined = 0 < lam < 10 * s[-1] and (exact or np.sqrt(cov[2, 2]) < 0.5 * lam)
-    return float(lam * np.log(1.0 / fraction)) if determined else float("nan")
 
 
 def after_reversal(group, C: float, rotate_at: float = 0.7) -> dict:

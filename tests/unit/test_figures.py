@@ -35,7 +35,7 @@ def test_missing_inputs_are_one_line_errors(tmp_path, capsys):
 def test_relaxation_strain_of_an_exponential():
     import numpy as np
 
-    from pipeline.figures.reversal import relaxation_strain
+    from pipeline.calibrate import relaxation_strain
 
     strain = np.arange(0, 0.7, 0.005)
     x = 1 - np.exp(-strain / 0.15)  # within 5 % after 0.15 ln 20 = 0.449
