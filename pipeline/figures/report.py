@@ -50,6 +50,19 @@ def sensitivity_lines(sens: dict) -> list[str]:
     return lines
 
 
+def second_law_line(runs: list, params) -> str:
+    """Eq. 19 for our fit: c1 = -C, and Phi <= Phi_c + c3 over every DEM cycle; plus the smallest
+    total work rate of the model's cycles (Eq. 17, per unit p gamma_dot) for the runs' protocols."""
+    phi_max = max(float(np.nanmax(r.cycle["packing_fraction"])) for r in runs)
+    bound = params.phi_c + params.c3
+    w_min = min(float(model.predict(r.spec["theta_deg"], rotate_at=r.spec["rotate_at_strain"],
+                                    params=params).w_total.min()) for r in runs)
+    holds = params.c1 == -params.C and phi_max <= bound and w_min >= 0
+    return (f"- second law (Eq. 19) with our fit: c1 = {params.c1:.3f} = -C; max Phi of the DEM cycles {phi_max:.3f} "
+            f"against Phi_c + c3 = {bound:.3f}; smallest total work rate of the model's cycles "
+            f"{w_min:+.3f} p gamma_dot ({'holds' if holds else 'VIOLATED'})")
+
+
 def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str, fit_h5: Path | None = None) -> Path:
     paper, ours = model.Params(), sets["our fit"]
     se = {}
@@ -81,6 +94,7 @@ def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str,
                   f"(paper: 88 %)",
                   f"- mean packing fraction over the cycle: {phi:.3f} (the model with Table 2: "
                   f"{paper_phi.min():.3f} to {paper_phi.max():.3f}; Phi_c = {paper.phi_c} is not the steady value)"]
+        lines.append(second_law_line(runs, ours))
     if fit_h5 is not None:
         import h5py
 

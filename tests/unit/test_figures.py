@@ -19,6 +19,9 @@ def test_figures_and_report_build_headless(tmp_path):
     report = (tmp_path / "out" / "report.md").read_text()
     assert "| C |" in report and "| theta060 | our fit |" in report and "share of the backstress" in report
     assert "relaxation strain after the reversal" in report
+    # model data made with c1 = -C and Phi below Phi_c + c3 satisfy Eq. 19
+    assert "second law (Eq. 19)" in report and "(holds)" in report
+    assert "| e-folds | a1 | b1 | a2 | b2 |" in report  # the stepwise calibration's sensitivity
     # the model with the true parameters fits the synthetic data to the noise: small normalised errors
     row = next(line for line in report.splitlines() if line.startswith("| theta180 | Table 2 |"))
     assert max(float(x) for x in row.split("|")[3:7]) < 0.15
