@@ -78,16 +78,8 @@ def _emit_state(y, t_out, iout, y_out):
 
 @jit
 def _dense_component(F, y_old, x, i):
-    """Component i of the DOP853 dense output at fraction x of the step (Hairer's form, as in scipy):
-    P = y_old + x (F0 + (1-x) (F1 + x (F2 + (1-x) (F3 + x (F4 + (1-x) (F5 + x F6))))))."""
-    u = 1.0 - x
-    q = F[5, i] + x * F[6, i]
-    q = F[4, i] + u * q
-    q = F[3, i] + x * q
-    q = F[2, i] + u * q
-    q = F[1, i] + x * q
-    q = F[0, i] + u * q
-    return y_old[i] + x * q
+    """Component i of the DOP853 dense output at fraction x of the step (``_dense_value_slope``)."""
+    return _dense_value_slope(F, y_old, x, i)[0]
 
 
 @jit
@@ -98,7 +90,8 @@ def _dense_eval(F, y_old, x, out):
 
 @jit
 def _dense_value_slope(F, y_old, x, i):
-    """Component i of the dense output P(x) (see ``_dense_component``) and its slope dP/dx."""
+    """Component i of the DOP853 dense output (Hairer's form, as in scipy) and its slope dP/dx:
+    P = y_old + x (F0 + (1-x) (F1 + x (F2 + (1-x) (F3 + x (F4 + (1-x) (F5 + x F6))))))."""
     u = 1.0 - x
     q = F[5, i] + x * F[6, i]
     dq = F[6, i]
@@ -176,6 +169,12 @@ def _dense_outputs(F, y_old, t_out, iout, limit, y_out):
         y_out[iout, T_INDEX] = t_out[iout]
         iout += 1
     return iout
+
+
+@jit
+def _shrunk(h, err):
+    """The step to retry after a rejection with error norm ``err`` > 1 (a non-finite one: h / 5)."""
+    return h * max(0.2, 0.9 * err ** (-1.0 / 8.0)) if math.isfinite(err) else 0.2 * h
 
 
 @jit
@@ -322,11 +321,9 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
             _rk_step(y, f0, h, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp)
             nfev += N_STAGES
             err = _error_norm(y, y_new, K, h, rtol, atol)
-            if not math.isfinite(err):
-                err = 1e10
-            if err > 1.0:
+            if err > 1.0 or not math.isfinite(err):
                 rejected += 1
-                h *= max(0.2, 0.9 * err ** (-1.0 / 8.0))
+                h = _shrunk(h, err)
                 continue
             factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
             h_next = h * factor
@@ -366,7 +363,7 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
                 if not defect <= 1.0:
                     # the interpolant is not good enough for the outputs: retake a shorter step
                     rejected += 1
-                    h *= max(0.2, 0.9 * defect ** (-1.0 / 8.0)) if math.isfinite(defect) else 0.2
+                    h = _shrunk(h, defect)
                     continue
                 iout = _dense_outputs(F, y, t_out, iout, limit, y_out)
             accepted += 1

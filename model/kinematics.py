@@ -158,14 +158,15 @@ class History:
     def packed(self) -> PackedSegments:
         """The segments in the compiled kernels' layout (see ``PackedSegments``)."""
         norms = np.array([seg.D_dev_norm for seg in self.segments])
-        D_unit = np.array([seg.D_dev for seg in self.segments]) / norms[:, None, None]
+        D_dev = np.array([seg.D_dev for seg in self.segments])
+        D_unit = D_dev / norms[:, None, None]
         W = np.array([seg.W for seg in self.segments]) / norms[:, None, None]
         packed = PackedSegments(
             end=self.boundaries[1:].copy(),
-            D_unit=D_unit[:, [0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]].copy(),
-            W_unit=W[:, [0, 0, 1], [1, 2, 2]].copy(),
+            D_unit=D_unit[:, [0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]],
+            W_unit=W[:, [0, 0, 1], [1, 2, 2]],
             rate=norms,
-            D_dev=np.array([seg.D_dev for seg in self.segments]),
+            D_dev=D_dev,
         )
         for array in dataclasses.astuple(packed):
             array.setflags(write=False)

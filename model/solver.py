@@ -100,14 +100,12 @@ def _check_fabric(A0) -> np.ndarray:
     A0 = np.array(A0, dtype=float)
     if A0.shape != (3, 3):
         raise SolverError(f"initial fabric must be 3x3, got shape {A0.shape}")
-    norm2 = float(np.sum(A0 * A0))
-    if not math.isfinite(norm2):
+    if not math.isfinite(float(np.sum(A0 * A0))):
         raise SolverError("initial fabric has non-finite entries")
     asym = max(abs(A0[0, 1] - A0[1, 0]), abs(A0[0, 2] - A0[2, 0]), abs(A0[1, 2] - A0[2, 1]))
     if asym > 1e-12 or abs(A0[0, 0] + A0[1, 1] + A0[2, 2]) > 1e-12:
         raise SolverError("initial fabric must be symmetric and traceless (Eq. 8)")
-    if norm2 > 1.0 / 6.0:
-        _check_bounds(A0[None], "initial fabric")
+    _check_bounds(A0[None], "initial fabric")
     return A0
 
 

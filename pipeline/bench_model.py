@@ -32,6 +32,8 @@ from model import (  # noqa: E402
 )
 from model.equations import observables  # noqa: E402
 
+from .figures.output import save  # noqa: E402
+
 CASES = {
     "theta=180": (180.0, PAPER),
     "theta=90": (90.0, PAPER),
@@ -143,11 +145,7 @@ def plot(df: pd.DataFrame, path: Path) -> None:
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel("wall time per cycle [ms]")
     axes[0].legend(fontsize=8)
-    fig.tight_layout()
-    tmp = path.with_name("tmp-" + path.name)
-    fig.savefig(tmp, dpi=120)
-    plt.close(fig)
-    tmp.replace(path)
+    save(fig, path, dpi=120)
 
 
 def main(argv=None) -> int:

@@ -26,6 +26,19 @@ def direction(phi_deg):
     return np.stack([np.cos(phi), np.zeros_like(phi), np.sin(phi)], axis=-1)
 
 
+def cycle_D_dev(run) -> np.ndarray:
+    """D' per unit nominal gamma_dot along the run's cycle grid: phi = 0 before ``rotate_at``, theta after."""
+    strain = run.cycle["strain"]
+    angle = np.where(strain < run.spec["rotate_at_strain"] - 1e-9, 0.0, run.spec["theta_deg"])
+    return deviator(shear_rate_tensor(direction(angle)))
+
+
+def bulk_over_nominal(run) -> float:
+    """Mean measured bulk shear rate over the nominal one, after the preceding half period."""
+    bulk = np.nanmean(run.series["shear_rate_bulk"][run.series["strain_nominal"] >= 0])
+    return float(bulk / run.parameters["gamma_dot_nominal"])
+
+
 def model_series(raw: dict, meta: dict) -> dict:
     """Per-sample model-ready quantities (shear phase, preceding half period included).
 

@@ -44,19 +44,14 @@ import numpy as np
 
 import model
 from model.equations import hardening_variable_stack
-from model.kinematics import deviator
 
 from . import calibrate as cal
 from . import global_fit
-from .dem_analysis import direction, resampled_cycle, shear_rate_tensor
+from .dem_analysis import bulk_over_nominal, cycle_D_dev, resampled_cycle
 from .dem_h5 import DemFileError, load
-from .paths import REFERENCE_DIR, RESULTS_DIR
+from .paths import REFERENCE_DIR, RESULTS_DIR, first_existing
 
 PAPER_C3 = 0.14
-
-
-def _first_existing(relative: Path, roots: tuple[Path, ...]) -> Path | None:
-    return next((root / relative for root in roots if (root / relative).exists()), None)
 
 
 def reversal_runs(preset: str, roots: tuple[Path, ...] = (RESULTS_DIR, REFERENCE_DIR)) -> list[Path]:
@@ -65,7 +60,7 @@ def reversal_runs(preset: str, roots: tuple[Path, ...] = (RESULTS_DIR, REFERENCE
     folders = {preset} | {f.name for root in roots for f in root.glob(f"{preset}-*")}
     paths = []
     for folder in sorted(folders):
-        path = _first_existing(Path(folder) / "dem" / "theta180.h5", roots)
+        path = first_existing(Path(folder) / "dem" / "theta180.h5", roots)
         if path is None:
             continue
         if folder != preset and not set(json.loads(load(path).provenance["overrides"])) <= {"seed"}:
@@ -105,10 +100,8 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
     c = run.cycle
     strain, A, tau, phi = c["strain"], c["A"], c["tau_over_p"], c["packing_fraction"]
     rotate_at = run.spec["rotate_at_strain"]
-    angle = np.where(strain < rotate_at - 1e-9, 0.0, run.spec["theta_deg"])
-    D = deviator(shear_rate_tensor(direction(angle)))  # per unit nominal gamma_dot
-    bulk = np.nanmean(run.series["shear_rate_bulk"][run.series["strain_nominal"] >= 0])
-    ratio = bulk / run.parameters["gamma_dot_nominal"]
+    D = cycle_D_dev(run)  # per unit nominal gamma_dot
+    ratio = bulk_over_nominal(run)
     if not (math.isfinite(ratio) and ratio > 0):
         raise cal.CalibrationError(f"{run.path}: no measured bulk shear rate")
     S = hardening_variable_stack(A, D)
@@ -163,7 +156,7 @@ def angle_runs(preset: str, roots: tuple[Path, ...] = (RESULTS_DIR, REFERENCE_DI
     names = sorted({p.name for root in roots for p in (root / preset / "dem").glob("theta*.h5")})
     paths = []
     for name in names:
-        path = _first_existing(Path(preset) / "dem" / name, roots)
+        path = first_existing(Path(preset) / "dem" / name, roots)
         spec = load(path).spec
         default_rotation = abs(spec["rotate_at_strain"] - spec["period_strain"] / 2) < 1e-9
         if abs(abs(spec["theta_deg"]) - 180) > 1e-9 and default_rotation:
@@ -176,8 +169,7 @@ def cross_check_run(run, window: float = 0.05, min_sine: float = 0.1) -> dict:
     where the fabric and the shear direction are at least ``asin(min_sine)`` apart in that plane."""
     c = run.cycle
     strain = c["strain"]
-    angle = np.where(strain < run.spec["rotate_at_strain"] - 1e-9, 0.0, run.spec["theta_deg"])
-    D = deviator(shear_rate_tensor(direction(angle)))
+    D = cycle_D_dev(run)
     A_s, _ = cal.smooth_segments(strain, c["A"], D, window_strain=window)
     tau_s, _ = cal.smooth_segments(strain, c["tau_over_p"], D, window_strain=window)
     C, Y = cal.backstress_and_yield(tau_s, A_s, D, min_sine=min_sine)

@@ -17,10 +17,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 import model
-from model.kinematics import deviator
 
 from .calibrate import CalibrationError, smooth_segments
-from .dem_analysis import direction, resampled_cycle, shear_rate_tensor
+from .dem_analysis import bulk_over_nominal, cycle_D_dev, resampled_cycle
 
 #: the parameters refined (the persistence exponent and the dilatancy stay as given)
 FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")
@@ -46,12 +45,10 @@ class CycleData:
     @classmethod
     def from_run(cls, run) -> CycleData:
         c = run.cycle
-        bulk = np.nanmean(run.series["shear_rate_bulk"][run.series["strain_nominal"] >= 0])
-        ratio = float(bulk / run.parameters["gamma_dot_nominal"])
+        ratio = bulk_over_nominal(run)
         A_sem, tau_sem = c["A_sem"], c["tau_over_p_sem"]
         if np.isnan(A_sem).all():  # one cycle: the scatter about the smoothed cycle, per component
-            angle = np.where(c["strain"] < run.spec["rotate_at_strain"] - 1e-9, 0.0, run.spec["theta_deg"])
-            D = deviator(shear_rate_tensor(direction(angle)))
+            D = cycle_D_dev(run)
             A_sem = _scatter(c["strain"], c["A"], D)
             tau_sem = _scatter(c["strain"], c["tau_over_p"], D)
         # the last sample closes the period: the DEM has turned back to e1 there, the model's output

@@ -8,3 +8,8 @@ DEM_DIR = ROOT / "dem"
 RESULTS_DIR = ROOT / "results"
 REFERENCE_DIR = ROOT / "data" / "reference"  # committed DEM runs: used where results/ has none
 SCENE = DEM_DIR / "couette.py"
+
+
+def first_existing(relative: Path, roots: tuple[Path, ...]) -> Path | None:
+    """``root / relative`` for the first root where it exists (results/ before the reference dataset)."""
+    return next((root / relative for root in roots if (root / relative).exists()), None)

@@ -10,14 +10,13 @@ from pathlib import Path
 import model
 
 from ..dem_h5 import DemFileError, load
-from ..fit import _first_existing
-from ..paths import REFERENCE_DIR, RESULTS_DIR
+from ..paths import REFERENCE_DIR, RESULTS_DIR, first_existing
 from . import cycles, laws, report, reversal
 
 
 def dem_runs(preset: str, roots=(RESULTS_DIR, REFERENCE_DIR)) -> list:
     names = sorted({p.name for root in roots for p in (root / preset / "dem").glob("theta*.h5")})
-    return [load(_first_existing(Path(preset) / "dem" / name, roots)) for name in names]
+    return [load(first_existing(Path(preset) / "dem" / name, roots)) for name in names]
 
 
 def main(argv=None) -> int:

@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..validation import COMPONENTS, model_for  # noqa: E402
+from .output import save  # noqa: E402
 
 LABELS = {"A12": "$A_{12}$", "A32": "$A_{32}$", "tau12": r"$\tau_{12}/p$", "tau32": r"$\tau_{32}/p$"}
 
@@ -41,10 +42,4 @@ def plot(runs: list, params_sets: dict, out: Path, title: str) -> Path:
         ax.set_xlabel(r"bulk strain $t\dot\gamma$")
     axes[0, -1].legend(fontsize=7, loc="best")
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.stem + ".tmp" + out.suffix)
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(out)
-    return out
+    return save(fig, out)

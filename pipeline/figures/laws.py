@@ -12,15 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-
-def _save(fig, out: Path) -> Path:
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.stem + ".tmp" + out.suffix)
-    fig.tight_layout()
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(out)
-    return out
+from .output import save  # noqa: E402
 
 
 def fabric_law(fit_h5: Path, params, paper, out: Path) -> Path:
@@ -53,7 +45,7 @@ def fabric_law(fit_h5: Path, params, paper, out: Path) -> Path:
             axes[0, col].set_ylim(-3 * lim, 3 * lim)
     axes[1, 0].legend(fontsize=8)
     fig.suptitle("Fig. 3: fabric coefficients from the reversal (Eqs. 9, 12, 13)", fontsize=10)
-    return _save(fig, out)
+    return save(fig, out)
 
 
 def flow_rule(fit_h5: Path, params, paper, out: Path) -> Path:
@@ -80,4 +72,4 @@ def flow_rule(fit_h5: Path, params, paper, out: Path) -> Path:
         ax.set_ylabel(name)
         ax.legend(fontsize=7)
     fig.suptitle("Fig. 4: the flow rule (Eq. 14) from the 12 and 32 components", fontsize=10)
-    return _save(fig, out)
+    return save(fig, out)

@@ -5,29 +5,28 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import h5py
 import numpy as np
 
 import model
 
 from ..calibrate import relaxation_strain
 from ..validation import COMPONENTS, backstress_share, errors, model_for
+from .reversal import after_reversal, reversal_parts
 
 NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
 
 
-def _mean(values) -> str:
-    finite = [v for v in values if np.isfinite(v)]
-    return f"{np.mean(finite):.2f}" if finite else "not resolved"
+def _strain_text(value: float) -> str:
+    return f"{value:.2f}" if np.isfinite(value) else "not resolved"
 
 
 def model_relaxation(params) -> tuple[float, float]:
     """Relaxation strains of the isotropic part and the backstress of tau12/p after the model's
     reversal (the periodic theta = 180 cycle), by the measure applied to the DEM."""
     cycle = model.predict(180, params=params)
-    pick = cycle.strain >= 0.7 - 1e-9
-    strain, A12, tau12 = cycle.strain[pick], cycle.A[pick, 0, 1], cycle.tau[pick, 0, 1]
-    back = params.C * A12
-    return relaxation_strain(strain, tau12 - back), relaxation_strain(strain, back)
+    d = reversal_parts(cycle.strain, cycle.tau[:, 0, 1], cycle.A[:, 0, 1], params.C)
+    return relaxation_strain(d["strain"], d["isotropic12"]), relaxation_strain(d["strain"], d["backstress12"])
 
 
 def sensitivity_lines(sens: dict) -> list[str]:
@@ -96,22 +95,19 @@ def write(runs: list, sets: dict, fit_json: dict | None, out: Path, preset: str,
                   f"{paper_phi.min():.3f} to {paper_phi.max():.3f}; Phi_c = {paper.phi_c} is not the steady value)"]
         lines.append(second_law_line(runs, ours))
     if fit_h5 is not None:
-        import h5py
-
-        from .reversal import after_reversal
-
         with h5py.File(fit_h5, "r") as f:
             parts = [after_reversal(f["reversal"][k], ours.C) for k in f["reversal"]]
         # one fit to the mean over the reversal runs (seeds share the cycle's strain grid)
         strain = parts[0]["strain"]
-        iso = [relaxation_strain(strain, np.mean([d["isotropic12"] for d in parts], axis=0))]
-        back = [relaxation_strain(strain, np.mean([d["backstress12"] for d in parts], axis=0))]
+        iso = relaxation_strain(strain, np.mean([d["isotropic12"] for d in parts], axis=0))
+        back = relaxation_strain(strain, np.mean([d["backstress12"] for d in parts], axis=0))
         lines.append(f"- relaxation strain after the reversal (to within 5 % of the final value, from an exponential "
                      f"fit; 'not resolved' where the fit does not fix it to +-50 %): isotropic part "
-                     f"{_mean(iso)}, backstress {_mean(back)} in our DEM, mean of {len(parts)} reversal run(s) "
+                     f"{_strain_text(iso)}, backstress {_strain_text(back)} in our DEM, mean of {len(parts)} "
+                     "reversal run(s) "
                      "(paper, read off Fig. 8: 0.25 and 0.6); "
                      "the model by the same measure: " + "; ".join(
-                         "{}: {:.2f} and {:.2f}".format(label, *model_relaxation(params))
+                         "{}: {} and {}".format(label, *map(_strain_text, model_relaxation(params)))
                          for label, params in sets.items()))
     if fit_json and fit_json.get("sensitivity"):
         lines += ["", *sensitivity_lines(fit_json["sensitivity"])]

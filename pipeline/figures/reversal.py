@@ -11,21 +11,25 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
+from ..dem_analysis import bulk_over_nominal  # noqa: E402
 from ..validation import model_for  # noqa: E402
-from .laws import _save  # noqa: E402
+from .output import save  # noqa: E402
 
 
-def after_reversal(group, C: float, rotate_at: float = 0.7) -> dict:
-    """The second half of the cycle (the reversal 0 -> 180 deg at ``rotate_at``) from fit.h5 (smoothed
-    A12 and tau12/p), with the backstress C A12 and the isotropic part tau12/p - C A12."""
-    strain = group["strain"][()]
+def reversal_parts(strain, tau12, A12, C: float, rotate_at: float = 0.7) -> dict:
+    """The second half of a theta = 180 cycle (the reversal at ``rotate_at``): strain, tau12/p, A12,
+    the backstress C A12 and the isotropic part tau12/p - C A12."""
     pick = strain >= rotate_at - 1e-9
-    d = {name: group[name][()][pick] for name in ("strain", "tau12", "A12")}
+    d = {"strain": strain[pick], "tau12": tau12[pick], "A12": A12[pick]}
     d["backstress12"] = C * d["A12"]
     d["isotropic12"] = d["tau12"] - d["backstress12"]
     return d
+
+
+def after_reversal(group, C: float, rotate_at: float = 0.7) -> dict:
+    """``reversal_parts`` of a reversal run's smoothed A12 and tau12/p in fit.h5."""
+    return reversal_parts(group["strain"][()], group["tau12"][()], group["A12"][()], C, rotate_at)
 
 
 def backstress_figure(fit_h5: Path, C: float, out: Path) -> Path:
@@ -44,15 +48,14 @@ def backstress_figure(fit_h5: Path, C: float, out: Path) -> Path:
     axes[1].set_ylabel(r"$\tau_{12}/p$")
     fig.suptitle(f"Fig. 8: backstress and isotropic part after the reversal (smoothed DEM, our C = {C:.2f})",
                  fontsize=10)
-    return _save(fig, out)
+    return save(fig, out)
 
 
 def work_figure(runs: list, params, out: Path) -> Path:
     fig, axes = plt.subplots(len(runs), 2, figsize=(10, 2.6 * len(runs) + 0.6), squeeze=False)
     for row, run in zip(axes, runs, strict=True):
         c = run.cycle
-        ratio = np.nanmean(run.series["shear_rate_bulk"][run.series["strain_nominal"] >= 0])
-        ratio /= run.parameters["gamma_dot_nominal"]
+        ratio = bulk_over_nominal(run)
         x = c["strain"] * ratio
         w_shear, w_vol = c["w_shear"] / ratio, c["w_vol"] / ratio  # per unit bulk strain
         row[0].plot(x, w_shear, "C0.", ms=2, label=r"$\tau:D'$")
@@ -70,4 +73,4 @@ def work_figure(runs: list, params, out: Path) -> Path:
     for ax in axes[-1]:
         ax.set_xlabel(r"bulk strain $t\dot\gamma$")
     fig.suptitle("Fig. 9: work rates (Sec. 5) and the packing fraction", fontsize=10)
-    return _save(fig, out)
+    return save(fig, out)
