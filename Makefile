@@ -34,23 +34,24 @@ demo: system venv model-cycles demo-dem ## set up everything, then run the pipel
 test: system venv ## run the test suite (the DEM tests run the real Yade)
 	$(PY) -m pytest -q
 
-bench: venv system ## benchmarks: model numerics and DEM control/measurement cost, in results/bench/
+bench: system venv ## benchmarks: model numerics and DEM control/measurement cost, in results/bench/
 	$(PY) -m pipeline.bench_model --out results/bench
 	$(PY) -m pipeline.bench_dem --out results/bench
 
 venv: $(VENV_STAMP) ## the project virtualenv from pyproject.toml
 
-$(VENV_STAMP): pyproject.toml
+$(VENV_STAMP): pyproject.toml | system
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[test]'
 	touch $@
 
-system: ## Debian packages: Yade and h5py for Yade's python3 (apt-get)
-	@if command -v yade >/dev/null && /usr/bin/python3 -c 'import h5py' 2>/dev/null; then \
-	  echo "yade and python3-h5py present"; \
+system: ## Debian packages: Yade, h5py for Yade's python3, and venv for the project's virtualenv (apt-get)
+	@if command -v yade >/dev/null && /usr/bin/python3 -c 'import h5py, ensurepip' 2>/dev/null; then \
+	  echo "yade, python3-h5py and python3-venv present"; \
 	else \
-	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends yade python3-h5py; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends \
+	    yade python3-h5py python3-venv; \
 	fi
 
 model-cycles: $(foreach t,$(THETAS),$(MODEL_DIR)/theta$(t).csv) ## model cycles for the paper's six angles (Table 2)
