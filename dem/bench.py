@@ -1,6 +1,6 @@
 """Yade benchmark: cost of the scene's wall control and in-situ measurement against the bare step loop.
 
-``yade -n -x dem/bench.py RUN_DIR STEPS REPEATS OUT.json`` builds the scene of RUN_DIR/spec.json,
+``python3 -m dem.bench RUN_DIR STEPS REPEATS OUT.json`` (Debian's python3) builds the scene of RUN_DIR/spec.json,
 compacts it and shears it briefly, keeps that state in memory, then times STEPS steps from that
 same state in three modes, REPEATS times each (best time kept): ``bare`` (no Python in the loop,
 walls at constant velocity), ``dispatch`` (the PyRunner calls an empty command every
@@ -12,15 +12,11 @@ cost = (dispatch per call x calls + callbacks) / bare.
 """
 
 import json
-import os
 import sys
 import time
 
-from yade import O
-from yade._minieigenHP import Vector3
-
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0]))))  # yade runs scripts with exec
-from dem import couette  # noqa: E402
+from dem import couette
+from dem.yade_lib import O, Vector3
 
 MODES = ("bare", "dispatch", "full")
 
@@ -53,6 +49,7 @@ def timed(mode, steps, every=None):
 
 def main():
     steps, repeats, out = int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+    couette.configure(sys.argv[1])
     couette.build(couette.SPEC)
     couette.RUN = couette.Run()
     state = couette.RUN.state
@@ -89,4 +86,5 @@ def main():
         json.dump(result, fh, indent=1)
 
 
-main()
+if __name__ == "__main__":
+    main()

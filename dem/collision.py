@@ -1,6 +1,6 @@
 """Yade check of the contact law: binary collisions and a sliding contact.
 
-``yade -n -x dem/collision.py SPEC.json OUT.json`` measures, with the scene's own material
+``python3 -m dem.collision SPEC.json OUT.json`` (Debian's python3) measures, with the scene's own material
 (``dem/contact.py``), for pairs of equal grains of the smallest, mean and largest diameter:
 the normal restitution of a head-on collision; k_t/k_n from a contact sheared at fixed overlap;
 and the ratio |F_t|/|F_n| once the contact slides (Coulomb: tan of the friction angle).
@@ -8,14 +8,10 @@ and the ratio |F_t|/|F_n| once the contact slides (Coulomb: tan of the friction 
 
 import json
 import math
-import os
 import sys
 
-from yade import O, utils
-from yade._minieigenHP import Vector3
-
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0]))))  # yade runs scripts with exec
-from dem.contact import contact_constants, contact_engines, contact_material  # noqa: E402
+from dem.contact import contact_constants, contact_engines, contact_material
+from dem.yade_lib import O, Vector3, utils
 
 
 def reset(spec, diameter):
@@ -87,4 +83,5 @@ def main():
         json.dump(out, fh, indent=1)
 
 
-main()
+if __name__ == "__main__":
+    main()

@@ -1,6 +1,7 @@
 """Yade scene: the 3D planar Couette cell of Rojas & Kamrin (2025), Sec. 2 and Fig. 1.
 
-Run by ``python -m pipeline.dem`` as ``yade -n -x dem/couette.py RUN_DIR``; RUN_DIR holds
+Run by ``python -m pipeline.dem`` as ``python3 -m dem.couette RUN_DIR`` (Debian's python3, Yade imported
+as a library by ``dem/yade_lib.py``: no remote console is opened); RUN_DIR holds
 ``spec.json`` (every parameter, resolved and validated by ``pipeline/dem_config.py``) and receives
 checkpoints and ``raw.npz``. Units: d = p = rho = 1 (time in d sqrt(rho/p)); strain t*gamma_dot.
 
@@ -30,19 +31,22 @@ import sys
 import time
 
 import numpy as np
-import yade.config
-from yade import O, pack, utils
-from yade._minieigenHP import Vector3
-from yade.wrapper import PyRunner
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0]))))  # yade runs scripts with exec
-from dem import measure  # noqa: E402
-from dem.contact import contact_constants, contact_engines, contact_material  # noqa: E402
+from dem import measure
+from dem.contact import contact_constants, contact_engines, contact_material
+from dem.yade_lib import VERSION, O, PyRunner, Vector3, pack, utils
 
-RUN_DIR = sys.argv[1]
-SPEC = json.load(open(os.path.join(RUN_DIR, "spec.json")))
-CHECKPOINT = os.path.join(RUN_DIR, "checkpoint.yade.gz")
-RAW = os.path.join(RUN_DIR, "raw.npz")
+RUN_DIR = SPEC = CHECKPOINT = RAW = None  # set by configure(run_dir)
+
+
+def configure(run_dir):
+    """Point the module at a run folder and read its ``spec.json``."""
+    global RUN_DIR, SPEC, CHECKPOINT, RAW
+    RUN_DIR = run_dir
+    with open(os.path.join(run_dir, "spec.json")) as fh:
+        SPEC = json.load(fh)
+    CHECKPOINT = os.path.join(run_dir, "checkpoint.yade.gz")
+    RAW = os.path.join(run_dir, "raw.npz")
 
 ROUGH_HEIGHT = 1 / math.sqrt(2)  # rough layer above the compact layer (sphere in a square hollow)
 WALL_RADIUS = 0.5
@@ -92,7 +96,7 @@ def build(spec):
     O.engines = contact_engines() + [
         PyRunner(iterPeriod=int(spec["control_every_steps"]), command="control()", label="controller"),
     ]
-    O.tags["spec"] = json.dumps(SPEC)
+    O.tags["spec"] = json.dumps(spec)
     y_rough_bottom, y_rough_top = y_bottom + ROUGH_HEIGHT, y_top - ROUGH_HEIGHT
     O.tags["state"] = json.dumps({
         "phase": "compaction", "bottom": bottom, "top": top, "first_grain": first_grain, "n_grains": n_grains,
@@ -152,9 +156,6 @@ class Run:
     def control(self):
         tic = time.perf_counter()
         st = self.state
-        if O.iter >= st["next_checkpoint"]:
-            st["next_checkpoint"] += SPEC["checkpoint_steps"]
-            O.pause()  # the main loop saves and reloads the checkpoint, then goes on
         err = self.wall_stress() - 1.0
         vy = self.gain * err
         if st["phase"] == "compaction":
@@ -248,7 +249,7 @@ class Run:
         self.progress(strain, row)
         if strain >= self.end_strain() - 1e-9 and self.failure is None:
             st["phase"] = "done"
-            O.pause()
+            stop_after_this_step()
 
     def check(self, row, grains, y_bottom, y_top):
         """Stop with a diagnostic when the run goes wrong."""
@@ -292,7 +293,17 @@ class Run:
     def fail(self, message):
         self.failure = message
         self.state["phase"] = "failed"
-        O.pause()
+        stop_after_this_step()
+
+
+def stop_after_this_step():
+    """End the run loop once the current step is complete, all engines (this PyRunner too) included.
+
+    ``O.pause()`` from inside a PyRunner would mark the loop stopped while the PyRunner still runs,
+    so the main thread could checkpoint a half-sampled state; ``stopAtIter`` is checked by Yade's
+    loop only after the whole step.
+    """
+    O.stopAtIter = O.iter + 1
 
 
 def format_seconds(seconds):
@@ -342,7 +353,7 @@ def checkpoint(run):
 def write_raw(run):
     st = run.state
     meta = {
-        "spec": SPEC, "yade_version": yade.config.version,
+        "spec": SPEC, "yade_version": VERSION,
         "dt": O.dt, "kn": st["kn"], "kt": st["kt"], "cn": st["cn"], "ct": st["ct"], "n_grains": st["n_grains"],
         "n_wall_spheres": len(st["top"][1]) + len(st["bottom"][1]), "gap0": st["gap0"], "wall_speed": st["wall_speed"],
         "gamma_dot_nominal": run.gamma_dot, "t_shear0": st["t_shear0"], "iterations": O.iter,
@@ -366,14 +377,31 @@ def control():
         RUN.fail(f"{type(exc).__name__}: {exc} (in the controller)")
 
 
-def main():
+def run_until_stopped(stop):
+    """Run to the next checkpoint iteration (or until the scene stops itself) and wait for the loop.
+
+    The loop stops itself only at the end of a whole step (``O.run(n)`` sets ``stopAtIter``), so no
+    engine is still running when this returns. A second signal asks for a stop two steps ahead.
+    """
+    O.run(RUN.state["next_checkpoint"] - O.iter)
+    target = None
+    while O.running:
+        if stop["count"] >= 2 and (target is None or O.iter >= target):
+            target = O.iter + 2
+            O.stopAtIter = target
+        time.sleep(0.05)
+    O.wait()
+
+
+def main(run_dir):
     """Build or resume, then run; at every checkpoint save, reload and go on (see ``checkpoint_steps``).
 
     Every run, interrupted or not, continues from each checkpoint as freshly loaded, so resuming is
     bit-identical (one thread). A first SIGINT/SIGTERM stops at the next checkpoint; a second one
-    checkpoints at once (the run then resumes correctly but not bit-identically).
+    stops within two steps (the run then resumes correctly but not bit-identically).
     """
     global RUN
+    configure(run_dir)
     stop = {"count": 0, "signal": 0}
 
     def on_signal(signum, _frame):
@@ -382,15 +410,13 @@ def main():
         if stop["count"] == 1:
             print(f"signal {signum}: stopping at the next checkpoint (iteration {RUN.state['next_checkpoint']}); "
                   "signal again to stop at once", flush=True)
-        else:
-            O.pause()
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     if os.path.exists(CHECKPOINT):
         O.load(CHECKPOINT)
         if json.loads(O.tags["spec"]) != SPEC:
-            sys.stderr.write(f"error: checkpoint {CHECKPOINT} belongs to another spec; delete the run folder\n")
+            sys.stderr.write(f"error: checkpoint {CHECKPOINT} belongs to another spec; rerun with FRESH=1\n")
             sys.exit(2)
         print(f"resumed from checkpoint at iteration {O.iter}", flush=True)
     else:
@@ -399,10 +425,7 @@ def main():
     RUN = Run()
     while True:
         tic = time.time()
-        O.run()
-        while O.running:
-            time.sleep(0.05)
-        O.wait()
+        run_until_stopped(stop)
         RUN.state["loop_seconds"] += time.time() - tic
         phase = RUN.state["phase"]
         if phase == "failed":
@@ -415,17 +438,22 @@ def main():
                     os.remove(os.path.join(RUN_DIR, name))
             print(f"done: {len(RUN.samples)} samples, {O.iter} steps", flush=True)
             return
+        regular = O.iter == RUN.state["next_checkpoint"]
+        if regular:
+            RUN.state["next_checkpoint"] += SPEC["checkpoint_steps"]
         checkpoint(RUN)
-        if stop["count"] >= 2:
+        if not regular:
             print(f"interrupted: checkpoint at iteration {O.iter} (off the regular checkpoints: "
                   "the resumed run will not be bit-identical)", flush=True)
             sys.exit(128 + stop["signal"])
         O.load(CHECKPOINT)
         RUN = Run()
-        if stop["count"] == 1:
+        if stop["count"] >= 1:
             print(f"interrupted: checkpoint at iteration {O.iter}; rerun the same command to resume", flush=True)
             sys.exit(128 + stop["signal"])
 
 
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) != 2:
+        sys.exit("usage: python3 -m dem.couette RUN_DIR")
+    main(sys.argv[1])

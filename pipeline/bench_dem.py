@@ -1,7 +1,7 @@
 """DEM benchmark: steps/s of the bare Yade loop and the cost of our control and measurement.
 
 ``python -m pipeline.bench_dem [--presets quick,reduced] [--out results/bench]`` runs
-``dem/bench.py`` under Yade for each preset (after compaction and a little shear: the timings
+``dem/bench.py`` under Yade's python for each preset (after compaction and a little shear: the timings
 interleave bare, dispatch and full runs of the same steps from the same state, best of five) and writes
 ``dem_overhead.md`` and ``dem_overhead.json``.
 """
@@ -16,8 +16,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from . import dem_config
-from .paths import DEM_DIR, RESULTS_DIR
+from . import dem_config, yade_command
+from .paths import RESULTS_DIR
 
 #: steps per timed run: about ten sampling intervals of each preset
 STEPS = {"tiny": 3000, "quick": 31000, "reduced": 45000, "paper": 15000}
@@ -29,9 +29,8 @@ def bench(preset: str, repeats: int = REPEATS) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         Path(tmp, "spec.json").write_text(json.dumps(spec))
         out = Path(tmp, "out.json")
-        command = ["yade", "-n", "-x", "-j", "1", str(DEM_DIR / "bench.py"), tmp, str(STEPS.get(preset, 30000)),
-                   str(repeats), str(out)]
-        proc = subprocess.run(command, capture_output=True, text=True, cwd=tmp)
+        command = yade_command.command("bench", tmp, STEPS.get(preset, 30000), repeats, out)
+        proc = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=yade_command.environment(1))
         if proc.returncode != 0 or not out.exists():
             raise RuntimeError(f"benchmark of preset {preset} failed: {proc.stderr.strip().splitlines()[-1:]}")
         return json.loads(out.read_text())

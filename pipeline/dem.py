@@ -18,11 +18,11 @@ import subprocess
 import sys
 from pathlib import Path
 
-from . import dem_config
+from . import dem_config, yade_command
 from .dem_h5 import write_h5
-from .paths import RESULTS_DIR, ROOT, SCENE
+from .paths import RESULTS_DIR, ROOT
 
-YADE_NOISE = ("TCP python prompt", "XMLRPC info provider", "Welcome to Yade", "Using python version", "Running script")
+YADE_NOISE = ("Using python version",)
 
 
 def git_commit() -> str:
@@ -41,8 +41,26 @@ def write_json(path: Path, data) -> None:
     os.replace(tmp, path)
 
 
+def lock_run(spec: dict, results_dir: Path):
+    """Take the run's lock (``<name>.lock`` beside its folder), held until this process ends.
+
+    The lock comes before anything is created or deleted, so ``--fresh`` can never remove the
+    folder of a live run.
+    """
+    lock_path = dem_config.work_dir(spec, results_dir).with_suffix(".lock")
+    lock_path.parent.mkdir(parents=True, exist_ok=True)
+    lock = open(lock_path, "w")
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        lock.close()
+        raise dem_config.SpecError(f"{lock_path.with_suffix('.run')} is in use by another run of the same spec"
+                                   " (FRESH=1 does not stop a live run)") from None
+    return lock
+
+
 def prepare(spec: dict, results_dir: Path, fresh: bool) -> Path:
-    """The run folder with its ``spec.json``; refuses to mix a checkpoint with another spec."""
+    """The run folder with its ``spec.json``; refuses to mix a checkpoint with another spec. Call under the lock."""
     run_dir = dem_config.work_dir(spec, results_dir)
     if fresh and run_dir.exists():
         shutil.rmtree(run_dir)
@@ -59,12 +77,12 @@ def prepare(spec: dict, results_dir: Path, fresh: bool) -> Path:
 
 def run_yade(run_dir: Path, threads: int, label: str) -> int:
     """Run the scene, echoing its progress lines (prefixed by ``label``) and logging them to ``run_dir/log.txt``."""
-    yade = shutil.which("yade")
-    if yade is None:
-        raise dem_config.SpecError("yade not found on PATH: run `make system` (apt-get install yade python3-h5py)")
-    env = {**os.environ, "OMP_NUM_THREADS": str(threads)}
-    command = [yade, "-n", "-x", "-j", str(threads), str(SCENE), str(run_dir)]
-    with open(run_dir / "log.txt", "a") as log:
+    try:
+        command = yade_command.command("couette", run_dir)
+    except yade_command.YadeMissing as exc:
+        raise dem_config.SpecError(str(exc)) from None
+    env = yade_command.environment(threads)
+    with open(run_dir / "log.txt", "a", buffering=1) as log:
         log.write(f"# {dt.datetime.now().isoformat(timespec='seconds')} {' '.join(command)}\n")
         proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                                 cwd=run_dir, start_new_session=True)
@@ -90,12 +108,8 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
     if out.exists() and not fresh:
         print(f"{out} is up to date (FRESH=1 / --fresh reruns it)")
         return out
+    lock = lock_run(spec, results_dir)  # noqa: F841 - held until this process ends
     run_dir = prepare(spec, results_dir, fresh)
-    lock = open(run_dir / "lock", "w")  # held until this process ends
-    try:
-        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        raise dem_config.SpecError(f"{run_dir} is in use by another run of the same spec") from None
     provenance_file = run_dir / "provenance.json"
     provenance = json.loads(provenance_file.read_text()) if provenance_file.exists() else {
         "started": dt.datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(), "sessions": []}
@@ -104,6 +118,10 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
     write_json(provenance_file, provenance)
     if not (run_dir / "raw.npz").exists():
         status = run_yade(run_dir, threads, f"{spec['folder']}/{spec['name']}")
+        if status < 0:
+            print(f"error: the scene was killed by signal {-status} ({signal.Signals(-status).name}); "
+                  f"rerun the same command to resume from its last checkpoint", file=sys.stderr)
+            raise SystemExit(128 - status)
         if status != 0:
             raise SystemExit(status)
     provenance["finished"] = dt.datetime.now().isoformat(timespec="seconds")

@@ -7,7 +7,6 @@ CONFIG_DIR = ROOT / "config"
 DEM_DIR = ROOT / "dem"
 RESULTS_DIR = ROOT / "results"
 REFERENCE_DIR = ROOT / "data" / "reference"  # committed DEM runs: used where results/ has none
-SCENE = DEM_DIR / "couette.py"
 
 
 def first_existing(relative: Path, roots: tuple[Path, ...]) -> Path | None:

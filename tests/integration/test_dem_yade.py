@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from dem.contact import contact_constants, pair_reduced_mass, restitution
-from pipeline import dem_config
+from pipeline import dem_config, yade_command
 from pipeline.dem_h5 import SCHEMA, load
-from pipeline.paths import DEM_DIR, ROOT
+from pipeline.paths import ROOT
 
 pytestmark = pytest.mark.yade
 
@@ -41,8 +41,8 @@ def tiny_run(tmp_path_factory):
 def test_collisions_restitution_stiffness_ratio_and_sliding(tmp_path):
     spec = dem_config.resolve(90, "paper")
     (tmp_path / "spec.json").write_text(json.dumps(spec))
-    subprocess.run(["yade", "-n", "-x", str(DEM_DIR / "collision.py"), str(tmp_path / "spec.json"),
-                    str(tmp_path / "out.json")], check=True, capture_output=True, cwd=tmp_path)
+    subprocess.run(yade_command.command("collision", tmp_path / "spec.json", tmp_path / "out.json"), check=True,
+                   capture_output=True, cwd=tmp_path, env=yade_command.environment())
     out = json.loads((tmp_path / "out.json").read_text())
     kn, _, cn, _ = contact_constants(spec)
     assert out["mean"]["restitution"] == pytest.approx(0.5, abs=0.02)
@@ -137,9 +137,9 @@ def test_bad_input_fails_before_yade_starts(tmp_path, args, message):
 def test_a_second_run_of_the_same_spec_is_refused(tmp_path):
     import fcntl
 
-    run_dir = dem_config.work_dir(dem_config.resolve(90, "tiny"), tmp_path)
-    run_dir.mkdir(parents=True)
-    with open(run_dir / "lock", "w") as lock:
+    lock_path = dem_config.work_dir(dem_config.resolve(90, "tiny"), tmp_path).with_suffix(".lock")
+    lock_path.parent.mkdir(parents=True)
+    with open(lock_path, "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
         proc = run("--theta", "90", "--preset", "tiny", results=tmp_path)
     assert proc.returncode == 2 and "is in use by another run of the same spec" in proc.stderr

@@ -1,0 +1,38 @@
+"""How the project starts a Yade script: Debian's python3 running ``python3 -m dem.<module>``.
+
+The scripts import Yade as a library (``dem/yade_lib.py``), so the ``yade`` launcher's remote
+consoles never start. The interpreter is the one Debian's ``yade`` launcher names in its first line.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+
+from .paths import ROOT
+
+
+class YadeMissing(RuntimeError):
+    """Yade is not installed; the message says how to install it."""
+
+
+def yade_python() -> str:
+    """The python3 that Debian's Yade is built for (the ``yade`` launcher's interpreter)."""
+    launcher = shutil.which("yade")
+    if launcher is None:
+        raise YadeMissing("yade not found on PATH: run `make system` (apt-get install yade python3-h5py)")
+    with open(launcher, encoding="utf-8", errors="replace") as fh:
+        first = fh.readline()
+    interpreter = first[2:].strip().split()[0] if first.startswith("#!") else "/usr/bin/python3"
+    return interpreter if os.path.exists(interpreter) else "/usr/bin/python3"
+
+
+def command(module: str, *args: str) -> list[str]:
+    """The command line running ``dem.<module>`` with ``args`` under Yade's python."""
+    return [yade_python(), "-m", f"dem.{module}", *map(str, args)]
+
+
+def environment(threads: int = 1) -> dict[str, str]:
+    """Environment of a Yade script: the project on the path, ``threads`` OpenMP threads, unbuffered output."""
+    path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
+    return {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": str(threads), "PYTHONUNBUFFERED": "1"}
