@@ -1,81 +1,143 @@
-# Entry point. `make help` lists the targets; every target is a file or a short phony alias.
+# Entry point. `make help` lists the targets. The pipeline is a DAG of files:
+#   results/<P>/dem/*.h5 -> results/<P>/fit/params.json -> results/<P>/compare/metrics.json -> results/<P>/report.md
+# and each step reruns only when what it reads has changed.
 SHELL := /bin/bash
 .DEFAULT_GOAL := help
+.DELETE_ON_ERROR:
 
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 VENV_STAMP := $(VENV)/.installed
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+APT_INSTALL := DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends
 THETAS := 030 060 090 120 150 180
 MODEL_DIR := results/model
 
-# DEM runs: make dem THETA=90 [PRESET=quick] [ROTATE_AT=0.1] [SET="key=value ..."] [FRESH=1] [THREADS=1]
+# ---------------------------------------------------------------- the user's variables, checked before any shell sees them
+# make dem THETA=90 [PRESET=quick] [ROTATE_AT=0.1] [SET="key=value ..."] [FRESH=1] [THREADS=1]
 THETA ?= 180
-PRESET ?= quick
 ROTATE_AT ?=
 SET ?=
 FRESH ?=
-RESUME ?=
 THREADS ?= 1
+BOOT ?= 100
+LOWER := a b c d e f g h i j k l m n o p q r s t u v w x y z
+UPPER := A B C D E F G H I J K L M N O P Q R S T U V W X Y Z
+DIGITS := 0 1 2 3 4 5 6 7 8 9
+NUMBER_CHARS := $(DIGITS) . - + e E
+NAME_CHARS := $(LOWER) $(UPPER) $(DIGITS) _ . -
+# what is left of $(1) once every character of the list $(2) is removed
+strip_chars = $(if $(2),$(call strip_chars,$(subst $(firstword $(2)),,$(1)),$(wordlist 2,$(words $(2)),$(2))),$(1))
+# $(call check,NAME,allowed characters,what they may be)
+check = $(if $(strip $(call strip_chars,$(subst $(space),,$($(1))),$(2))),$(error $(1)='$($(1))' is not $(3)))
+space := $(subst ,, )
+$(call check,THETA,$(NUMBER_CHARS),a number)
+$(call check,ROTATE_AT,$(NUMBER_CHARS),a number)
+$(call check,THREADS,$(DIGITS),a whole number)
+$(call check,BOOT,$(DIGITS),a whole number)
+$(call check,FRESH,$(NAME_CHARS),1 or empty)
+$(call check,SET,$(NAME_CHARS) = +,a list of key=value)
+ifneq ($(origin PRESET),undefined)
+$(call check,PRESET,$(NAME_CHARS),a preset name (letters, digits, _ . -))
+endif
+
+# `make dem` defaults to the small `quick` preset; fit, compare and figures default to the most faithful
+# preset with a reversal run in results/ or the committed data (paper, then reduced, then quick)
+has_reversal = $(wildcard $(foreach r,results data/reference,$(r)/$(1)/dem/theta180.h5 $(r)/$(1)-*/dem/theta180.h5))
+AUTO_PRESET := $(firstword $(foreach p,paper reduced quick,$(if $(call has_reversal,$(p)),$(p))) quick)
+DATA_PRESET := $(if $(filter undefined,$(origin PRESET)),$(AUTO_PRESET),$(PRESET))
+PRESET ?= quick
 DEM_ARGS = --preset $(PRESET) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
 	$(if $(filter 1 yes true,$(FRESH)),--fresh) --threads $(THREADS)
 
-.PHONY: help demo test bench venv system model-cycles dem fit fit-bootstrap figures demo-dem clean
+RUN_FILES = $(wildcard $(foreach r,results data/reference,$(r)/$(1)/dem/*.h5 $(r)/$(1)-*/dem/*.h5))
+FIT_DIR := results/$(DATA_PRESET)/fit
+COMPARE_DIR := results/$(DATA_PRESET)/compare
+DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
+
+.PHONY: help demo test test-unit test-yade lint bench venv system system-venv model-cycles dem fit fit-bootstrap \
+	compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
 
 demo: system venv model-cycles demo-dem ## set up everything, then run the pipeline on the small default
-	$(PY) -m pipeline.fit --preset quick
-	$(PY) -m pipeline.figures --preset quick
+	$(MAKE) --no-print-directory figures PRESET=quick
 	@echo "demo done: model cycles in $(MODEL_DIR)/, DEM runs in results/quick/dem/, fit in results/quick/fit/, figures and report.md in results/quick/"
 
-test: system venv ## run the test suite (the DEM tests run the real Yade)
+# ---------------------------------------------------------------- tests and lint
+test: system venv lint ## lint, then the whole test suite (the DEM tests run the real Yade): what CI runs
 	$(PY) -m pytest -q
 
-bench: system venv ## benchmarks: model numerics and DEM control/measurement cost, in results/bench/
-	$(PY) -m pipeline.bench_model --out results/bench
-	$(PY) -m pipeline.bench_dem --out results/bench
+test-unit: venv ## the unit tests alone (no Yade needed)
+	$(PY) -m pytest -q tests/unit
 
+test-yade: system venv ## the tests that run the real Yade
+	$(PY) -m pytest -q tests/integration
+
+lint: venv ## ruff over the whole project
+	$(PY) -m ruff check .
+
+bench: system venv ## benchmarks: model numerics and DEM control/measurement cost, in results/bench/
+	$(PY) -m pipeline.studies.bench_model --out results/bench
+	$(PY) -m pipeline.studies.bench_dem --out results/bench
+
+# ---------------------------------------------------------------- set-up
 venv: $(VENV_STAMP) ## the project virtualenv from pyproject.toml
 
-$(VENV_STAMP): pyproject.toml | system
+$(VENV_STAMP): pyproject.toml | system-venv
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -e '.[dev]'
 	touch $@
 
-system: ## Debian packages: Yade, h5py for Yade's python3, and venv for the project's virtualenv (apt-get)
-	@if command -v yade >/dev/null && /usr/bin/python3 -c 'import h5py, ensurepip' 2>/dev/null; then \
-	  echo "yade, python3-h5py and python3-venv present"; \
+system-venv: ## Debian's python3-venv, for the project's virtualenv (apt-get; a fresh Debian has no ensurepip)
+	@if $(PYTHON) -c 'import ensurepip' 2>/dev/null; then echo "venv support present"; else \
+	  $(SUDO) apt-get update -qq && $(APT_INSTALL) python3-venv; fi
+
+system: system-venv ## Debian packages: Yade and h5py for Yade's python3 (apt-get)
+	@if command -v yade >/dev/null && /usr/bin/python3 -c 'import h5py' 2>/dev/null; then \
+	  echo "yade and python3-h5py present"; \
 	else \
-	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends \
-	    yade python3-h5py python3-venv; \
+	  $(SUDO) apt-get update -qq && $(APT_INSTALL) yade python3-h5py; \
 	fi
 
+# ---------------------------------------------------------------- the pipeline
 model-cycles: $(foreach t,$(THETAS),$(MODEL_DIR)/theta$(t).csv) ## model cycles for the paper's six angles (Table 2)
 
 $(MODEL_DIR)/theta%.csv: $(VENV_STAMP) model/*.py
 	$(PY) -m model predict --theta $* --out $@
 
 dem: system venv ## one DEM run -> results/<preset>/dem/theta<THETA>.h5 (resumes from its checkpoint; see README)
-	$(PY) -m pipeline.dem run --theta $(THETA) $(DEM_ARGS)
-
-fit: venv ## stepwise calibration from the theta = 180 runs -> results/<PRESET>/fit/params.json, fit.json
-	$(PY) -m pipeline.fit --preset $(PRESET)
-
-fit-bootstrap: venv ## the fit plus a bootstrap over cycles (BOOT=100 refits) -> fit.json
-	$(PY) -m pipeline.fit --preset $(PRESET) --bootstrap $(or $(BOOT),100)
-
-figures: venv ## Figs. 5-7 and report.md -> results/<PRESET>/figures/, results/<PRESET>/report.md
-	$(PY) -m pipeline.figures --preset $(PRESET)
+	$(PY) -m pipeline.runs run --theta $(THETA) $(DEM_ARGS)
 
 demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 90, both at once
-	$(MAKE) --no-print-directory -j2 demo-dem-180 demo-dem-90
+	$(MAKE) --no-print-directory -j2 results/quick/dem/theta180.h5 results/quick/dem/theta090.h5
 
-demo-dem-%:
-	$(PY) -m pipeline.dem run --theta $* --preset quick
+results/quick/dem/theta%.h5: | $(VENV_STAMP)
+	$(PY) -m pipeline.runs run --theta $* --preset quick
 
-clean: ## remove generated results (keeps the venv)
-	rm -rf results/model results/bench results/quick results/tiny
+fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs -> results/<PRESET>/fit/params.json, fit.json, fit.h5
+
+$(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(call RUN_FILES,$(DATA_PRESET)) $(VENV_STAMP) \
+		$(DATASET_CODE) $(wildcard pipeline/calibration/*.py)
+	$(PY) -m pipeline.calibration --preset $(DATA_PRESET)
+
+fit-bootstrap: venv ## the fit plus a bootstrap over cycles (BOOT=100 refits) -> fit.json
+	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --bootstrap $(BOOT)
+
+compare: $(COMPARE_DIR)/metrics.json ## the model against the preset's runs -> results/<PRESET>/compare/
+
+$(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 &: $(FIT_DIR)/params.json $(FIT_DIR)/fit.h5 \
+		$(call RUN_FILES,$(DATA_PRESET)) $(DATASET_CODE) $(wildcard pipeline/comparison/*.py)
+	$(PY) -m pipeline.comparison --preset $(DATA_PRESET)
+
+figures: results/$(DATA_PRESET)/report.md ## Figs. 3-9 and report.md -> results/<PRESET>/figures/, report.md
+
+results/$(DATA_PRESET)/report.md: $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 $(FIT_DIR)/fit.json \
+		$(FIT_DIR)/fit.h5 $(wildcard pipeline/figures/*.py)
+	$(PY) -m pipeline.figures --preset $(DATA_PRESET)
+
+clean: ## remove generated results (keeps the venv and the DEM runs under results/<preset>/dem/)
+	rm -rf results/model results/bench results/*/fit results/*/compare results/*/figures results/*/report.md

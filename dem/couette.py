@@ -1,6 +1,6 @@
 """Yade scene: the 3D planar Couette cell of Rojas & Kamrin (2025), Sec. 2 and Fig. 1.
 
-Run by ``python -m pipeline.dem`` as ``python3 -m dem.couette RUN_DIR`` (Debian's python3, Yade imported
+Run by ``python -m pipeline.runs`` (``make dem``) as ``python3 -m dem.couette RUN_DIR`` (Debian's python3, Yade imported
 as a library by ``dem/yade_lib.py``: no remote console is opened); RUN_DIR holds
 ``spec.json`` (every parameter, resolved and validated by ``pipeline/dem_config.py``) and receives
 checkpoints and ``raw.npz``. Units: d = p = rho = 1 (time in d sqrt(rho/p)); strain t*gamma_dot.
@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from dem import measure
+from dem import measure, schema
 from dem.contact import contact_constants, contact_engines, contact_material
 from dem.yade_lib import VERSION, O, PyRunner, Vector3, pack, utils
 
@@ -243,6 +243,7 @@ class Run:
             wall_stress_error_mean=st["err_sum"] / max(st["err_n"], 1), wall_stress_error_max=st["err_max"],
         )
         st.update(err_sum=0.0, err_n=0, err_max=0.0)
+        schema.check_row(row)
         self.samples.append(row)
         st["next_sample"] += 1
         self.check(row, grains, y_bottom, y_top)

@@ -3,22 +3,31 @@
 Rojas & Kamrin, Soft Matter (2025), Sections 3.2, 3.3 and 5; conventions in ``model.kinematics``.
 """
 
+from .equations import hardening_variable_stack
 from .kinematics import (
+    PERIOD_STRAIN,
+    ROTATE_AT_STRAIN,
     History,
     HistoryError,
     Segment,
+    deviator,
+    modulus,
     periodic_cycle,
     reversal,
     rotation_about_e2,
+    shear_direction,
     shear_segment,
     shear_velocity_gradient,
+    spin,
     steady_shear,
+    stretching,
 )
 from .params import PAPER, ParameterError, Params
 from .solver import Result, SolverError, integrate, periodic, predict, steady_state
 
 __all__ = [
-    "PAPER", "History", "HistoryError", "ParameterError", "Params", "Result", "Segment", "SolverError",
-    "integrate", "periodic", "periodic_cycle", "predict", "reversal", "rotation_about_e2",
-    "shear_segment", "shear_velocity_gradient", "steady_shear", "steady_state",
+    "PAPER", "PERIOD_STRAIN", "ROTATE_AT_STRAIN", "History", "HistoryError", "ParameterError", "Params", "Result",
+    "Segment", "SolverError", "deviator", "hardening_variable_stack", "integrate", "modulus", "periodic",
+    "periodic_cycle", "predict", "reversal", "rotation_about_e2", "shear_direction", "shear_segment",
+    "shear_velocity_gradient", "spin", "steady_shear", "steady_state", "stretching",
 ]

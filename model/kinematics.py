@@ -41,10 +41,13 @@ def _positive(name: str, value) -> float:
     return value
 
 
-def shear_direction(phi_deg: float) -> np.ndarray:
-    """Unit vector s(phi) = cos(phi) e1 + sin(phi) e3 along which the top wall moves."""
-    phi = math.radians(_finite("phi_deg", phi_deg))
-    return np.array([math.cos(phi), 0.0, math.sin(phi)])
+def shear_direction(phi_deg) -> np.ndarray:
+    """Unit vector s(phi) = cos(phi) e1 + sin(phi) e3 along which the top wall moves; an array of
+    angles (degrees) gives a stack (..., 3)."""
+    phi = np.radians(np.asarray(phi_deg, dtype=float))
+    if not np.all(np.isfinite(phi)):
+        raise HistoryError(f"phi_deg={phi_deg!r} must be finite")
+    return np.stack([np.cos(phi), np.zeros_like(phi), np.sin(phi)], axis=-1)
 
 
 def shear_velocity_gradient(phi_deg: float, shear_rate: float = 1.0) -> np.ndarray:

@@ -1,14 +1,50 @@
-"""Every path of the project, derived from the repository root."""
+"""Every path of the project, derived from the repository root, and the lookup of a preset's DEM files.
 
+A preset's runs live in ``results/<preset>/dem/`` (the preset as it is) and ``results/<preset>-<hash>/dem/``
+(with overrides); the committed reference dataset ``data/reference/`` has the same layout and is used
+where ``results/`` has no file of that name.
+"""
+
+from __future__ import annotations
+
+import re
 from pathlib import Path
+
+from .errors import PipelineError
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG_DIR = ROOT / "config"
 DEM_DIR = ROOT / "dem"
 RESULTS_DIR = ROOT / "results"
 REFERENCE_DIR = ROOT / "data" / "reference"  # committed DEM runs: used where results/ has none
+DATA_ROOTS = (RESULTS_DIR, REFERENCE_DIR)
+
+_FOLDER = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 
 
-def first_existing(relative: Path, roots: tuple[Path, ...]) -> Path | None:
+def check_folder_name(name: str, what: str = "preset") -> str:
+    """A preset (or run folder) name that stays inside ``results/``: letters, digits, ``_ . -``, no ``..``."""
+    if not isinstance(name, str) or not _FOLDER.fullmatch(name) or ".." in name:
+        raise PipelineError(f"{what} {name!r} is not a valid name (letters, digits, '_', '.', '-'; "
+                            "it names a folder under results/)")
+    return name
+
+
+def first_existing(relative: Path, roots: tuple[Path, ...] = DATA_ROOTS) -> Path | None:
     """``root / relative`` for the first root where it exists (results/ before the reference dataset)."""
     return next((root / relative for root in roots if (root / relative).exists()), None)
+
+
+def preset_files(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, variants: bool = True) -> list[Path]:
+    """Every DEM file of ``preset`` (and, with ``variants``, of ``<preset>-<hash>``), one per relative path,
+    results/ first; sorted by folder and name."""
+    check_folder_name(preset)
+    patterns = [f"{preset}/dem/*.h5"] + ([f"{preset}-*/dem/*.h5"] if variants else [])
+    relative = sorted({p.relative_to(root) for root in roots for pattern in patterns for p in root.glob(pattern)},
+                      key=lambda r: r.parts)
+    return [first_existing(r, roots) for r in relative]
+
+
+def preset_output(preset: str, *parts: str) -> Path:
+    """``results/<preset>/<parts...>``, the preset name checked first."""
+    return RESULTS_DIR.joinpath(check_folder_name(preset), *parts)

@@ -1,1 +1,2 @@
-"""Figures and the report (``make figures``): one module per figure, headless, reading HDF5/JSON only."""
+"""Figures and the report (``make figures``): one module per figure, headless; they read the comparison
+and calibration files and draw, nothing else."""

@@ -1,4 +1,8 @@
-"""``python -m pipeline.figures [--preset reduced] [--params FILE]``: Figs. 3-9 and report.md."""
+"""``python -m pipeline.figures [--preset reduced]`` (``make figures``): Figs. 3-9 and report.md.
+
+Reads ``results/<preset>/compare/compare.h5`` and ``metrics.json`` (``make compare``) and
+``results/<preset>/fit/fit.h5`` and ``fit.json`` (``make fit``); draws and formats, computes nothing.
+"""
 
 from __future__ import annotations
 
@@ -7,53 +11,73 @@ import json
 import sys
 from pathlib import Path
 
+import h5py
+
 import model
 
-from ..dem_h5 import DemFileError, load
-from ..paths import REFERENCE_DIR, RESULTS_DIR, first_existing
+from ..errors import PipelineError
+from ..paths import check_folder_name, preset_output
 from . import cycles, laws, report, reversal
 
 
-def dem_runs(preset: str, roots=(RESULTS_DIR, REFERENCE_DIR)) -> list:
-    names = sorted({p.name for root in roots for p in (root / preset / "dem").glob("theta*.h5")})
-    return [load(first_existing(Path(preset) / "dem" / name, roots)) for name in names]
+def read_json(path: Path) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise PipelineError(f"{path} not found: run `make compare` (or `make fit`) first") from None
+    except (OSError, ValueError) as exc:
+        raise PipelineError(f"{path} is not readable JSON ({exc})") from None
+
+
+def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
+    """Every figure and the report from the comparison and calibration outputs."""
+    metrics = read_json(compare_dir / "metrics.json")
+    fit_json = read_json(fit_dir / "fit.json") if (fit_dir / "fit.json").exists() else None
+    sets = {label: model.Params.from_dict(values) for label, values in metrics["param_sets"].items()}
+    fitted, paper = sets["our fit"], sets["Table 2"]
+    preset = metrics["preset"]
+    figures = out / "figures"
+    made = []
+    try:
+        f = h5py.File(compare_dir / "compare.h5", "r")
+    except OSError as exc:
+        raise PipelineError(f"cannot read {compare_dir / 'compare.h5'}: run `make compare` first ({exc})") from None
+    with f:
+        runs = [f["runs"][k] for k in f["runs"]]
+        default = [g for g in runs if g.attrs["default_rotation"]]
+        rotated = [g for g in runs if not g.attrs["default_rotation"]]
+        made.append(cycles.plot(default, figures / "fig5_6_cycles.png", f"{preset}: Figs. 5-6"))
+        if rotated:
+            made.append(cycles.plot(rotated, figures / "fig7_rotations.png", f"{preset}: Fig. 7"))
+        if "reversal" in f:
+            parts = [f["reversal"][k] for k in f["reversal"]]
+            made.append(reversal.backstress_figure(parts, fitted.C, figures / "fig8_backstress.png"))
+        reversal_runs = [g for g in runs if g.attrs["is_reversal"]]
+        if reversal_runs:
+            made.append(reversal.work_figure(reversal_runs, "our fit", figures / "fig9_work_rates.png"))
+        n_runs = len(runs)
+    fit_h5 = fit_dir / "fit.h5"
+    if fit_h5.exists():
+        made.append(laws.fabric_law(fit_h5, fitted, paper, figures / "fig3_fabric_law.png"))
+        made.append(laws.flow_rule(fit_h5, fitted, paper, figures / "fig4_flow_rule.png"))
+    made.append(report.write(metrics, fit_json, out / "report.md", n_runs))
+    return made
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m pipeline.figures", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="reduced")
-    parser.add_argument("--params", type=Path, help="fitted parameters (default results/<preset>/fit/params.json)")
-    parser.add_argument("--runs", nargs="+", type=Path, help="DEM files to show instead of the preset's")
+    parser.add_argument("--compare", type=Path, help="comparison folder (default results/<preset>/compare)")
+    parser.add_argument("--fit", type=Path, help="calibration folder (default results/<preset>/fit)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<preset>)")
     args = parser.parse_args(argv)
-    out = args.out or RESULTS_DIR / args.preset
-    params_file = args.params or RESULTS_DIR / args.preset / "fit" / "params.json"
     try:
-        runs = [load(p) for p in args.runs] if args.runs else dem_runs(args.preset)
-        if not runs:
-            raise DemFileError(f"no DEM run of preset {args.preset!r}: run `make dem PRESET={args.preset}` first")
-        fitted = model.Params.load(params_file)
-    except (DemFileError, model.ParameterError) as exc:
+        preset = check_folder_name(args.preset)
+        made = draw(args.compare or preset_output(preset, "compare"), args.fit or preset_output(preset, "fit"),
+                    args.out or preset_output(preset))
+    except (PipelineError, model.ParameterError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    sets = {"Table 2": model.Params(), "our fit": fitted}
-    default = [r for r in runs if abs(r.spec["rotate_at_strain"] - r.spec["period_strain"] / 2) < 1e-9]
-    rotated = [r for r in runs if r not in default]
-    made = [cycles.plot(default, sets, out / "figures" / "fig5_6_cycles.png", f"{args.preset}: Figs. 5-6")]
-    if rotated:
-        made.append(cycles.plot(rotated, sets, out / "figures" / "fig7_rotations.png", f"{args.preset}: Fig. 7"))
-    fit_h5 = params_file.with_name("fit.h5")
-    if fit_h5.exists():
-        made.append(laws.fabric_law(fit_h5, fitted, model.Params(), out / "figures" / "fig3_fabric_law.png"))
-        made.append(laws.flow_rule(fit_h5, fitted, model.Params(), out / "figures" / "fig4_flow_rule.png"))
-        made.append(reversal.backstress_figure(fit_h5, fitted.C, out / "figures" / "fig8_backstress.png"))
-    reversals = [r for r in runs if abs(abs(r.spec["theta_deg"]) - 180) < 1e-9]
-    if reversals:
-        made.append(reversal.work_figure(reversals, fitted, out / "figures" / "fig9_work_rates.png"))
-    fit_report = params_file.with_name("fit.json")
-    fit_json = json.loads(fit_report.read_text()) if fit_report.exists() else None
-    made.append(report.write(runs, sets, fit_json, out / "report.md", args.preset,
-                             fit_h5 if fit_h5.exists() else None))
     for path in made:
         print(f"wrote {path}")
     return 0

@@ -1,5 +1,6 @@
 """Figs. 3 and 4 from ``fit.h5``: alpha_i and beta_i against S from the reversal (with the fitted
-lines and log-log insets of |alpha_i|), and C and Y against S from the Sec. 3.3 cross-check."""
+lines and log-log insets of |alpha_i|), and C and Y against S from the Sec. 3.3 cross-check; the
+lines are the laws of each parameter set drawn over S."""
 
 from __future__ import annotations
 

@@ -5,7 +5,8 @@ import pytest
 
 import model
 from model.reference import fabric_rate
-from pipeline import calibrate as cal
+from pipeline.calibration import estimators as cal
+from pipeline.errors import CalibrationError
 
 PARAMS = model.Params()
 
@@ -79,10 +80,10 @@ def test_power_law_exponent_of_the_divergence_at_small_S():
 
 
 def test_bad_inputs():
-    with pytest.raises(cal.CalibrationError, match="too few samples"):
+    with pytest.raises(CalibrationError, match="too few samples"):
         cal.linear_fit(np.array([1.0, 2.0]), np.array([1.0, 2.0]))
     strain = np.array([0, 0.1, 0.3, 0.35])
-    with pytest.raises(cal.CalibrationError, match="not evenly spaced"):
+    with pytest.raises(CalibrationError, match="not evenly spaced"):
         cal.jaumann_rate(strain, np.zeros((4, 3, 3)), np.zeros((4, 3, 3)))
 
 

@@ -1,6 +1,6 @@
 """DEM benchmark: steps/s of the bare Yade loop and the cost of our control and measurement.
 
-``python -m pipeline.bench_dem [--presets quick,reduced] [--out results/bench]`` runs
+``python -m pipeline.studies.bench_dem [--presets quick,reduced] [--out results/bench]`` runs
 ``dem/bench.py`` under Yade's python for each preset (after compaction and a little shear: the timings
 interleave bare, dispatch and full runs of the same steps from the same state, best of five) and writes
 ``dem_overhead.md`` and ``dem_overhead.json``.
@@ -16,8 +16,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-from . import dem_config, yade_command
-from .paths import RESULTS_DIR
+from ..paths import RESULTS_DIR
+from ..runs import spec as run_spec
+from ..runs import yade
 
 #: steps per timed run: about ten sampling intervals of each preset
 STEPS = {"tiny": 3000, "quick": 31000, "reduced": 45000, "paper": 15000}
@@ -25,12 +26,12 @@ REPEATS = 5
 
 
 def bench(preset: str, repeats: int = REPEATS) -> dict:
-    spec = dem_config.resolve(180, preset)
+    spec = run_spec.resolve(180, preset)
     with tempfile.TemporaryDirectory() as tmp:
         Path(tmp, "spec.json").write_text(json.dumps(spec))
         out = Path(tmp, "out.json")
-        command = yade_command.command("bench", tmp, STEPS.get(preset, 30000), repeats, out)
-        proc = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=yade_command.environment(1))
+        command = yade.command("bench", tmp, STEPS.get(preset, 30000), repeats, out)
+        proc = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=yade.environment(1))
         if proc.returncode != 0 or not out.exists():
             raise RuntimeError(f"benchmark of preset {preset} failed: {proc.stderr.strip().splitlines()[-1:]}")
         return json.loads(out.read_text())
@@ -57,7 +58,7 @@ def report(rows: list[dict]) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pipeline.bench_dem", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m pipeline.studies.bench_dem", description=__doc__.splitlines()[0])
     parser.add_argument("--presets", default="quick,reduced")
     parser.add_argument("--out", type=Path, default=RESULTS_DIR / "bench")
     args = parser.parse_args(argv)

@@ -32,7 +32,7 @@ from model import (  # noqa: E402
 )
 from model.equations import observables  # noqa: E402
 
-from .figures.output import save  # noqa: E402
+from ..figures.output import save  # noqa: E402
 
 CASES = {
     "theta=180": (180.0, PAPER),
@@ -149,7 +149,7 @@ def plot(df: pd.DataFrame, path: Path) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pipeline.bench_model", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m pipeline.studies.bench_model", description=__doc__)
     parser.add_argument("--out", type=Path, default=Path("results/bench"), help="output folder")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)

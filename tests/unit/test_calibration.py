@@ -1,4 +1,4 @@
-"""`python -m pipeline.fit`: the stepwise calibration on synthetic reversal runs made by the model."""
+"""`python -m pipeline.calibration` (`make fit`): the stepwise and global calibration on synthetic runs."""
 
 import json
 
@@ -6,18 +6,15 @@ import numpy as np
 import pytest
 
 import model
-from pipeline import fit
-from pipeline.dem_h5 import write_h5
-from pipeline.synthetic import synthetic_raw, write_raw_npz
+from pipeline.calibration import __main__ as fit
+from pipeline.calibration import global_fit
+from pipeline.calibration.stepwise import dilatancy_estimate
+from pipeline.dataset import lookup
+from pipeline.dataset.derived import cycle_D_dev
+from pipeline.errors import CalibrationError
+from tests.helpers import synthetic_file, synthetic_run
 
 TRUE = model.Params()
-
-
-def synthetic_file(tmp_path, theta=180.0, name="run", **kw):
-    raw, meta = synthetic_raw(theta, **kw)
-    write_raw_npz(tmp_path / f"{name}.npz", raw, meta)
-    write_h5(tmp_path / f"{name}.npz", tmp_path / f"{name}.h5", {})
-    return tmp_path / f"{name}.h5"
 
 
 def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path):
@@ -43,8 +40,8 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
 
 
 def test_several_seeds_give_a_mean_and_its_standard_error(tmp_path):
-    paths = [synthetic_file(tmp_path, name=f"s{seed}", n_cycles=2, noise=0.002, seed=seed) for seed in range(3)]
-    report = fit.fit(paths, tmp_path / "fit")
+    runs = [synthetic_run(tmp_path, name=f"s{seed}", n_cycles=2, noise=0.002, seed=seed) for seed in range(3)]
+    report = fit.fit(runs, tmp_path / "fit")
     b2 = report["estimates"]["b2"]
     assert len(b2["per_run"]) == 3
     assert b2["standard_error"] == pytest.approx(np.std(b2["per_run"], ddof=1) / np.sqrt(3))
@@ -55,7 +52,7 @@ def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
     assert "no reversal run found" in capsys.readouterr().err
     path = synthetic_file(tmp_path, theta=90.0, n_cycles=1)
     assert fit.main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 2
-    assert "is not a reversal run (theta = 90.0)" in capsys.readouterr().err
+    assert "not a reversal run: " in capsys.readouterr().err
     assert fit.main(["--runs", str(tmp_path / "missing.h5")]) == 2
     assert "cannot open" in capsys.readouterr().err
     assert fit.main(["--window", "-1"]) == 2
@@ -63,18 +60,18 @@ def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
 
 
 def test_sec33_cross_check_on_other_angles_finds_constant_C(tmp_path):
-    reversal = synthetic_file(tmp_path, name="rev", n_cycles=1)
-    angles = [synthetic_file(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=1) for t in (60.0, 120.0)]
-    report = fit.fit([reversal], tmp_path / "fit", cross_paths=angles)
+    reversal = synthetic_run(tmp_path, name="rev", n_cycles=1)
+    angles = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=1) for t in (60.0, 120.0)]
+    report = fit.fit([reversal], tmp_path / "fit", cross_runs=angles)
     for check in report["cross_check"]:
         assert check["C_median"] == pytest.approx(TRUE.C, rel=0.02)
         assert check["m"] == pytest.approx(TRUE.m, abs=0.1) and check["n"] == pytest.approx(TRUE.n, abs=0.02)
 
 
 def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(tmp_path):
-    paths = [synthetic_file(tmp_path, theta=t, name=f"g{int(t)}", n_cycles=3, noise=0.01, seed=int(t))
-             for t in (180.0, 30.0, 90.0, 150.0)]
-    report = fit.fit(paths[:1], tmp_path / "fit", cross_paths=paths[1:])
+    runs = [synthetic_run(tmp_path, theta=t, name=f"g{int(t)}", n_cycles=3, noise=0.01, seed=int(t))
+            for t in (180.0, 30.0, 90.0, 150.0)]
+    report = fit.fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:])
     g = report["global"]
     assert g["success"] and 0.5 < g["reduced_chi2"] < 3
     for name, value, se in zip(g["free"], g["values"], g["standard_errors"], strict=True):
@@ -98,14 +95,15 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
         path = synthetic_file(root / folder / "dem", theta=theta, name=f"theta{int(theta):03d}", n_cycles=1, **kw)
         assert path.exists()
     roots = (results, reference)
-    assert fit.reversal_runs("p", roots) == [results / "p/dem/theta180.h5", reference / "p-1a2b/dem/theta180.h5"]
-    assert fit.angle_runs("p", roots) == [reference / "p/dem/theta090.h5"]
+    assert [r.path for r in lookup.reversal_seeds("p", roots)] == [results / "p/dem/theta180.h5",
+                                                                   reference / "p-1a2b/dem/theta180.h5"]
+    assert [r.path for r in lookup.other_angles(lookup.preset_runs("p", roots))] == [reference / "p/dem/theta090.h5"]
 
 
 def test_bootstrap_over_cycles_agrees_with_the_jacobian_standard_errors(tmp_path):
-    paths = [synthetic_file(tmp_path, theta=t, name=f"b{int(t)}", n_cycles=4, noise=0.01, seed=int(t) + 7)
-             for t in (180.0, 90.0)]
-    report = fit.fit(paths[:1], tmp_path / "fit", cross_paths=paths[1:], bootstrap=12)
+    runs = [synthetic_run(tmp_path, theta=t, name=f"b{int(t)}", n_cycles=4, noise=0.01, seed=int(t) + 7)
+            for t in (180.0, 90.0)]
+    report = fit.fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], bootstrap=12)
     boot, g = report["bootstrap"], report["global"]
     assert len(boot["replicates"]) == 12
     ratio = np.array(boot["standard_deviation"]) / np.array(g["standard_errors"])
@@ -127,26 +125,18 @@ def test_bootstrap_needs_more_than_one_cycle(tmp_path, capsys):
 def test_dilatancy_fit_at_a_bound_is_an_error(tmp_path):
     import dataclasses
 
-    from pipeline import global_fit
-    from pipeline.calibrate import CalibrationError
-    from pipeline.dem_h5 import load
-
-    data = global_fit.CycleData.from_run(load(synthetic_file(tmp_path, n_cycles=1)))
+    data = global_fit.CycleData.from_run(synthetic_run(tmp_path, n_cycles=1))
     too_dense = dataclasses.replace(data, phi=np.full_like(data.phi, 0.97))  # denser than any Phi_c in bounds
     with pytest.raises(CalibrationError, match=r"sits at a bound: (c2_coef|phi_c) = "):
         global_fit.refine_dilatancy([too_dense], TRUE)
 
 
 def test_dilatancy_estimator_recovers_eq18_given_the_true_c1(tmp_path):
-    from model.equations import hardening_variable_stack
-    from model.kinematics import deviator
-    from pipeline.dem_analysis import direction, shear_rate_tensor
-    from pipeline.dem_h5 import load
-
-    c = load(synthetic_file(tmp_path, n_cycles=1)).cycle
+    run = synthetic_run(tmp_path, n_cycles=1)
+    c = run.cycle
     strain, A, phi = c["strain"], c["A"], c["packing_fraction"]
-    D = deviator(shear_rate_tensor(direction(np.where(strain < 0.7 - 1e-9, 0.0, 180.0))))
-    c2_coef, phi_c = fit.dilatancy_estimate(strain, phi, np.gradient(phi, strain), A, D,
-                                            hardening_variable_stack(A, D), TRUE.c1, 1.0, 0.7)
+    D = cycle_D_dev(run)
+    c2_coef, phi_c = dilatancy_estimate(strain, phi, np.gradient(phi, strain), A, D,
+                                        model.hardening_variable_stack(A, D), TRUE.c1, 1.0, 0.7)
     assert c2_coef == pytest.approx(TRUE.c2_coef, rel=0.01)
     assert phi_c == pytest.approx(TRUE.phi_c, abs=1e-3)

@@ -1,4 +1,4 @@
-"""Run the DEM experiment: ``python -m pipeline.dem run --theta 90 --preset quick [...]``.
+"""Run the DEM experiment: ``python -m pipeline.runs run --theta 90 --preset quick [...]`` (``make dem``).
 
 Validates everything before Yade starts, runs ``dem/couette.py`` under Debian's ``yade`` in the run
 folder ``results/<preset>/dem/<name>.run/`` (resuming from its checkpoint when there is one),
@@ -11,16 +11,18 @@ import argparse
 import datetime as dt
 import fcntl
 import json
-import os
 import shutil
 import signal
 import subprocess
 import sys
 from pathlib import Path
 
-from . import dem_config, yade_command
-from .dem_h5 import write_h5
-from .paths import RESULTS_DIR, ROOT
+from .. import io
+from ..dataset.dem_file import write_h5
+from ..errors import PipelineError, SpecError
+from ..paths import RESULTS_DIR, ROOT
+from . import spec as run_spec
+from . import yade
 
 YADE_NOISE = ("Using python version",)
 
@@ -35,53 +37,47 @@ def git_commit() -> str:
         return "unknown"
 
 
-def write_json(path: Path, data) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1, sort_keys=True))
-    os.replace(tmp, path)
-
-
 def lock_run(spec: dict, results_dir: Path):
     """Take the run's lock (``<name>.lock`` beside its folder), held until this process ends.
 
     The lock comes before anything is created or deleted, so ``--fresh`` can never remove the
     folder of a live run.
     """
-    lock_path = dem_config.work_dir(spec, results_dir).with_suffix(".lock")
+    lock_path = run_spec.work_dir(spec, results_dir).with_suffix(".lock")
     lock_path.parent.mkdir(parents=True, exist_ok=True)
     lock = open(lock_path, "w")
     try:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         lock.close()
-        raise dem_config.SpecError(f"{lock_path.with_suffix('.run')} is in use by another run of the same spec"
+        raise SpecError(f"{lock_path.with_suffix('.run')} is in use by another run of the same spec"
                                    " (FRESH=1 does not stop a live run)") from None
     return lock
 
 
 def prepare(spec: dict, results_dir: Path, fresh: bool) -> Path:
     """The run folder with its ``spec.json``; refuses to mix a checkpoint with another spec. Call under the lock."""
-    run_dir = dem_config.work_dir(spec, results_dir)
+    run_dir = run_spec.work_dir(spec, results_dir)
     if fresh and run_dir.exists():
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     spec_file = run_dir / "spec.json"
     if spec_file.exists() and json.loads(spec_file.read_text()) != spec:
         if (run_dir / "checkpoint.yade.gz").exists():
-            raise dem_config.SpecError(f"{run_dir} holds a checkpoint of another spec: rerun with --fresh (FRESH=1)")
+            raise SpecError(f"{run_dir} holds a checkpoint of another spec: rerun with --fresh (FRESH=1)")
         spec_file.unlink()
     if not spec_file.exists():
-        write_json(spec_file, spec)
+        io.write_json(spec_file, spec)
     return run_dir
 
 
 def run_yade(run_dir: Path, threads: int, label: str) -> int:
     """Run the scene, echoing its progress lines (prefixed by ``label``) and logging them to ``run_dir/log.txt``."""
     try:
-        command = yade_command.command("couette", run_dir)
-    except yade_command.YadeMissing as exc:
-        raise dem_config.SpecError(str(exc)) from None
-    env = yade_command.environment(threads)
+        command = yade.command("couette", run_dir)
+    except yade.YadeMissing as exc:
+        raise SpecError(str(exc)) from None
+    env = yade.environment(threads)
     with open(run_dir / "log.txt", "a", buffering=1) as log:
         log.write(f"# {dt.datetime.now().isoformat(timespec='seconds')} {' '.join(command)}\n")
         proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
@@ -104,7 +100,7 @@ def run_yade(run_dir: Path, threads: int, label: str) -> int:
 
 def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, threads: int = 1) -> Path:
     """Run (or resume) one DEM run and write its HDF5 file; returns the file's path."""
-    out = dem_config.output_path(spec, results_dir)
+    out = run_spec.output_path(spec, results_dir)
     if out.exists() and not fresh:
         print(f"{out} is up to date (FRESH=1 / --fresh reruns it)")
         return out
@@ -115,7 +111,7 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
         "started": dt.datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(), "sessions": []}
     provenance["sessions"].append({"command": " ".join(sys.argv), "at": dt.datetime.now().isoformat(timespec="seconds"),
                                    "threads": threads})
-    write_json(provenance_file, provenance)
+    io.write_json(provenance_file, provenance)
     if not (run_dir / "raw.npz").exists():
         status = run_yade(run_dir, threads, f"{spec['folder']}/{spec['name']}")
         if status < 0:
@@ -130,7 +126,7 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pipeline.dem", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m pipeline.runs", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("run", help="run (or resume) one DEM run and write its HDF5 file")
     p.add_argument("--theta", required=True, help="rotation angle of the second half period, degrees (e1 towards e3)")
@@ -146,14 +142,14 @@ def main(argv=None) -> int:
     p.add_argument("--print-path", action="store_true", help="print the HDF5 path this run writes, then exit")
     args = parser.parse_args(argv)
     try:
-        spec = dem_config.resolve(args.theta, args.preset, args.rotate_at, dem_config.parse_overrides(args.set))
+        spec = run_spec.resolve(args.theta, args.preset, args.rotate_at, run_spec.parse_overrides(args.set))
         if args.threads < 1:
-            raise dem_config.SpecError(f"threads={args.threads} must be >= 1")
+            raise SpecError(f"threads={args.threads} must be >= 1")
         if args.print_path:
-            print(dem_config.output_path(spec, args.results))
+            print(run_spec.output_path(spec, args.results))
             return 0
         out = run(spec, args.results, args.fresh, args.threads)
-    except dem_config.SpecError as exc:
+    except PipelineError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print(f"wrote {out}")

@@ -1,6 +1,6 @@
 """Global refinement: every flow-rule and fabric parameter fitted at once to the cycles of every angle.
 
-Beyond the paper's stepwise method (``pipeline.fit``): the model's converged periodic cycle is
+Beyond the paper's stepwise method (``pipeline.calibration.stepwise``): the model's converged periodic cycle is
 integrated for each run's protocol (theta, rotate_at) with the strain measured in *bulk* strain
 (the period becomes ``bulk_over_nominal * 1.4``), and ``scipy.optimize.least_squares`` minimises
 the residuals of the off-diagonal and normal components of A and tau/p, each divided by its
@@ -18,8 +18,9 @@ from scipy.optimize import least_squares
 
 import model
 
-from .calibrate import CalibrationError, smooth_segments
-from .dem_analysis import bulk_over_nominal, cycle_D_dev, resampled_cycle
+from ..dataset.derived import bulk_over_nominal, cycle_D_dev, resampled_cycle
+from ..errors import CalibrationError
+from .estimators import smooth_segments
 
 #: the parameters refined (the persistence exponent and the dilatancy stay as given)
 FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")

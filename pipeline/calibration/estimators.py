@@ -2,7 +2,7 @@
 
 Every estimator takes samples along a simple-shear history between walls normal to e2: strain
 (t*gamma_dot), the fabric A (n, 3, 3), tau/p (n, 3, 3) and D'/gamma_dot (n, 3, 3) (README
-conventions). Nothing here reads files; ``pipeline.fit`` feeds it DEM runs.
+conventions). Nothing here reads files; ``pipeline.calibration.stepwise`` feeds it DEM cycles.
 
 - :func:`smooth_segments`, :func:`jaumann_rate`: smoothing segment by segment, the Jaumann rate of A.
 - :func:`fabric_coefficients`: alpha_1, alpha_2 at every instant from Eq. 9 by least squares.
@@ -21,11 +21,9 @@ import numpy as np
 from scipy.optimize import OptimizeWarning, curve_fit
 from scipy.signal import savgol_filter
 
+from ..errors import CalibrationError
+
 SQRT_HALF = np.sqrt(0.5)
-
-
-class CalibrationError(ValueError):
-    """A calibration that cannot work; the one-line message says why."""
 
 
 @dataclass(frozen=True)

@@ -16,10 +16,11 @@ import json
 import numpy as np
 
 import model
+from dem.schema import check_row
 
-from .dem_analysis import direction
+from ..runs.spec import protocol_defaults
 
-PERIOD, PRE, STEP = 1.4, 0.7, 0.005
+PERIOD, PRE, STEP = (protocol_defaults()[k] for k in ("period_strain", "pre_strain", "sample_strain"))
 
 
 def _symmetric_traceless_noise(rng, n, scale):
@@ -46,7 +47,7 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
     phi = cycle.packing_fraction[phase_index] + rng.normal(scale=noise / 10, size=n)
     within = strain - PERIOD * np.floor(strain / PERIOD + 1e-12)
     direction_deg = np.where((strain < 0) | (within >= PERIOD / 2 - 1e-9), float(theta_deg), 0.0)
-    s = direction(direction_deg)
+    s = model.shear_direction(direction_deg)
     edges = np.array([0.0, 8.5])
     raw = {
         "iteration": np.arange(n) * 1000, "time": (strain + PRE) / gamma_dot, "strain": strain,
@@ -61,6 +62,7 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
         "profile_packing_fraction": phi[:, None], "profile_stress": (tau - np.eye(3))[:, None],
         "profile_fabric": A[:, None], "profile_contacts": np.full((n, 1), 1000),
     }
+    check_row(raw)
     spec = {"preset": "synthetic", "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2, "seed": seed,
             "overrides": dict(overrides or {}), "period_strain": PERIOD, "sample_strain": STEP, "n_cycles": n_cycles,
             "pre_strain": PRE, "inertial_number": gamma_dot, "noise": noise, "model_params": params.to_dict()}
@@ -72,5 +74,5 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
 
 
 def write_raw_npz(path, raw: dict, meta: dict) -> None:
-    """Save in the scene's ``raw.npz`` format (``pipeline.dem_h5.write_h5`` reads it)."""
+    """Save in the scene's ``raw.npz`` format (``pipeline.dataset.dem_file.write_h5`` reads it)."""
     np.savez(path, **raw, meta_json=np.array(json.dumps(meta)))

@@ -4,7 +4,9 @@ import json
 
 import pytest
 
-from pipeline import dem, dem_config
+from pipeline.errors import SpecError
+from pipeline.runs import launch as dem
+from pipeline.runs import spec as dem_config
 
 
 def test_prepare_writes_the_spec_and_refuses_a_checkpoint_of_another_spec(tmp_path):
@@ -14,7 +16,7 @@ def test_prepare_writes_the_spec_and_refuses_a_checkpoint_of_another_spec(tmp_pa
     (run_dir / "checkpoint.yade.gz").write_bytes(b"x")
     other = dem_config.resolve(90, "tiny", overrides={"seed": 5.0})
     other["folder"] = spec["folder"]  # same folder, other physics
-    with pytest.raises(dem_config.SpecError, match="holds a checkpoint of another spec"):
+    with pytest.raises(SpecError, match="holds a checkpoint of another spec"):
         dem.prepare(other, tmp_path, fresh=False)
     assert dem.prepare(other, tmp_path, fresh=True) == run_dir  # --fresh starts again
     assert not (run_dir / "checkpoint.yade.gz").exists()

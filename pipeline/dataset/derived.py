@@ -1,5 +1,7 @@
 """From raw DEM samples to model-ready series and the cycle-averaged periodic cycle (no file I/O).
 
+Computed when a run file is read (``DemRun.series``, ``DemRun.cycle``), never stored in it.
+
 Conventions (README): walls normal to e2, shear direction s(phi) = cos(phi) e1 + sin(phi) e3, strain
 t*gamma_dot from the start of the first period (negative in the preceding half period), stress
 tension-positive and normalised by the controlled wall normal stress p (= 1 in the DEM's units),
@@ -10,8 +12,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from model.equations import hardening_variable_stack
-from model.kinematics import deviator, stretching
+from model import deviator, hardening_variable_stack, shear_direction, stretching
+
+#: the series averaged into the periodic cycle
+CYCLE_KEYS = ("strain_bulk", "A", "tau_over_p", "mean_stress_over_p", "S", "packing_fraction", "w_shear", "w_vol",
+              "shear_rate_bulk")
+RATE = "sqrt(p/rho)/d"
+#: units of the derived series
+SERIES_UNITS = {
+    "strain_nominal": "1", "strain_bulk": "1", "shear_rate_bulk": RATE, "D_dev_nominal": "gamma_dot",
+    "D_dev_measured": RATE, "A": "1", "tau_over_p": "1", "mean_stress_over_p": "1", "S": "1",
+    "packing_fraction": "1", "w_shear": "p*gamma_dot", "w_vol": "p*gamma_dot",
+}
 
 
 def shear_rate_tensor(gradient):
@@ -21,16 +33,11 @@ def shear_rate_tensor(gradient):
     return stretching(L)
 
 
-def direction(phi_deg):
-    phi = np.radians(phi_deg)
-    return np.stack([np.cos(phi), np.zeros_like(phi), np.sin(phi)], axis=-1)
-
-
 def cycle_D_dev(run) -> np.ndarray:
     """D' per unit nominal gamma_dot along the run's cycle grid: phi = 0 before ``rotate_at``, theta after."""
     strain = run.cycle["strain"]
     angle = np.where(strain < run.spec["rotate_at_strain"] - 1e-9, 0.0, run.spec["theta_deg"])
-    return deviator(shear_rate_tensor(direction(angle)))
+    return deviator(shear_rate_tensor(shear_direction(angle)))
 
 
 def bulk_over_nominal(run) -> float:
@@ -39,7 +46,7 @@ def bulk_over_nominal(run) -> float:
     return float(bulk / run.parameters["gamma_dot_nominal"])
 
 
-def model_series(raw: dict, meta: dict) -> dict:
+def model_series(raw: dict, parameters: dict) -> dict:
     """Per-sample model-ready quantities (shear phase, preceding half period included).
 
     ``strain_bulk`` integrates the measured central-region shear rate along the wall direction,
@@ -48,8 +55,8 @@ def model_series(raw: dict, meta: dict) -> dict:
     the nominal D' and are per unit p*gamma_dot: ``w_shear = tau:D'``, ``w_vol = (dPhi/dstrain)/Phi``.
     """
     strain = raw["strain"]
-    gamma_dot = meta["gamma_dot_nominal"]
-    s = direction(raw["direction_deg"])
+    gamma_dot = parameters["gamma_dot_nominal"]
+    s = shear_direction(raw["direction_deg"])
     gradient = raw["velocity_gradient"]
     parallel_rate = np.einsum("ni,ni->n", s, gradient)
     rate_for_integral = np.where(np.isfinite(parallel_rate), parallel_rate, gamma_dot)
@@ -108,6 +115,13 @@ def cycle_average(strain, values: dict, period: float, step: float, n_cycles: in
         out[key + "_sem"] = (per_cycle.std(axis=0, ddof=1) / np.sqrt(n_cycles) if n_cycles > 1
                              else np.full(per_cycle.shape[1:], np.nan))
     return out
+
+
+def run_cycle(run) -> dict:
+    """The run's periodic cycle: mean and standard error of every ``CYCLE_KEYS`` series across its cycles."""
+    spec = run.spec
+    return cycle_average(run.series["strain_nominal"], {k: run.series[k] for k in CYCLE_KEYS},
+                         spec["period_strain"], spec["sample_strain"], spec["n_cycles"])
 
 
 def resampled_cycle(run, rng: np.random.Generator, keys=("A", "tau_over_p", "packing_fraction")) -> dict:

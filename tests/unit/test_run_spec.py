@@ -4,8 +4,9 @@ import math
 
 import pytest
 
-from pipeline import dem_config
-from pipeline.dem_config import SpecError, resolve
+from pipeline.errors import SpecError
+from pipeline.runs import spec as dem_config
+from pipeline.runs.spec import resolve
 
 
 def test_every_preset_resolves_and_the_paper_preset_is_section_2():

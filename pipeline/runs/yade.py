@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 import shutil
 
-from .paths import ROOT
+from ..paths import ROOT
 
 
 class YadeMissing(RuntimeError):

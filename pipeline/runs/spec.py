@@ -14,7 +14,8 @@ import math
 import tomllib
 from pathlib import Path
 
-from .paths import CONFIG_DIR, RESULTS_DIR
+from ..errors import SpecError
+from ..paths import CONFIG_DIR, RESULTS_DIR
 
 PRESETS_FILE = CONFIG_DIR / "dem.toml"
 SPEC_VERSION = 1
@@ -27,10 +28,6 @@ POSITIVE_KEYS = {
     "dt_safety", "control_time", "control_every_steps", "compaction_tolerance", "compaction_hold_time",
     "compaction_max_time", "stress_alarm", "stress_alarm_strain", "checkpoint_steps", "n_cycles",
 }
-
-
-class SpecError(ValueError):
-    """A bad run specification; the one-line message names the bad value."""
 
 
 def load_presets(path: Path = PRESETS_FILE) -> dict[str, dict]:
@@ -50,6 +47,13 @@ def load_presets(path: Path = PRESETS_FILE) -> dict[str, dict]:
             raise SpecError(f"{path}: preset [{name}] has unknown key(s) {', '.join(unknown)}")
         presets[name] = {**defaults, **values}
     return presets
+
+
+def protocol_defaults(path: Path = PRESETS_FILE) -> dict:
+    """The protocol of Fig. 1 as ``[defaults]`` declares it: period, pre-strain, sampling (strain units)."""
+    with open(path, "rb") as fh:
+        defaults = tomllib.load(fh)["defaults"]
+    return {k: defaults[k] for k in ("period_strain", "pre_strain", "sample_strain")}
 
 
 def parse_overrides(items: list[str] | tuple[str, ...]) -> dict[str, float]:

@@ -1,0 +1,126 @@
+"""``make compare``: the model against a preset's DEM runs -> ``results/<preset>/compare/``.
+
+``python -m pipeline.comparison [--preset P] [--params FILE] [--out DIR]`` predicts every run's
+cycle with Table 2 and with the fitted parameters (``fit/params.json``) and writes, atomically:
+``compare.h5`` (per run: the DEM's cycle mean and standard error, and each parameter set's model
+cycle at the same samples, in bulk strain; the reversal split into backstress and isotropic part) and
+``metrics.json`` (the normalised errors per run and parameter set, the backstress share, the
+packing fraction, the second-law check and the relaxation strains after the reversal). The figures
+and the report read these files; they compute nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+import model
+
+from .. import io
+from ..dataset.lookup import preset_runs
+from ..errors import DemFileError, PipelineError
+from ..paths import check_folder_name, preset_output
+from . import metrics
+
+SCHEMA = "granular-backstress/compare"
+
+
+def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, preset: str,
+                     reversal_parts: list) -> None:
+    """compare.h5: per run, the DEM cycle and every parameter set's model cycle (bulk strain); per
+    reversal run of the fit, the smoothed tau12/p split into backstress C A12 and isotropic part."""
+    with io.atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs.update(schema=SCHEMA, schema_version=1, preset=preset,
+                       param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
+        for k, run in enumerate(runs):
+            g = f.create_group(f"runs/{k:02d}")
+            g.attrs.update(path=str(run.path), name=Path(run.path).stem, theta_deg=run.spec["theta_deg"],
+                           rotate_at_strain=run.spec["rotate_at_strain"], is_reversal=run.is_reversal,
+                           default_rotation=run.default_rotation)
+            c = run.cycle
+            ratio = next(iter(predictions[k].values()))[0].bulk_over_nominal
+            g.attrs["bulk_over_nominal"] = ratio
+            dem = g.create_group("dem")
+            dem.create_dataset("strain_bulk", data=c["strain"] * ratio)
+            for key in ("A", "A_sem", "tau_over_p", "tau_over_p_sem", "packing_fraction"):
+                dem.create_dataset(key, data=c[key])
+            for key in ("w_shear", "w_vol"):  # per unit bulk strain
+                dem.create_dataset(key, data=c[key] / ratio)
+            for label, (data, pred) in predictions[k].items():
+                m = g.create_group(f"model/{label}")
+                for key, value in (("strain_bulk", data.strain * ratio), ("A", pred.A), ("tau_over_p", pred.tau),
+                                   ("packing_fraction", pred.packing_fraction)):
+                    m.create_dataset(key, data=value)
+        for k, part in enumerate(reversal_parts):
+            g = f.create_group(f"reversal/{k:02d}")
+            for key, value in part.items():
+                g.create_dataset(key, data=value)
+
+
+def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str) -> dict:
+    """Predict, measure and write ``compare.h5`` and ``metrics.json`` into ``out_dir``."""
+    io.check_writable_dir(out_dir)
+    predictions = [{label: metrics.model_for(run, params) for label, params in sets.items()} for run in runs]
+    ours = sets["our fit"]
+    result = {"preset": preset, "param_sets": {label: p.to_dict() for label, p in sets.items()},
+              "components": list(metrics.COMPONENTS),
+              "errors": [{"run": Path(run.path).stem, "parameters": label, **metrics.errors(data, pred)}
+                         for run, preds in zip(runs, predictions, strict=True)
+                         for label, (data, pred) in preds.items()]}
+    reversals = [r for r in runs if r.is_reversal]
+    if reversals:
+        paper_phi = model.predict(180, params=model.Params()).packing_fraction
+        result["reversal"] = {
+            "backstress_share": float(np.mean([metrics.backstress_share(r, ours.C) for r in reversals])),
+            "mean_packing_fraction": float(np.mean([r.cycle["packing_fraction"].mean() for r in reversals])),
+            "table2_packing_fraction_range": [float(paper_phi.min()), float(paper_phi.max())],
+        }
+        result["second_law"] = metrics.second_law(runs, ours)
+    parts = []
+    if fit_h5 is not None:
+        with h5py.File(fit_h5, "r") as f:
+            groups = [f["reversal"][k] for k in f["reversal"]]
+            rotate_at = reversals[0].spec["rotate_at_strain"] if reversals else model.ROTATE_AT_STRAIN
+            parts = [metrics.reversal_parts(g["strain"][()], g["tau12"][()], g["A12"][()], ours.C, rotate_at)
+                     for g in groups]
+        iso, back = metrics.relaxation_strains(parts)
+        result["relaxation"] = {
+            "reversal_runs": len(parts), "dem": {"isotropic": iso, "backstress": back},
+            "model": {label: dict(zip(("isotropic", "backstress"), metrics.model_relaxation(p, rotate_at),
+                                      strict=True)) for label, p in sets.items()}}
+    write_compare_h5(out_dir / "compare.h5", runs, predictions, sets, preset, parts)
+    io.write_json(out_dir / "metrics.json", result)
+    return result
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m pipeline.comparison", description=__doc__.splitlines()[0])
+    parser.add_argument("--preset", default="reduced")
+    parser.add_argument("--params", type=Path, help="fitted parameters (default results/<preset>/fit/params.json)")
+    parser.add_argument("--out", type=Path, help="output folder (default results/<preset>/compare)")
+    args = parser.parse_args(argv)
+    try:
+        preset = check_folder_name(args.preset)
+        params_file = args.params or preset_output(preset, "fit", "params.json")
+        fitted = model.Params.load(params_file)
+        runs = preset_runs(preset)
+        if not runs:
+            raise DemFileError(f"no DEM run of preset {preset!r}: run `make dem PRESET={preset}` first")
+        fit_h5 = params_file.with_name("fit.h5")
+        out = args.out or preset_output(preset, "compare")
+        compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5 if fit_h5.exists() else None, out,
+                preset)
+    except (PipelineError, model.ParameterError, model.SolverError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"wrote {out / 'compare.h5'} and metrics.json")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

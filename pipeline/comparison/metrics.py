@@ -1,0 +1,79 @@
+"""Model against DEM, on arrays: the model's cycle for a run's protocol and the measures that compare them.
+
+The model runs in bulk strain (the DEM's measured central shear rate; ``global_fit.predict_cycle``),
+so its cycle is compared sample by sample with the DEM's cycle average. The error of a component is
+the RMSE over the cycle divided by the steady value of that component's family (the largest |A12|
+or |tau12/p| of the cycle).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+import model
+
+from ..calibration.estimators import relaxation_strain
+from ..calibration.global_fit import CycleData, predict_cycle
+
+COMPONENTS = {"A12": ("A", 0, 1), "A32": ("A", 2, 1), "tau12": ("tau", 0, 1), "tau32": ("tau", 2, 1)}
+
+
+def model_for(run, params: model.Params) -> tuple[CycleData, model.Result]:
+    """The run's cycle as the fit sees it, and the model's prediction at its samples."""
+    data = CycleData.from_run(run)
+    return data, predict_cycle(data, params)
+
+
+def errors(data: CycleData, pred: model.Result) -> dict[str, float]:
+    """RMSE over the cycle of A12, A32, tau12/p, tau32/p, normalised by the steady |A12| or |tau12/p|."""
+    steady = {"A": np.max(np.abs(data.A[:, 0, 1])), "tau": np.max(np.abs(data.tau[:, 0, 1]))}
+    out = {}
+    for name, (field, i, j) in COMPONENTS.items():
+        dem = getattr(data, field)[:, i, j]
+        mod = getattr(pred, field)[:, i, j]
+        out[name] = float(np.sqrt(np.mean((mod - dem) ** 2)) / steady[field])
+    return out
+
+
+def backstress_share(run, C: float) -> float:
+    """Share of the backstress C A12 in the steady shear stress tau12/p (paper: 88 %)."""
+    c = run.cycle
+    rotate_at = run.spec["rotate_at_strain"]
+    steady = (c["strain"] > rotate_at - 0.2) & (c["strain"] < rotate_at)
+    return float(np.mean(C * c["A"][steady, 0, 1]) / np.mean(c["tau_over_p"][steady, 0, 1]))
+
+
+def reversal_parts(strain, tau12, A12, C: float, rotate_at: float) -> dict:
+    """The second half of a theta = 180 cycle (the reversal at ``rotate_at``): strain, tau12/p, A12,
+    the backstress C A12 and the isotropic part tau12/p - C A12."""
+    pick = strain >= rotate_at - 1e-9
+    d = {"strain": strain[pick], "tau12": tau12[pick], "A12": A12[pick]}
+    d["backstress12"] = C * d["A12"]
+    d["isotropic12"] = d["tau12"] - d["backstress12"]
+    return d
+
+
+def relaxation_strains(parts: list[dict]) -> tuple[float, float]:
+    """Relaxation strains of the isotropic part and the backstress after the reversal: one exponential
+    fit to the mean over ``parts`` (seeds share the cycle's strain grid)."""
+    strain = parts[0]["strain"]
+    return (relaxation_strain(strain, np.mean([d["isotropic12"] for d in parts], axis=0)),
+            relaxation_strain(strain, np.mean([d["backstress12"] for d in parts], axis=0)))
+
+
+def model_relaxation(params: model.Params, rotate_at: float) -> tuple[float, float]:
+    """``relaxation_strains`` of the model's periodic theta = 180 cycle, by the measure applied to the DEM."""
+    cycle = model.predict(180, rotate_at=rotate_at, params=params)
+    return relaxation_strains([reversal_parts(cycle.strain, cycle.tau[:, 0, 1], cycle.A[:, 0, 1], params.C,
+                                              rotate_at)])
+
+
+def second_law(runs: list, params: model.Params) -> dict:
+    """Eq. 19 for ``params``: c1 = -C, Phi <= Phi_c + c3 over every DEM cycle, and the smallest total
+    work rate of the model's cycles (Eq. 17, per unit p gamma_dot) for the runs' protocols."""
+    phi_max = max(float(np.nanmax(r.cycle["packing_fraction"])) for r in runs)
+    bound = params.phi_c + params.c3
+    w_min = min(float(model.predict(r.spec["theta_deg"], rotate_at=r.spec["rotate_at_strain"],
+                                    params=params).w_total.min()) for r in runs)
+    return {"c1": params.c1, "C": params.C, "phi_max_dem": phi_max, "phi_c_plus_c3": bound,
+            "min_total_work_rate": w_min, "holds": bool(params.c1 == -params.C and phi_max <= bound and w_min >= 0)}

@@ -1,0 +1,185 @@
+"""The DEM run file: the raw samples and their provenance, one self-describing HDF5 file per run.
+
+Layout (schema ``granular-backstress/dem-run`` v2; H5MD in spirit: a version at the root, a ``unit``
+on every dataset):
+
+``/`` attrs ``schema``, ``schema_version``, ``creator``, ``created``, ``conventions``
+``/provenance`` attrs: preset, theta_deg, seed, Yade version, git commit, commands, timestamps, spec
+``/parameters`` attrs: every spec value, plus the contact constants and the time step; ``grain_diameter``
+``/raw/...`` the samples as taken, named and unit-tagged by ``config/raw_schema.toml``
+
+Nothing derived is stored: series and cycles are computed when the file is read
+(``pipeline.dataset.derived``), with the definitions the reader chooses, so a run never depends on
+the version of the analysis. Version-1 files (which also stored ``/series`` and ``/cycle``) are
+read the same way; their derived groups are ignored.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from dem.schema import sample_fields
+
+from ..errors import DemFileError
+from ..io import atomic_path
+from . import derived
+
+SCHEMA = "granular-backstress/dem-run"
+SCHEMA_VERSION = 2
+READABLE_VERSIONS = (1, 2)
+CONVENTIONS = ("stress tension-positive, normalised by the controlled wall normal stress p; tau = sigma' "
+               "(deviator); walls normal to e2; shear direction cos(phi) e1 + sin(phi) e3, phi from e1 towards "
+               "e3; strain t*gamma_dot from the start of the first period; fabric A = <n n> - I/3 (Eq. 8)")
+#: the spec values every reader needs
+REQUIRED_SPEC = ("theta_deg", "rotate_at_strain", "period_strain", "sample_strain", "n_cycles", "pre_strain")
+
+
+def read_raw(path: Path) -> tuple[dict, dict]:
+    """The scene's ``raw.npz``: ``(arrays, meta)``; a damaged file is a :class:`DemFileError`."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {key: data[key] for key in data.files}
+        meta = json.loads(str(arrays.pop("meta_json")))
+    except (OSError, ValueError, KeyError, EOFError) as exc:
+        raise DemFileError(f"{path} is not a readable raw sample file ({type(exc).__name__}); "
+                           "rerun with FRESH=1") from None
+    return arrays, meta
+
+
+def _dataset(group, name, data, unit):
+    ds = group.create_dataset(name, data=data)
+    ds.attrs["unit"] = unit
+    return ds
+
+
+def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
+    """Write ``out`` atomically (temporary file, then rename) from the scene's ``raw.npz``."""
+    raw, meta = read_raw(raw_path)
+    spec = meta["spec"]
+    fields = sample_fields()
+    missing = sorted(set(fields) - set(raw))
+    if missing:
+        raise DemFileError(f"{raw_path} lacks the raw field(s) {', '.join(missing)}")
+    derived.cycle_indices(raw["strain"], spec["period_strain"], spec["sample_strain"], spec["n_cycles"])  # complete?
+    with atomic_path(out) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs.update(schema=SCHEMA, schema_version=SCHEMA_VERSION, creator="granular-backstress",
+                       created=dt.datetime.now().isoformat(timespec="seconds"), conventions=CONVENTIONS)
+        prov = f.create_group("provenance")
+        prov.attrs.update(
+            preset=spec["preset"], theta_deg=spec["theta_deg"], rotate_at_strain=spec["rotate_at_strain"],
+            seed=spec["seed"], yade_version=meta["yade_version"], git_commit=provenance.get("git_commit", "unknown"),
+            started=provenance.get("started", ""), finished=provenance.get("finished", ""),
+            sessions=json.dumps(provenance.get("sessions", [])), spec_json=json.dumps(spec, sort_keys=True),
+            overrides=json.dumps(spec["overrides"], sort_keys=True),
+        )
+        params = f.create_group("parameters")
+        params.attrs.update({k: v for k, v in spec.items() if isinstance(v, (int, float)) and not isinstance(v, bool)})
+        params.attrs.update(
+            kn_pd=meta["kn"], kt_pd=meta["kt"], cn=meta["cn"], ct=meta["ct"], dt=meta["dt"],
+            n_grains=meta["n_grains"], n_wall_spheres=meta["n_wall_spheres"], gap0_d=meta["gap0"],
+            wall_speed=meta["wall_speed"], gamma_dot_nominal=meta["gamma_dot_nominal"], iterations=meta["iterations"],
+            callback_seconds=meta["callback_seconds"], loop_seconds=meta["loop_seconds"],
+        )
+        _dataset(params, "grain_diameter", 2 * np.asarray(meta["grain_radius"]), "d")
+        g_raw = f.create_group("raw")
+        for key, info in fields.items():
+            _dataset(g_raw, key, raw[key], info["unit"])
+
+
+@dataclass(frozen=True)
+class DemRun:
+    """One DEM run: its raw samples, spec, parameters and provenance; series and cycle derived on demand.
+
+    ``series`` and ``cycle`` use the default definitions of :mod:`pipeline.dataset.derived`.
+    """
+
+    path: Path
+    spec: dict
+    parameters: dict
+    provenance: dict
+    raw: dict
+    units: dict
+    grain_diameter: np.ndarray = field(repr=False, default=None)
+
+    @property
+    def theta_deg(self) -> float:
+        return self.spec["theta_deg"]
+
+    @property
+    def is_reversal(self) -> bool:
+        """The second half period turns the shear direction by 180 degrees (the paper's reversal)."""
+        return math.isclose(abs(self.spec["theta_deg"]), 180.0, abs_tol=1e-9)
+
+    @property
+    def default_rotation(self) -> bool:
+        """The direction turns at half the period (Fig. 1), not at another strain (Fig. 7)."""
+        return math.isclose(self.spec["rotate_at_strain"], self.spec["period_strain"] / 2, abs_tol=1e-9)
+
+    @property
+    def overrides(self) -> dict:
+        return dict(self.spec.get("overrides", {}))
+
+    @cached_property
+    def series(self) -> dict:
+        return derived.model_series(self.raw, self.parameters)
+
+    @cached_property
+    def cycle(self) -> dict:
+        return derived.run_cycle(self)
+
+
+def _check_raw(path: Path, raw: dict, spec: dict) -> None:
+    fields = sample_fields()
+    missing = sorted(set(fields) - set(raw))
+    if missing:
+        raise DemFileError(f"{path}: /raw lacks {', '.join(missing)}")
+    n = len(raw["strain"])
+    for key, info in fields.items():
+        value = raw[key]
+        fixed = [d for d in info["shape"] if isinstance(d, int)]
+        if value.shape[:1] != (n,) or (fixed and tuple(value.shape[-len(fixed):]) != tuple(fixed)):
+            raise DemFileError(f"{path}: /raw/{key} has shape {value.shape}, expected ({n}, {info['shape']})")
+    for key in ("strain", "time", "direction_deg", "fabric", "stress_contact", "stress_kinetic", "packing_fraction"):
+        if not np.all(np.isfinite(raw[key])):
+            raise DemFileError(f"{path}: /raw/{key} has non-finite values")
+    try:
+        derived.cycle_indices(raw["strain"], spec["period_strain"], spec["sample_strain"], spec["n_cycles"])
+    except ValueError as exc:
+        raise DemFileError(f"{path}: {exc}") from None
+
+
+def load(path) -> DemRun:
+    """Read a DEM run file (schema v1 or v2), checked against the schema: datasets, shapes, finite values."""
+    path = Path(path)
+    try:
+        f = h5py.File(path, "r")
+    except (OSError, ValueError) as exc:
+        raise DemFileError(f"cannot open {path} as HDF5 ({exc})") from None
+    with f:
+        if f.attrs.get("schema") != SCHEMA:
+            raise DemFileError(f"{path} is not a DEM run file (schema {f.attrs.get('schema')!r})")
+        version = int(f.attrs.get("schema_version", -1))
+        if version not in READABLE_VERSIONS:
+            raise DemFileError(f"{path} has schema version {version}; this code reads {READABLE_VERSIONS}")
+        try:
+            raw = {k: ds[()] for k, ds in f["raw"].items()}
+            units = {f"raw/{k}": ds.attrs["unit"] for k, ds in f["raw"].items()}
+            prov = dict(f["provenance"].attrs)
+            params = dict(f["parameters"].attrs)
+            diameters = f["parameters/grain_diameter"][()] if "grain_diameter" in f["parameters"] else None
+            spec = json.loads(prov["spec_json"])
+        except (KeyError, ValueError) as exc:
+            raise DemFileError(f"{path} lacks part of the schema ({exc})") from None
+    missing = [k for k in REQUIRED_SPEC if k not in spec]
+    if missing or "gamma_dot_nominal" not in params:
+        raise DemFileError(f"{path}: the spec lacks {', '.join(missing or ['gamma_dot_nominal'])}")
+    _check_raw(path, raw, spec)
+    return DemRun(path, spec, params, prov, raw, units, diameters)
