@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from dem import measure, schema
+from dem import checks, measure, protocol, schema
 from dem.contact import contact_constants, contact_engines, contact_material
 from dem.yade_lib import VERSION, O, PyRunner, Vector3, pack, utils
 
@@ -49,7 +49,7 @@ def configure(run_dir):
     RAW = os.path.join(run_dir, "raw.npz")
 
 ROUGH_HEIGHT = 1 / math.sqrt(2)  # rough layer above the compact layer (sphere in a square hollow)
-WALL_RADIUS = 0.5
+WALL_RADIUS = checks.WALL_RADIUS
 
 
 # ---------------------------------------------------------------- scene construction
@@ -138,20 +138,6 @@ class Run:
         """Normal stress on the top wall (force of the grains along +e2 per cell area; p > 0)."""
         return O.forces.f(self.top_clump.id)[1] / self.area  # Yade sums the members' forces into the clump
 
-    # protocol
-    def strain(self):
-        st = self.state
-        return (O.time - st["t_shear0"]) * self.gamma_dot - SPEC["pre_strain"]
-
-    def direction_deg(self, strain):
-        if strain < 0:
-            return SPEC["theta_deg"]
-        within = strain - SPEC["period_strain"] * math.floor(strain / SPEC["period_strain"] + 1e-12)
-        return 0.0 if within < SPEC["rotate_at_strain"] - 1e-12 else SPEC["theta_deg"]
-
-    def end_strain(self):
-        return SPEC["n_cycles"] * SPEC["period_strain"]
-
     # the controller: every control_every_steps steps
     def control(self):
         tic = time.perf_counter()
@@ -166,12 +152,12 @@ class Run:
             st["err_sum"] += err
             st["err_n"] += 1
             st["err_max"] = max(st["err_max"], abs(err))
-            strain = self.strain()
-            phi = math.radians(self.direction_deg(strain))
+            strain = protocol.strain(O.time, st["t_shear0"], self.gamma_dot, SPEC)
+            phi = math.radians(protocol.direction_deg(strain, SPEC))
             u = st["wall_speed"] * Vector3(math.cos(phi), 0, math.sin(phi))
             self.top_clump.state.vel = u + Vector3(0, vy, 0)
             self.bottom_clump.state.vel = -u
-            if strain >= st["next_sample"] * SPEC["sample_strain"] - SPEC["pre_strain"] - 1e-12:
+            if strain >= protocol.sample_strain(st["next_sample"], SPEC) - protocol.EPS:
                 self.sample(strain)
         st["callback_seconds"] += time.perf_counter() - tic
 
@@ -235,7 +221,7 @@ class Run:
         row = measure.measure(contacts, grains, st["first_grain"], self.area, (y_bottom + margin, y_top - margin),
                               edges)
         row.update(
-            iteration=O.iter, time=O.time, strain=strain, direction_deg=self.direction_deg(strain),
+            iteration=O.iter, time=O.time, strain=strain, direction_deg=protocol.direction_deg(strain, SPEC),
             gap=gap, region=[y_bottom + margin, y_top - margin], profile_edges=edges,
             top_position=list(self.top_clump.state.pos), bottom_position=list(self.bottom_clump.state.pos),
             top_velocity=list(self.top_clump.state.vel), bottom_velocity=list(self.bottom_clump.state.vel),
@@ -248,36 +234,23 @@ class Run:
         st["next_sample"] += 1
         self.check(row, grains, y_bottom, y_top)
         self.progress(strain, row)
-        if strain >= self.end_strain() - 1e-9 and self.failure is None:
+        if strain >= protocol.end_strain(SPEC) - 1e-9 and self.failure is None:
             st["phase"] = "done"
             stop_after_this_step()
 
     def check(self, row, grains, y_bottom, y_top):
-        """Stop with a diagnostic when the run goes wrong."""
+        """Stop with a diagnostic when the run goes wrong (``dem/checks.py``)."""
         st = self.state
-        for key in ("stress_contact", "fabric", "packing_fraction", "gap"):
-            if not np.all(np.isfinite(row[key])):
-                return self.fail(f"{key} is not finite at strain {row['strain']:.3f}")
-        if not np.all(np.isfinite(grains["pos"])) or not np.all(np.isfinite(grains["vel"])):
-            return self.fail(f"NaN grain position or velocity at strain {row['strain']:.3f}")
-        y = grains["pos"][:, 1]
-        out = np.flatnonzero((y < y_bottom - WALL_RADIUS) | (y > y_top + WALL_RADIUS))
-        if len(out):
-            return self.fail(f"{len(out)} grain(s) escaped the walls (first: id {grains['id'][out[0]]}, "
-                             f"y = {y[out[0]]:.2f}, walls at {y_bottom:.2f} and {y_top:.2f})")
-        if not 0.5 * st["gap0"] < row["gap"] < 1.5 * st["gap0"]:
-            return self.fail(f"wall gap ran away: {row['gap']:.2f} d (H0 = {st['gap0']:.2f} d)")
-        if abs(row["wall_stress_error_mean"]) > SPEC["stress_alarm"]:
-            st["alarm_samples"] += 1
-            if st["alarm_samples"] * SPEC["sample_strain"] >= SPEC["stress_alarm_strain"]:
-                return self.fail(f"wall normal stress off target by {row['wall_stress_error_mean']:+.0%} "
-                                 f"for {SPEC['stress_alarm_strain']} strain")
-        else:
-            st["alarm_samples"] = 0
-        return None
+        problem = checks.sample_problem(row, grains["id"], grains["pos"], grains["vel"], (y_bottom, y_top),
+                                        st["gap0"])
+        if problem is None:
+            st["alarm_samples"], problem = checks.stress_alarm(row["wall_stress_error_mean"], st["alarm_samples"],
+                                                               SPEC)
+        if problem is not None:
+            self.fail(problem)
 
     def progress(self, strain, row):
-        total = self.end_strain() + SPEC["pre_strain"]
+        total = protocol.end_strain(SPEC) + SPEC["pre_strain"]
         done = (strain + SPEC["pre_strain"]) / total
         now = time.time()
         if done * 100 < self.next_percent and now - self.last_print[0] < 60:
@@ -286,7 +259,7 @@ class Run:
         rate = (O.iter - self.last_print[1]) / max(now - self.last_print[0], 1e-9)
         steps_left = (total - strain - SPEC["pre_strain"]) / (self.gamma_dot * O.dt)
         eta = steps_left / rate if rate > 0 else float("nan")
-        print(f"[{done:4.0%}] strain {strain:+.3f} / {self.end_strain():.2f}  "
+        print(f"[{done:4.0%}] strain {strain:+.3f} / {protocol.end_strain(SPEC):.2f}  "
               f"sigma_wall/p - 1 = {row['wall_stress_error_mean']:+.2%}  tau12/p = {row['stress_contact'][0, 1]:+.3f}  "
               f"{rate:.0f} steps/s  ETA {format_seconds(eta)}", flush=True)
         self.last_print = (now, O.iter)
