@@ -15,13 +15,14 @@ THETAS := 030 060 090 120 150 180
 MODEL_DIR := results/model
 
 # ---------------------------------------------------------------- the user's variables, checked before any shell sees them
-# make dem THETA=90 [PRESET=quick] [ROTATE_AT=0.1] [SET="key=value ..."] [FRESH=1] [THREADS=1]
+# make dem THETA=90 [PRESET=quick] [ROTATE_AT=0.1] [SET="key=value ..."] [FRESH=1] [THREADS=1] [ALLOW_INERTIAL=1]
 THETA ?= 180
 ROTATE_AT ?=
 SET ?=
 FRESH ?=
 THREADS ?= 1
 BOOT ?= 100
+ALLOW_INERTIAL ?=
 LOWER := a b c d e f g h i j k l m n o p q r s t u v w x y z
 UPPER := A B C D E F G H I J K L M N O P Q R S T U V W X Y Z
 DIGITS := 0 1 2 3 4 5 6 7 8 9
@@ -37,6 +38,7 @@ $(call check,ROTATE_AT,$(NUMBER_CHARS),a number)
 $(call check,THREADS,$(DIGITS),a whole number)
 $(call check,BOOT,$(DIGITS),a whole number)
 $(call check,FRESH,$(NAME_CHARS),1 or empty)
+$(call check,ALLOW_INERTIAL,$(NAME_CHARS),1 or empty)
 $(call check,SET,$(NAME_CHARS) = +,a list of key=value)
 ifneq ($(origin PRESET),undefined)
 $(call check,PRESET,$(NAME_CHARS),a preset name (letters, digits, _ . -))
@@ -49,7 +51,8 @@ AUTO_PRESET := $(firstword $(foreach p,paper reduced quick,$(if $(call has_rever
 DATA_PRESET := $(if $(filter undefined,$(origin PRESET)),$(AUTO_PRESET),$(PRESET))
 PRESET ?= quick
 DEM_ARGS = --preset $(PRESET) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
-	$(if $(filter 1 yes true,$(FRESH)),--fresh) --threads $(THREADS)
+	$(if $(filter 1 yes true,$(FRESH)),--fresh) $(if $(filter 1 yes true,$(ALLOW_INERTIAL)),--allow-inertial) \
+	--threads $(THREADS)
 
 RUN_FILES = $(wildcard $(foreach r,results data/reference,$(r)/$(1)/dem/*.h5 $(r)/$(1)-*/dem/*.h5))
 FIT_DIR := results/$(DATA_PRESET)/fit

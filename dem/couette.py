@@ -71,8 +71,7 @@ def build(spec):
     width = int(spec["width_d"])
     gap = spec["gap_d"]
     d_min, d_max = spec["diameter_min_d"], spec["diameter_max_d"]
-    mean_volume = math.pi / 6 * (d_max**4 - d_min**4) / (4 * (d_max - d_min))  # <d^3> pi/6
-    n_grains = int(round(spec["fill_packing_fraction"] * width * width * gap / mean_volume))
+    n_grains = protocol.grain_count(spec)
     loose_gap = gap * spec["fill_packing_fraction"] / 0.35  # the cloud starts at packing fraction ~0.35
     y_bottom = 1.0
     y_top = y_bottom + 2 * ROUGH_HEIGHT + loose_gap + d_max
@@ -298,7 +297,7 @@ def stack(samples):
 def load_samples(name):
     if not name:
         return []
-    with np.load(os.path.join(RUN_DIR, name)) as data:
+    with np.load(os.path.join(RUN_DIR, name), allow_pickle=False) as data:
         columns = {key: data[key] for key in data.files}
     n = len(next(iter(columns.values()))) if columns else 0
     return [{key: columns[key][i] for key in columns} for i in range(n)]
@@ -351,6 +350,12 @@ def control():
         RUN.fail(f"{type(exc).__name__}: {exc} (in the controller)")
 
 
+def damaged(message):
+    """A run folder that cannot be resumed: one line, exit status 2."""
+    sys.stderr.write(f"error: {message}; rerun with FRESH=1 (--fresh) to start the run again\n")
+    sys.exit(2)
+
+
 def run_until_stopped(stop):
     """Run to the next checkpoint iteration (or until the scene stops itself) and wait for the loop.
 
@@ -388,15 +393,21 @@ def main(run_dir):
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     if os.path.exists(CHECKPOINT):
-        O.load(CHECKPOINT)
-        if json.loads(O.tags["spec"]) != SPEC:
-            sys.stderr.write(f"error: checkpoint {CHECKPOINT} belongs to another spec; rerun with FRESH=1\n")
-            sys.exit(2)
+        try:
+            O.load(CHECKPOINT)
+            same_spec = json.loads(O.tags["spec"]) == SPEC
+        except Exception as exc:  # noqa: BLE001 - any damage: Yade raises RuntimeError, MemoryError, ...
+            damaged(f"checkpoint {CHECKPOINT} cannot be loaded ({type(exc).__name__})")
+        if not same_spec:
+            damaged(f"checkpoint {CHECKPOINT} belongs to another spec")
         print(f"resumed from checkpoint at iteration {O.iter}", flush=True)
     else:
         build(SPEC)
         print(f"built: {json.loads(O.tags['state'])['n_grains']} grains, dt = {O.dt:.4g}", flush=True)
-    RUN = Run()
+    try:
+        RUN = Run()
+    except (OSError, ValueError, KeyError, EOFError) as exc:
+        damaged(f"the samples of the checkpoint cannot be read ({type(exc).__name__})")
     while True:
         tic = time.time()
         run_until_stopped(stop)

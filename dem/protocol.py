@@ -1,4 +1,5 @@
-"""The shear protocol of Fig. 1 as the scene drives it (pure python, no Yade): strain, wall direction, sampling.
+"""The experiment as the scene sets it up and drives it (pure python, no Yade): grain count, strain,
+wall direction and sampling of the Fig. 1 protocol.
 
 Strain s = t*gamma_dot is measured from the start of the first period, so the preceding half period
 at phi = theta has s in [-pre_strain, 0). In each period phi = 0 for (s mod T) < rotate_at and
@@ -37,3 +38,11 @@ def sample_strain(index, spec):
 def total_samples(spec):
     """Samples in a complete run, both ends included."""
     return int(round((spec["pre_strain"] + end_strain(spec)) / spec["sample_strain"])) + 1
+
+
+def grain_count(spec):
+    """Grains created: ``fill_packing_fraction`` W^2 H over the mean grain volume (diameters uniform in
+    [d_min, d_max], so <d^3> = (d_max^4 - d_min^4) / (4 (d_max - d_min)))."""
+    d_min, d_max = spec["diameter_min_d"], spec["diameter_max_d"]
+    mean_volume = math.pi / 6 * (d_max**4 - d_min**4) / (4 * (d_max - d_min))
+    return int(round(spec["fill_packing_fraction"] * spec["width_d"] ** 2 * spec["gap_d"] / mean_volume))

@@ -53,6 +53,15 @@ def result_table(result) -> np.ndarray:
     return np.column_stack(cols)
 
 
+def check_output(path: Path) -> None:
+    """Refuse, before any work, an output that is a folder or lies under a file."""
+    if path.is_dir():
+        raise ParameterError(f"--out {path} is a folder: give a file name")
+    existing = next(p for p in path.parents if p.exists())
+    if not existing.is_dir():
+        raise ParameterError(f"--out {path}: {existing} is a file, not a folder")
+
+
 def write_csv(path: Path, table: np.ndarray) -> None:
     """Write atomically: a temporary file beside the target, then rename."""
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -105,6 +114,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if args.out:
+            check_output(args.out)
         if args.command == "params":
             if args.out:
                 Params().save(args.out)

@@ -103,8 +103,15 @@ class Params:
 
     @classmethod
     def from_json(cls, text: str, source: str = "parameters") -> Params:
+        def unique_keys(pairs):
+            keys = [key for key, _ in pairs]
+            repeated = sorted({key for key in keys if keys.count(key) > 1})
+            if repeated:
+                raise ParameterError(f"{source}: key(s) given more than once: {', '.join(repeated)}")
+            return dict(pairs)
+
         try:
-            values = json.loads(text)
+            values = json.loads(text, object_pairs_hook=unique_keys)
         except json.JSONDecodeError as exc:
             raise ParameterError(f"{source}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
         return cls.from_dict(values, source)

@@ -300,8 +300,22 @@ def periodic(
     _check_tolerances(rtol, atol)
     if not (math.isfinite(cycle_tol) and cycle_tol > 0):
         raise SolverError(f"cycle_tol={cycle_tol!r} must be > 0")
-    p = params.as_array()
     strains = _output_strains(history, times)
+    try:
+        return _periodic(history, params, strains, rtol, atol, cycle_tol, max_periods, s_ref)
+    except SolverError as exc:
+        raise SolverError(f"{exc}{_off_table2(params)}") from None
+
+
+def _off_table2(params: Params) -> str:
+    """The parameters that differ from Table 2, for a failure's message: the suspects."""
+    changed = [f"{name} = {value:+.4g}" for name, value in params.to_dict().items()
+               if value != getattr(PAPER, name)]
+    return f" (parameters off Table 2: {', '.join(changed)})" if changed else ""
+
+
+def _periodic(history, params, strains, rtol, atol, cycle_tol, max_periods, s_ref) -> Result:
+    p = params.as_array()
     A_start, _ = steady_state(history.segments[-1].L, params)
     residual = math.inf
     no_output = np.empty(0)
@@ -326,6 +340,10 @@ def periodic(
     contraction = math.exp(-y_end[integrator.G_INDEX])
     u0 = y_end[integrator.V_INDEX] / (1.0 - contraction)
     phi = 1.0 / (np.exp(-y_out[:, integrator.G_INDEX]) * u0 + y_out[:, integrator.V_INDEX])
+    if not np.all((phi > 0) & (phi < 1)):
+        raise SolverError(f"the packing fraction leaves (0, 1) over the cycle (Phi from {np.min(phi):.3g} to "
+                          f"{np.max(phi):.3g}): Eq. 18 relaxes Phi towards about Phi_c + c3 = "
+                          f"{params.phi_c + params.c3:.3g}, so check phi_c and c3")
     stats = np.array([nfev, nsteps, nrejected])
     return _assemble(history, strains, y_out, p, phi, stats, "dop853", periods=periods,
                      cycle_residual=residual, phi_contraction=contraction)

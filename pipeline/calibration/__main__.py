@@ -14,7 +14,6 @@ beta_i, Y and C against S behind them).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -26,6 +25,7 @@ import h5py
 import model
 
 from .. import io
+from ..cli import Parser
 from ..dataset.dem_file import load
 from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
 from ..errors import CalibrationError, PipelineError
@@ -155,7 +155,7 @@ def print_report(report: dict, out: Path) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pipeline.calibration", description=__doc__.splitlines()[0])
+    parser = Parser(prog="python -m pipeline.calibration", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", help="preset whose runs to fit (default: the most faithful one with runs)")
     parser.add_argument("--runs", nargs="*", type=Path, help="reversal DEM files to fit instead of the preset's")
     parser.add_argument("--window", type=float, default=0.05, help="Savitzky-Golay window in strain (default 0.05)")

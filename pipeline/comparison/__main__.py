@@ -11,7 +11,6 @@ and the report read these files; they compute nothing.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -22,6 +21,7 @@ import numpy as np
 import model
 
 from .. import io
+from ..cli import Parser
 from ..dataset.lookup import preset_runs
 from ..errors import DemFileError, PipelineError
 from ..paths import check_folder_name, preset_output
@@ -99,7 +99,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pipeline.comparison", description=__doc__.splitlines()[0])
+    parser = Parser(prog="python -m pipeline.comparison", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="reduced")
     parser.add_argument("--params", type=Path, help="fitted parameters (default results/<preset>/fit/params.json)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<preset>/compare)")

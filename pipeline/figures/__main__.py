@@ -6,7 +6,6 @@ Reads ``results/<preset>/compare/compare.h5`` and ``metrics.json`` (``make compa
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -15,6 +14,7 @@ import h5py
 
 import model
 
+from ..cli import Parser
 from ..errors import PipelineError
 from ..paths import check_folder_name, preset_output
 from . import cycles, laws, report, reversal
@@ -65,7 +65,7 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pipeline.figures", description=__doc__.splitlines()[0])
+    parser = Parser(prog="python -m pipeline.figures", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="reduced")
     parser.add_argument("--compare", type=Path, help="comparison folder (default results/<preset>/compare)")
     parser.add_argument("--fit", type=Path, help="calibration folder (default results/<preset>/fit)")

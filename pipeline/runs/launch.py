@@ -7,7 +7,6 @@ then writes the self-describing HDF5 file ``results/<preset>/dem/<name>.h5`` ato
 
 from __future__ import annotations
 
-import argparse
 import datetime as dt
 import fcntl
 import json
@@ -18,6 +17,7 @@ import sys
 from pathlib import Path
 
 from .. import io
+from ..cli import Parser
 from ..dataset.dem_file import write_h5
 from ..errors import PipelineError, SpecError
 from ..paths import RESULTS_DIR, ROOT
@@ -55,6 +55,14 @@ def lock_run(spec: dict, results_dir: Path):
     return lock
 
 
+def read_spec_file(path: Path):
+    """A run folder's ``spec.json``; a damaged one is a one-line error that says how to recover."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        raise SpecError(f"{path} is damaged (not JSON): rerun with FRESH=1 (--fresh) to start the run again") from None
+
+
 def prepare(spec: dict, results_dir: Path, fresh: bool) -> Path:
     """The run folder with its ``spec.json``; refuses to mix a checkpoint with another spec. Call under the lock."""
     run_dir = run_spec.work_dir(spec, results_dir)
@@ -62,7 +70,7 @@ def prepare(spec: dict, results_dir: Path, fresh: bool) -> Path:
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     spec_file = run_dir / "spec.json"
-    if spec_file.exists() and json.loads(spec_file.read_text()) != spec:
+    if spec_file.exists() and read_spec_file(spec_file) != spec:
         if (run_dir / "checkpoint.yade.gz").exists():
             raise SpecError(f"{run_dir} holds a checkpoint of another spec: rerun with --fresh (FRESH=1)")
         spec_file.unlink()
@@ -126,8 +134,8 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pipeline.runs", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = Parser(prog="python -m pipeline.runs", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     p = sub.add_parser("run", help="run (or resume) one DEM run and write its HDF5 file")
     p.add_argument("--theta", required=True, help="rotation angle of the second half period, degrees (e1 towards e3)")
     p.add_argument("--preset", default="quick", help="preset of config/dem.toml: paper, reduced, quick, tiny")
@@ -136,15 +144,18 @@ def main(argv=None) -> int:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a preset value (repeatable); the results go to results/<preset>-<hash>/")
     p.add_argument("--fresh", action="store_true", help="discard the run's checkpoint and start again")
+    p.add_argument("--allow-inertial", action="store_true", help="admit an inertial number past the "
+                   "quasi-static regime (I > 1e-2)")
     p.add_argument("--threads", type=int, default=1, help="Yade threads (default 1: reproducible, resumable "
                    "bit for bit)")
     p.add_argument("--results", type=Path, default=RESULTS_DIR, help="results folder (default: results/)")
     p.add_argument("--print-path", action="store_true", help="print the HDF5 path this run writes, then exit")
     args = parser.parse_args(argv)
     try:
-        spec = run_spec.resolve(args.theta, args.preset, args.rotate_at, run_spec.parse_overrides(args.set))
-        if args.threads < 1:
-            raise SpecError(f"threads={args.threads} must be >= 1")
+        spec = run_spec.resolve(args.theta, args.preset, args.rotate_at, run_spec.parse_overrides(args.set),
+                                allow_inertial=args.allow_inertial)
+        if not 1 <= args.threads <= 256:
+            raise SpecError(f"threads={args.threads} must be between 1 and 256")
         if args.print_path:
             print(run_spec.output_path(spec, args.results))
             return 0

@@ -11,8 +11,11 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 import tomllib
 from pathlib import Path
+
+from dem.protocol import grain_count
 
 from ..errors import SpecError
 from ..paths import CONFIG_DIR, RESULTS_DIR
@@ -64,10 +67,9 @@ def parse_overrides(items: list[str] | tuple[str, ...]) -> dict[str, float]:
         key = key.strip()
         if not sep or not key:
             raise SpecError(f"override {item!r} is not of the form key=value")
-        try:
-            out[key] = float(text)
-        except ValueError:
-            raise SpecError(f"override {key}={text.strip()!r} is not a number") from None
+        if not _NUMBER.fullmatch(text.strip()):
+            raise SpecError(f"override {key}={text.strip()!r} is not a number")
+        out[key] = float(text)
     return out
 
 
@@ -98,8 +100,64 @@ def _check_values(values: dict) -> None:
             problems.append(f"friction_deg={values['friction_deg']!r} must be < 90")
         if values["sample_strain"] >= values["period_strain"] / 2:
             problems.append(f"sample_strain={values['sample_strain']!r} must be < period_strain/2")
+        problems += _physical_problems(values)
     if problems:
         raise SpecError("; ".join(problems))
+
+
+#: a grain in up to ~12 contacts has a stiffness ~12 k_n: explicit integration is stable for
+#: dt < 2 sqrt(m / 12 k_n) = 0.58 sqrt(m_min / k_n)
+MAX_DT_SAFETY = 0.5
+MAX_OVERLAP_RATIO = 0.01  # delta/d: grains stay quasi-rigid
+RANDOM_CLOSE_PACKING = 0.64
+QUASI_STATIC_I = 1e-2  # above this inertial number the flow is no longer quasi-static
+MAX_SEED = 2**31 - 1
+
+
+def _physical_problems(values: dict) -> list[str]:
+    """Bounds that physics sets, each with its reason."""
+    problems = []
+    if values["dt_safety"] > MAX_DT_SAFETY:
+        problems.append(f"dt_safety={values['dt_safety']!r} is past the stability limit of the contact oscillation "
+                        f"(a grain in ~12 contacts needs dt_safety <= {MAX_DT_SAFETY})")
+    if values["overlap_ratio"] > MAX_OVERLAP_RATIO:
+        problems.append(f"overlap_ratio={values['overlap_ratio']!r} is not a small overlap (grains must stay "
+                        f"quasi-rigid: delta/d <= {MAX_OVERLAP_RATIO})")
+    if values["fill_packing_fraction"] > RANDOM_CLOSE_PACKING:
+        problems.append(f"fill_packing_fraction={values['fill_packing_fraction']!r} is above random close packing "
+                        f"({RANDOM_CLOSE_PACKING}): the grains cannot fit in the gap")
+    if values["seed"] > MAX_SEED:
+        problems.append(f"seed={values['seed']!r} must be <= {MAX_SEED}")
+    if values["diameter_max_d"] > values["width_d"] / 2:
+        problems.append(f"diameter_max_d={values['diameter_max_d']!r} must be <= width_d/2 (a grain would touch its "
+                        "own periodic image)")
+    if values["gap_d"] < 2 * values["diameter_max_d"]:
+        problems.append(f"gap_d={values['gap_d']!r} must hold at least two of the largest grains")
+    if values["restitution"] < 0.01:
+        problems.append(f"restitution={values['restitution']!r} must be >= 0.01 (e -> 0 is overdamped)")
+    grains = grain_count(values)
+    if grains < 10:
+        problems.append(f"fill_packing_fraction={values['fill_packing_fraction']!r} gives {grains:.0f} grains: at "
+                        "least 10 are needed")
+    if values["checkpoint_steps"] < 1000:
+        problems.append(f"checkpoint_steps={values['checkpoint_steps']!r} must be >= 1000 (a checkpoint costs a save)")
+    return problems
+
+
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+
+
+def parse_number(name: str, text) -> float:
+    """A plain decimal number (``1_80`` and ``0x10`` are refused, unlike ``float``)."""
+    if isinstance(text, (int, float)) and not isinstance(text, bool):
+        value = float(text)
+    elif isinstance(text, str) and _NUMBER.fullmatch(text.strip()):
+        value = float(text)
+    else:
+        raise SpecError(f"{name}={text!r} is not a number")
+    if not math.isfinite(value):
+        raise SpecError(f"{name}={text!r} is not a finite number")
+    return value
 
 
 def run_name(theta_deg: float, rotate_at: float, default_rotate_at: float) -> str:
@@ -112,19 +170,17 @@ def run_name(theta_deg: float, rotate_at: float, default_rotate_at: float) -> st
 
 
 def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | None = None,
-            presets_file: Path = PRESETS_FILE) -> dict:
+            presets_file: Path = PRESETS_FILE, allow_inertial: bool = False) -> dict:
     """Validate everything and return the run spec (a JSON-able dict); raises :class:`SpecError`.
 
     ``theta_deg``: rotation of the second half-period's shear direction about e2, in degrees
     (positive turns e1 towards e3). ``rotate_at``: strain within each period at which the direction
-    turns from e1 to theta (default: half the period, Fig. 1).
+    turns from e1 to theta (default: half the period, Fig. 1). ``allow_inertial`` admits inertial
+    numbers past the quasi-static regime.
     """
-    try:
-        theta = float(theta_deg)
-    except (TypeError, ValueError):
-        raise SpecError(f"theta={theta_deg!r} is not a number") from None
-    if not math.isfinite(theta):
-        raise SpecError(f"theta={theta_deg!r} is not a finite number")
+    theta = parse_number("theta", theta_deg)
+    if not -180 <= theta <= 180:
+        raise SpecError(f"theta={theta_deg!r} must lie in [-180, 180] degrees (other angles repeat these)")
     presets = load_presets(presets_file)
     if preset not in presets:
         raise SpecError(f"unknown preset {preset!r} (known: {', '.join(presets)})")
@@ -134,17 +190,17 @@ def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | 
         raise SpecError(f"unknown override key(s) {', '.join(unknown)} (see {presets_file.name})")
     values = {**presets[preset], **overrides}
     _check_values(values)
+    if values["inertial_number"] > QUASI_STATIC_I and not allow_inertial:
+        raise SpecError(f"inertial_number={values['inertial_number']!r} is past the quasi-static regime "
+                        f"(I <= {QUASI_STATIC_I}); pass --allow-inertial (ALLOW_INERTIAL=1) to run it anyway")
     for key in INTEGER_KEYS:
         values[key] = int(values[key])
     period = values["period_strain"]
     default_rotate_at = period / 2
     if rotate_at is None:
         rotate_at = default_rotate_at
-    try:
-        rotate_at = float(rotate_at)
-    except (TypeError, ValueError):
-        raise SpecError(f"rotate_at={rotate_at!r} is not a number") from None
-    if not (math.isfinite(rotate_at) and 0 < rotate_at < period):
+    rotate_at = parse_number("rotate_at", rotate_at)
+    if not 0 < rotate_at < period:
         raise SpecError(f"rotate_at={rotate_at!r} must lie strictly between 0 and period_strain={period}")
     folder = preset
     if overrides:

@@ -124,7 +124,7 @@ def test_a_run_that_goes_wrong_stops_with_a_diagnostic(tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--theta", "ninety"], "error: theta='ninety' is not a number"),
-    (["--theta", "inf"], "error: theta='inf' is not a finite number"),
+    (["--theta", "inf"], "error: theta='inf' is not a number"),
     (["--theta", "90", "--preset", "giant"], "error: unknown preset 'giant'"),
     (["--theta", "90", "--set", "gap_d=-1"], "error: gap_d=-1.0 must be > 0"),
     (["--theta", "90", "--set", "colour=3"], "error: unknown override key(s) colour"),

@@ -40,7 +40,7 @@ def test_overrides_change_the_folder_and_are_validated():
 
 @pytest.mark.parametrize("kwargs, message", [
     ({"theta_deg": "abc"}, "theta='abc' is not a number"),
-    ({"theta_deg": "nan"}, "theta='nan' is not a finite number"),
+    ({"theta_deg": "nan"}, "theta='nan' is not a number"),
     ({"theta_deg": 90, "preset": "huge"}, "unknown preset 'huge'"),
     ({"theta_deg": 90, "overrides": {"frction_deg": 1.0}}, "unknown override key(s) frction_deg"),
     ({"theta_deg": 90, "overrides": {"gap_d": -3.0}}, "gap_d=-3.0 must be > 0"),

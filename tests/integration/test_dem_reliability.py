@@ -1,0 +1,187 @@
+"""The real Yade under stress: runs on a loaded machine lose no sample, no port is opened, a live run
+cannot be removed by --fresh, a damaged run folder is a one-line error, a killed scene is reported."""
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipeline.dataset.dem_file import load
+from pipeline.paths import ROOT
+from pipeline.runs import spec as run_spec
+
+pytestmark = pytest.mark.yade
+
+RACE_ARGS = ("--theta", "180", "--preset", "tiny", "--set", "seed=7")
+
+
+def launcher(*args, results):
+    return [sys.executable, "-m", "pipeline.runs", "run", *args, "--results", str(results)]
+
+
+def start(*args, results):
+    return subprocess.Popen(launcher(*args, results=results), cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+
+
+def output_of(results, *args):
+    return run_spec.output_path(run_spec.resolve(*_theta_preset(args)), results)
+
+
+def _theta_preset(args):
+    a = dict(zip(args[::2], args[1::2], strict=True))
+    overrides = run_spec.parse_overrides([a["--set"]]) if "--set" in a else None
+    return a["--theta"], a["--preset"], None, overrides
+
+
+def test_runs_on_a_loaded_machine_lose_no_sample_and_match_an_undisturbed_run(tmp_path):
+    """Checkpoints land while other processes compete for the cores (where a PyRunner that paused Yade
+    used to lose the sample at the checkpoint): every run complete and bit-identical to an undisturbed one."""
+    reference = subprocess.run(launcher(*RACE_ARGS, results=tmp_path / "alone"), cwd=ROOT, capture_output=True,
+                               text=True)
+    assert reference.returncode == 0, reference.stdout + reference.stderr
+    ref = load(output_of(tmp_path / "alone", *RACE_ARGS))
+    spec = ref.spec
+    expected = int(round((spec["pre_strain"] + spec["n_cycles"] * spec["period_strain"]) / spec["sample_strain"])) + 1
+    assert len(ref.raw["strain"]) == expected
+    load_procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+    try:
+        runs = [start(*RACE_ARGS, results=tmp_path / f"busy{k}") for k in range(6)]
+        outputs = [proc.communicate()[0] for proc in runs]
+    finally:
+        for proc in load_procs:
+            proc.kill()
+    for k, (proc, out) in enumerate(zip(runs, outputs, strict=True)):
+        assert proc.returncode == 0, out
+        again = load(output_of(tmp_path / f"busy{k}", *RACE_ARGS))
+        assert len(again.raw["strain"]) == expected
+        for key, value in ref.raw.items():
+            np.testing.assert_array_equal(again.raw[key], value, err_msg=f"run {k}: {key}")
+
+
+def listening_inodes():
+    """Socket inodes of every TCP socket in LISTEN state, and their local ports."""
+    found = {}
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        with open(table) as fh:
+            for line in fh.readlines()[1:]:
+                fields = line.split()
+                if fields[3] == "0A":
+                    found[fields[9]] = int(fields[1].rsplit(":", 1)[1], 16)
+    return found
+
+
+def children(pid):
+    out = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                out.append(int(entry.name))
+    return out
+
+
+def socket_inodes(pid):
+    inodes = set()
+    for fd in Path(f"/proc/{pid}/fd").iterdir():
+        try:
+            target = os.readlink(fd)
+        except OSError:
+            continue
+        if target.startswith("socket:["):
+            inodes.add(target[8:-1])
+    return inodes
+
+
+def test_a_running_scene_listens_on_no_port(tmp_path):
+    proc = start("--theta", "90", "--preset", "tiny", results=tmp_path)
+    try:
+        for line in proc.stdout:
+            if "strain" in line:
+                break
+        scenes = children(proc.pid)
+        assert scenes, "the scene process was not found"
+        listening = listening_inodes()
+        for pid in scenes:
+            assert not socket_inodes(pid) & set(listening), "the scene listens on a port"
+        assert not {9000, 21000} & set(listening.values()), "Yade's remote consoles are listening"
+    finally:
+        proc.communicate()
+    assert proc.returncode == 0
+    assert "auth cookie" not in (next(tmp_path.rglob("log.txt"))).read_text()
+
+
+def test_fresh_on_a_live_run_is_refused_and_the_live_run_completes(tmp_path):
+    proc = start("--theta", "90", "--preset", "tiny", results=tmp_path)
+    for line in proc.stdout:
+        if "strain" in line:
+            break
+    fresh = subprocess.run(launcher("--theta", "90", "--preset", "tiny", "--fresh", results=tmp_path), cwd=ROOT,
+                           capture_output=True, text=True)
+    assert fresh.returncode == 2 and "is in use by another run of the same spec" in fresh.stderr
+    proc.communicate()
+    assert proc.returncode == 0 and output_of(tmp_path, "--theta", "90", "--preset", "tiny").exists()
+
+
+def interrupted_run_dir(results):
+    """A tiny run stopped at its first checkpoint: the folder a later command resumes."""
+    proc = start("--theta", "90", "--preset", "tiny", results=results)
+    for line in proc.stdout:
+        if "strain" in line:
+            proc.send_signal(signal.SIGINT)
+            break
+    proc.communicate()
+    assert proc.returncode == 130
+    return run_spec.work_dir(run_spec.resolve(90, "tiny"), results)
+
+
+@pytest.mark.parametrize("damage, fragment", [
+    ("checkpoint-random", "checkpoint"),
+    ("checkpoint-truncated", "checkpoint"),
+    ("samples-junk", "samples of the checkpoint cannot be read"),
+    ("spec-not-json", "spec.json is damaged (not JSON)"),
+])
+def test_a_damaged_run_folder_is_a_one_line_error_that_suggests_fresh(tmp_path, damage, fragment):
+    run_dir = interrupted_run_dir(tmp_path)
+    if damage == "checkpoint-random":
+        (run_dir / "checkpoint.yade.gz").write_bytes(os.urandom(4096))
+    elif damage == "checkpoint-truncated":
+        data = (run_dir / "checkpoint.yade.gz").read_bytes()
+        (run_dir / "checkpoint.yade.gz").write_bytes(data[: len(data) // 2])
+    elif damage == "samples-junk":
+        next(run_dir.glob("samples_*.npz")).write_bytes(b"junk" * 100)
+    else:
+        (run_dir / "spec.json").write_text("{not json")
+    proc = subprocess.run(launcher("--theta", "90", "--preset", "tiny", results=tmp_path), cwd=ROOT,
+                          capture_output=True, text=True)
+    text = proc.stdout + proc.stderr
+    assert proc.returncode == 2 and "Traceback" not in text
+    errors = [line for line in text.splitlines() if "error:" in line]
+    assert len(errors) == 1 and fragment in errors[0] and "FRESH=1" in errors[0], text
+    fresh = subprocess.run(launcher("--theta", "90", "--preset", "tiny", "--fresh", results=tmp_path), cwd=ROOT,
+                           capture_output=True, text=True)
+    assert fresh.returncode == 0, fresh.stdout + fresh.stderr
+
+
+def test_a_scene_killed_by_a_signal_is_reported_and_resumes(tmp_path):
+    proc = start("--theta", "90", "--preset", "tiny", results=tmp_path)
+    for line in proc.stdout:
+        if "strain" in line:
+            for pid in children(proc.pid):
+                os.kill(pid, signal.SIGKILL)
+            break
+    rest = proc.communicate()[0]
+    assert proc.returncode == 137
+    assert "error: the scene was killed by signal 9 (SIGKILL); rerun the same command to resume" in rest
+    log = (run_spec.work_dir(run_spec.resolve(90, "tiny"), tmp_path) / "log.txt").read_text()
+    assert "strain" in log  # line-buffered: what the scene printed before the kill is in the log
+    again = subprocess.run(launcher("--theta", "90", "--preset", "tiny", results=tmp_path), cwd=ROOT,
+                           capture_output=True, text=True)
+    assert again.returncode == 0, again.stdout + again.stderr

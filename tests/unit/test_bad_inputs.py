@@ -1,0 +1,193 @@
+"""Bad input, tried as a hostile but honest user would: every case exits non-zero with one line that names
+the value, no traceback, and leaves nothing behind. (Damaged run folders need Yade: tests/integration.)"""
+
+import shutil
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+import model
+from pipeline.paths import ROOT
+from tests.helpers import synthetic_file
+
+
+def run(args, cwd=ROOT):
+    return subprocess.run(args, capture_output=True, text=True, cwd=cwd, timeout=120)
+
+
+def assert_refused(proc, fragment):
+    err = proc.stderr.strip()
+    assert proc.returncode != 0, proc.stdout + proc.stderr
+    assert "Traceback" not in proc.stderr + proc.stdout
+    assert len(err.splitlines()) == 1, err
+    assert fragment in err, err
+
+
+def listing(folder):
+    return sorted(p.relative_to(folder) for p in folder.rglob("*"))
+
+
+# ---------------------------------------------------------------- make dem (the launcher; refused before Yade)
+DEM_CASES = [
+    (["--theta", "ninety"], "theta='ninety' is not a number"),
+    (["--theta", "inf"], "theta='inf' is not a number"),
+    (["--theta", "1e308"], "theta='1e308' must lie in [-180, 180]"),
+    (["--theta", "720"], "theta='720' must lie in [-180, 180]"),
+    (["--theta", "1_80"], "theta='1_80' is not a number"),
+    (["--theta", "90", "--preset", "giant"], "unknown preset 'giant'"),
+    (["--theta", "90", "--preset", "../../x"], "unknown preset '../../x'"),
+    (["--theta", "90", "--set", "gap_d=-1"], "gap_d=-1.0 must be > 0"),
+    (["--theta", "90", "--set", "colour=3"], "unknown override key(s) colour"),
+    (["--theta", "90", "--set", "seed=1e20"], "seed=1e+20 must be <= 2147483647"),
+    (["--theta", "90", "--set", "seed=2.5"], "seed=2.5 must be an integer"),
+    (["--theta", "90", "--set", "inertial_number=5"], "inertial_number=5.0 is past the quasi-static regime"),
+    (["--theta", "90", "--set", "dt_safety=100"], "dt_safety=100.0 is past the stability limit"),
+    (["--theta", "90", "--set", "fill_packing_fraction=5"], "fill_packing_fraction=5.0 is above random close"),
+    (["--theta", "90", "--set", "fill_packing_fraction=0.001"], "fill_packing_fraction=0.001 gives 1 grains"),
+    (["--theta", "90", "--set", "overlap_ratio=0.9"], "overlap_ratio=0.9 is not a small overlap"),
+    (["--theta", "90", "--set", "width_d=7"], "width_d=7.0 must be an even integer"),
+    (["--theta", "90", "--set", "restitution=1.5"], "restitution=1.5 must be < 1"),
+    (["--theta", "90", "--set", "friction_deg=95"], "friction_deg=95.0 must be < 90"),
+    (["--theta", "90", "--set", "diameter_min_d=2"], "diameter_min_d=2.0 must be < diameter_max_d"),
+    (["--theta", "90", "--set", "checkpoint_steps=10"], "checkpoint_steps=10.0 must be >= 1000"),
+    (["--theta", "90", "--set", "noequals"], "override 'noequals' is not of the form key=value"),
+    (["--theta", "90", "--set", "seed=0x10"], "override seed='0x10' is not a number"),
+    (["--theta", "90", "--rotate-at", "2"], "rotate_at=2.0 must lie strictly between 0 and period_strain=1.4"),
+    (["--theta", "90", "--rotate-at", "abc"], "rotate_at='abc' is not a number"),
+    (["--theta", "90", "--threads", "0"], "threads=0 must be between 1 and 256"),
+    (["--theta", "90", "--threads", "x"], "argument --threads: invalid int value: 'x'"),
+]
+
+
+@pytest.mark.parametrize("args, fragment", DEM_CASES, ids=[" ".join(a) for a, _ in DEM_CASES])
+def test_make_dem_refuses(tmp_path, args, fragment):
+    proc = run([sys.executable, "-m", "pipeline.runs", "run", *args, "--results", str(tmp_path)])
+    assert_refused(proc, fragment)
+    assert proc.returncode == 2 and listing(tmp_path) == []
+
+
+# ---------------------------------------------------------------- the Makefile's variables never reach a shell
+MAKE_CASES = [
+    ("THETA=180; touch INJECTED", "THETA='180; touch INJECTED' is not a number"),
+    ("PRESET=quick; touch INJECTED", "PRESET='quick; touch INJECTED' is not a preset name"),
+    ("SET=seed=2 $$(touch INJECTED)", "SET='seed=2 $(touch INJECTED)' is not a list of key=value"),
+    ("THREADS=1 && touch INJECTED", "THREADS='1 && touch INJECTED' is not a whole number"),
+    ("ROTATE_AT=`touch INJECTED`", "ROTATE_AT='`touch INJECTED`' is not a number"),
+    ("BOOT=0|touch INJECTED", "BOOT='0|touch INJECTED' is not a whole number"),
+]
+
+
+MAKE_TARGETS = [("dem", a, f) for a, f in MAKE_CASES] + [(t, *MAKE_CASES[k]) for k, t in
+                                                        ((0, "fit"), (1, "figures"), (5, "fit-bootstrap"))]
+
+
+@pytest.mark.parametrize("target, assignment, fragment", MAKE_TARGETS, ids=[f"{t} {a}" for t, a, _ in MAKE_TARGETS])
+def test_make_variables_are_checked_before_any_command(tmp_path, target, assignment, fragment):
+    makefile = tmp_path / "Makefile"
+    shutil.copy(ROOT / "Makefile", makefile)
+    proc = run(["make", "-f", str(makefile), target, assignment], cwd=tmp_path)
+    assert_refused(proc, fragment)
+    assert listing(tmp_path) == [makefile.relative_to(tmp_path)]
+
+
+# ---------------------------------------------------------------- make fit / fit-bootstrap / compare / figures
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    """Synthetic reversal and 90-degree runs, and damaged copies, in a folder of their own."""
+    folder = tmp_path_factory.mktemp("inputs")
+    rev = synthetic_file(folder, name="theta180", n_cycles=2)
+    synthetic_file(folder, theta=90.0, name="theta090", n_cycles=1)
+    (folder / "junk.h5").write_bytes(b"not an hdf5 file at all")
+    for name, damage in (("missing", "delete"), ("nan", "nan"), ("short", "truncate")):
+        copy = folder / f"{name}.h5"
+        shutil.copy(rev, copy)
+        with h5py.File(copy, "a") as f:
+            if damage == "delete":
+                del f["raw/fabric"]
+            elif damage == "nan":
+                f["raw/fabric"][5, 0, 1] = np.nan
+            else:
+                data = {k: f["raw"][k][()] for k in f["raw"]}
+                for k, v in data.items():
+                    unit = f["raw"][k].attrs["unit"]
+                    del f["raw"][k]
+                    f["raw"].create_dataset(k, data=v[:300]).attrs["unit"] = unit
+    (folder / "a_file").write_text("")
+    return folder
+
+
+def fit_cases(inp):
+    return [
+        (["--preset", "../../etc"], "preset '../../etc' is not a valid name"),
+        (["--preset", "nosuch"], "no reversal run found"),
+        (["--bootstrap", "1", "--runs", str(inp / "theta180.h5")], "bootstrap=1: give 0 (none) or at least 2"),
+        (["--bootstrap", "-3", "--runs", str(inp / "theta180.h5")], "bootstrap=-3: give 0 (none) or at least 2"),
+        (["--window", "-1", "--runs", str(inp / "theta180.h5")], "window=-1.0 must be a positive strain"),
+        (["--window", "5", "--runs", str(inp / "theta180.h5")], "window=5.0 must be a positive strain shorter"),
+        (["--runs", str(inp / "theta180.h5"), str(inp / "theta180.h5")], "is the same run as"),
+        (["--runs", str(inp / "junk.h5")], "cannot open"),
+        (["--runs", str(inp / "missing.h5")], "/raw lacks fabric"),
+        (["--runs", str(inp / "nan.h5")], "/raw/fabric has non-finite values"),
+        (["--runs", str(inp / "short.h5")], "samples do not cover every cycle"),
+        (["--runs", str(inp / "theta090.h5")], "not a reversal run"),
+        (["--runs", str(inp / "theta180.h5"), "--out", str(inp / "a_file" / "fit")], "a_file is a file"),
+        (["--runs", str(inp / "theta180.h5"), "--window", "nan"], "window=nan must be a positive strain"),
+    ]
+
+
+@pytest.mark.parametrize("case", range(14))
+def test_make_fit_refuses(inputs, tmp_path, case):
+    args, fragment = fit_cases(inputs)[case]
+    before = listing(inputs)
+    proc = run([sys.executable, "-m", "pipeline.calibration", *args, "--out", str(tmp_path / "fit")]
+               if "--out" not in args else [sys.executable, "-m", "pipeline.calibration", *args])
+    assert_refused(proc, fragment)
+    assert listing(tmp_path) == [] and listing(inputs) == before
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["pipeline.figures", "--preset", "../x"], "preset '../x' is not a valid name"),
+    (["pipeline.figures", "--preset", "nosuch"], "metrics.json not found: run `make compare`"),
+    (["pipeline.comparison", "--preset", "nosuch"], "cannot read parameters"),
+    (["pipeline.comparison", "--preset", "a/b"], "preset 'a/b' is not a valid name"),
+])
+def test_make_compare_and_figures_refuse(tmp_path, args, fragment):
+    proc = run([sys.executable, "-m", *args, "--out", str(tmp_path / "out")])
+    assert_refused(proc, fragment)
+    assert listing(tmp_path) == []
+
+
+# ---------------------------------------------------------------- python -m model
+def params_file(folder, **changes):
+    path = folder / "p.json"
+    model.Params().replace(**changes).save(path)
+    return path
+
+
+@pytest.mark.parametrize("make_args, fragment", [
+    (lambda d: ["--theta", "abc"], "argument --theta: 'abc' is not a number"),
+    (lambda d: ["--theta", "90", "--rotate-at", "-1"], "argument --rotate-at: '-1' must be > 0"),
+    (lambda d: ["--theta", "90", "--times", "0,2"], "time 2 lies outside"),
+    (lambda d: ["--theta", "90", "--params", str(params_file(d, c3=5.0))], "packing fraction leaves (0, 1)"),
+    (lambda d: ["--theta", "180", "--params", str(params_file(d, b2=35.0))], "parameters off Table 2: b2 = +35"),
+    (lambda d: ["--theta", "90", "--params", str(d / "none.json")], "cannot read parameters"),
+])
+def test_python_m_model_refuses(tmp_path, make_args, fragment):
+    args = make_args(tmp_path)
+    before = listing(tmp_path)
+    proc = run([sys.executable, "-m", "model", "predict", *args, "--out", str(tmp_path / "out.csv")])
+    assert_refused(proc, fragment)
+    assert listing(tmp_path) == before
+
+
+def test_python_m_model_refuses_a_duplicate_key_and_an_output_folder(tmp_path):
+    (tmp_path / "dup.json").write_text(model.Params().to_json().replace('"C": -5.6', '"C": -5.6, "C": -5'))
+    proc = run([sys.executable, "-m", "model", "predict", "--theta", "90", "--params", str(tmp_path / "dup.json"),
+                "--out", str(tmp_path / "out.csv")])
+    assert_refused(proc, "key(s) given more than once: C")
+    proc = run([sys.executable, "-m", "model", "predict", "--theta", "90", "--out", str(tmp_path)])
+    assert_refused(proc, "is a folder: give a file name")
+    assert listing(tmp_path) == [(tmp_path / "dup.json").relative_to(tmp_path)]
