@@ -49,6 +49,7 @@ endif
 has_reversal = $(wildcard $(foreach r,results data/reference,$(r)/$(1)/dem/theta180.h5 $(r)/$(1)-*/dem/theta180.h5))
 AUTO_PRESET := $(firstword $(foreach p,paper reduced quick,$(if $(call has_reversal,$(p)),$(p))) quick)
 DATA_PRESET := $(if $(filter undefined,$(origin PRESET)),$(AUTO_PRESET),$(PRESET))
+SAY_PRESET := @echo "preset $(DATA_PRESET)$(if $(filter undefined,$(origin PRESET)), (the most faithful one with a reversal run; PRESET=... to choose))"
 PRESET ?= quick
 DEM_ARGS = --preset $(PRESET) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
 	$(if $(filter 1 yes true,$(FRESH)),--fresh) $(if $(filter 1 yes true,$(ALLOW_INERTIAL)),--allow-inertial) \
@@ -125,9 +126,11 @@ fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs -> results/<PRESET
 
 $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(call RUN_FILES,$(DATA_PRESET)) $(VENV_STAMP) \
 		$(DATASET_CODE) $(wildcard pipeline/calibration/*.py)
+	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration --preset $(DATA_PRESET)
 
 fit-bootstrap: venv ## the fit plus a bootstrap over cycles (BOOT=100 refits) -> fit.json
+	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --bootstrap $(BOOT)
 
 compare: $(COMPARE_DIR)/metrics.json ## the model against the preset's runs -> results/<PRESET>/compare/
