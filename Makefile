@@ -11,7 +11,7 @@ PY := $(VENV)/bin/python
 VENV_STAMP := $(VENV)/.installed
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 APT_INSTALL := DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends
-THETAS := 030 060 090 120 150 180
+MODEL_THETAS := 030 060 090 120 150 180
 MODEL_DIR := results/model
 
 # ---------------------------------------------------------------- the user's variables, checked before any shell sees them
@@ -23,6 +23,15 @@ FRESH ?=
 THREADS ?= 1
 BOOT ?= 100
 ALLOW_INERTIAL ?=
+# make sweep PRESET=... THETAS="30 60 90" [ROTATE_ATS="0.1 0.2"] [SEEDS="1 2 3"] [SET=...] [LAUNCH=local|slurm]
+#            [SLURM="partition=... time_limit=HH:MM:SS ..."] [JOBS=2]
+THETAS ?=
+ROTATE_ATS ?=
+SEEDS ?=
+LAUNCH ?= local
+SLURM ?=
+JOBS ?=
+SWEEP ?=
 LOWER := a b c d e f g h i j k l m n o p q r s t u v w x y z
 UPPER := A B C D E F G H I J K L M N O P Q R S T U V W X Y Z
 DIGITS := 0 1 2 3 4 5 6 7 8 9
@@ -39,6 +48,13 @@ $(call check,THREADS,$(DIGITS),a whole number)
 $(call check,BOOT,$(DIGITS),a whole number)
 $(call check,FRESH,$(NAME_CHARS),1 or empty)
 $(call check,ALLOW_INERTIAL,$(NAME_CHARS),1 or empty)
+$(call check,THETAS,$(NUMBER_CHARS),a list of numbers)
+$(call check,ROTATE_ATS,$(NUMBER_CHARS),a list of numbers)
+$(call check,SEEDS,$(DIGITS),a list of whole numbers)
+$(call check,LAUNCH,$(LOWER),local or slurm)
+$(call check,SLURM,$(NAME_CHARS) = : +,a list of key=value)
+$(call check,JOBS,$(DIGITS),a whole number)
+$(call check,SWEEP,$(NAME_CHARS),a sweep id)
 $(call check,SET,$(NAME_CHARS) = +,a list of key=value)
 ifneq ($(origin PRESET),undefined)
 $(call check,PRESET,$(NAME_CHARS),a preset name (letters, digits, _ . -))
@@ -60,8 +76,8 @@ FIT_DIR := results/$(DATA_PRESET)/fit
 COMPARE_DIR := results/$(DATA_PRESET)/compare
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
-.PHONY: help demo test test-unit test-yade lint bench venv system system-venv model-cycles dem fit fit-bootstrap \
-	compare figures demo-dem clean
+.PHONY: help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
+	dem sweep sweep-status sweep-collect fit fit-bootstrap compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -71,7 +87,7 @@ demo: system venv model-cycles demo-dem ## set up everything, then run the pipel
 	@echo "demo done: model cycles in $(MODEL_DIR)/, DEM runs in results/quick/dem/, fit in results/quick/fit/, figures and report.md in results/quick/"
 
 # ---------------------------------------------------------------- tests and lint
-test: system venv lint ## lint, then the whole test suite (the DEM tests run the real Yade): what CI runs
+test: system system-slurm venv lint ## lint, then every test (the real Yade, a real one-node SLURM): what CI runs
 	$(PY) -m pytest -q
 
 test-unit: venv ## the unit tests alone (no Yade needed)
@@ -79,6 +95,9 @@ test-unit: venv ## the unit tests alone (no Yade needed)
 
 test-yade: system venv ## the tests that run the real Yade
 	$(PY) -m pytest -q tests/integration
+
+test-cluster: system system-slurm venv ## a sweep on a real one-node SLURM cluster started on this machine
+	$(PY) -m pytest -q tests/cluster
 
 lint: venv ## ruff over the whole project
 	$(PY) -m ruff check .
@@ -100,6 +119,10 @@ system-venv: ## Debian's python3-venv, for the project's virtualenv (apt-get; a 
 	@if $(PYTHON) -c 'import ensurepip' 2>/dev/null; then echo "venv support present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) python3-venv; fi
 
+system-slurm: ## Debian's slurm-wlm and munge, for the cluster test (apt-get)
+	@if command -v slurmctld >/dev/null && command -v munged >/dev/null; then echo "slurm and munge present"; else \
+	  $(SUDO) apt-get update -qq && $(APT_INSTALL) slurm-wlm munge; fi
+
 system: system-venv ## Debian packages: Yade and h5py for Yade's python3 (apt-get)
 	@if command -v yade >/dev/null && /usr/bin/python3 -c 'import h5py' 2>/dev/null; then \
 	  echo "yade and python3-h5py present"; \
@@ -108,13 +131,24 @@ system: system-venv ## Debian packages: Yade and h5py for Yade's python3 (apt-ge
 	fi
 
 # ---------------------------------------------------------------- the pipeline
-model-cycles: $(foreach t,$(THETAS),$(MODEL_DIR)/theta$(t).csv) ## model cycles for the paper's six angles (Table 2)
+model-cycles: $(foreach t,$(MODEL_THETAS),$(MODEL_DIR)/theta$(t).csv) ## model cycles for the paper's six angles (Table 2)
 
 $(MODEL_DIR)/theta%.csv: $(VENV_STAMP) model/*.py
 	$(PY) -m model predict --theta $* --out $@
 
 dem: system venv ## one DEM run -> results/<preset>/dem/theta<THETA>.h5 (resumes from its checkpoint; see README)
 	$(PY) -m pipeline.runs run --theta $(THETA) $(DEM_ARGS)
+
+sweep: system venv ## a sweep of runs (THETAS, ROTATE_ATS, SEEDS), LAUNCH=local (make -j) or slurm (a job array)
+	$(PY) -m pipeline.runs.sweep run --preset $(PRESET) --thetas "$(THETAS)" \
+	  $(if $(ROTATE_ATS),--rotate-ats "$(ROTATE_ATS)") $(if $(SEEDS),--seeds "$(SEEDS)") $(foreach s,$(SET),--set $(s)) \
+	  --launch $(LAUNCH) $(foreach s,$(SLURM),--slurm $(s)) $(if $(JOBS),--jobs $(JOBS))
+
+sweep-status: venv ## every run of the latest sweep (or SWEEP=<id>): done, running, queued, failed, stopped
+	$(PY) -m pipeline.runs.sweep status $(if $(SWEEP),--sweep $(SWEEP))
+
+sweep-collect: venv ## make fit, compare and figures on the preset of the latest sweep (or SWEEP=<id>)
+	$(MAKE) --no-print-directory figures PRESET="$$($(PY) -m pipeline.runs.sweep preset $(if $(SWEEP),--sweep $(SWEEP)))"
 
 demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 90, both at once
 	$(MAKE) --no-print-directory -j2 results/quick/dem/theta180.h5 results/quick/dem/theta090.h5

@@ -19,8 +19,8 @@ bottom wall with -U s(phi), s(phi) = cos(phi) e1 + sin(phi) e3, U = gamma_dot H0
 gap when shearing starts; v_y = (sigma_wall/p - 1) H (delta/d) / control_time holds the normal
 stress on the top wall at p.
 
-Exit status: 0 done (raw.npz written), 3 the run went wrong (diagnostic on stderr),
-130/143 interrupted by SIGINT/SIGTERM after writing a checkpoint.
+Exit status: 0 done (raw.npz written), 2 the run folder cannot be resumed, 3 the run went wrong
+(diagnostic on stderr), 130/143/138 interrupted by SIGINT/SIGTERM/SIGUSR1 after writing a checkpoint.
 """
 
 import json
@@ -377,11 +377,16 @@ def main(run_dir):
 
     Every run, interrupted or not, continues from each checkpoint as freshly loaded, so resuming is
     bit-identical (one thread). A first SIGINT/SIGTERM stops at the next checkpoint; a second one
-    stops within two steps (the run then resumes correctly but not bit-identically).
+    stops within two steps (the run then resumes correctly but not bit-identically). SIGUSR1 (a
+    scheduler's warning before a time limit) only ever stops at the next checkpoint.
     """
     global RUN
     configure(run_dir)
     stop = {"count": 0, "signal": 0}
+
+    def on_usr1(signum, _frame):  # a scheduler's warning before a time limit: stop at the next checkpoint
+        if stop["count"] == 0:
+            on_signal(signum, _frame)
 
     def on_signal(signum, _frame):
         stop["count"] += 1
@@ -392,6 +397,7 @@ def main(run_dir):
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGUSR1, on_usr1)
     if os.path.exists(CHECKPOINT):
         try:
             O.load(CHECKPOINT)
@@ -417,6 +423,8 @@ def main(run_dir):
             sys.stderr.write(f"error: {RUN.failure}\n")
             sys.exit(3)
         if phase == "done":
+            for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1):  # the work is complete: no stop now
+                signal.signal(signum, signal.SIG_IGN)
             write_raw(RUN)
             for name in os.listdir(RUN_DIR):
                 if name.startswith(("checkpoint", "samples_")):

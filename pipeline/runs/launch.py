@@ -79,8 +79,15 @@ def prepare(spec: dict, results_dir: Path, fresh: bool) -> Path:
     return run_dir
 
 
-def run_yade(run_dir: Path, threads: int, label: str) -> int:
-    """Run the scene, echoing its progress lines (prefixed by ``label``) and logging them to ``run_dir/log.txt``."""
+#: signals passed on to the scene: each stops it at its next checkpoint (SIGUSR1: a scheduler's warning
+#: before a time limit); a second SIGINT/SIGTERM stops it within two steps
+FORWARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
+FAILED = "failed.json"  # in the run folder: why the last attempt stopped for good (exit 2 or 3)
+
+
+def run_yade(run_dir: Path, threads: int, label: str) -> tuple[int, str]:
+    """Run the scene, echoing its progress lines (prefixed by ``label``) and logging them to ``run_dir/log.txt``;
+    returns its exit status and its last error line."""
     try:
         command = yade.command("couette", run_dir)
     except yade.YadeMissing as exc:
@@ -94,13 +101,16 @@ def run_yade(run_dir: Path, threads: int, label: str) -> int:
         def forward(signum, _frame):
             proc.send_signal(signum)
 
-        previous = {s: signal.signal(s, forward) for s in (signal.SIGINT, signal.SIGTERM)}
+        previous = {s: signal.signal(s, forward) for s in FORWARDED}
+        error = ""
         try:
             for line in proc.stdout:
                 log.write(line)
+                if line.startswith("error:"):
+                    error = line.strip()
                 if line.strip() and not line.startswith(YADE_NOISE):
                     print(f"{label}: {line}", end="", flush=True)
-            return proc.wait()
+            return proc.wait(), error
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
@@ -120,8 +130,14 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
     provenance["sessions"].append({"command": " ".join(sys.argv), "at": dt.datetime.now().isoformat(timespec="seconds"),
                                    "threads": threads})
     io.write_json(provenance_file, provenance)
+    (run_dir / FAILED).unlink(missing_ok=True)
     if not (run_dir / "raw.npz").exists():
-        status = run_yade(run_dir, threads, f"{spec['folder']}/{spec['name']}")
+        status, error = run_yade(run_dir, threads, f"{spec['folder']}/{spec['name']}")
+        if status in (2, 3):
+            io.write_json(run_dir / FAILED, {"exit_status": status, "reason": error or f"exit status {status}",
+                                             "at": dt.datetime.now().isoformat(timespec="seconds")})
+        if status != 0 and (run_dir / "raw.npz").exists():  # stopped after it had written its samples
+            status = 0
         if status < 0:
             print(f"error: the scene was killed by signal {-status} ({signal.Signals(-status).name}); "
                   f"rerun the same command to resume from its last checkpoint", file=sys.stderr)
@@ -129,6 +145,7 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
         if status != 0:
             raise SystemExit(status)
     provenance["finished"] = dt.datetime.now().isoformat(timespec="seconds")
+    signal.signal(signal.SIGUSR1, signal.SIG_IGN)  # a scheduler's warning now: the file is seconds away
     write_h5(run_dir / "raw.npz", out, provenance)
     return out
 
