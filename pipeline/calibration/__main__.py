@@ -160,12 +160,12 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", nargs="*", type=Path, help="reversal DEM files to fit instead of the preset's")
     parser.add_argument("--window", type=float, default=0.05, help="Savitzky-Golay window in strain (default 0.05)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<preset>/fit)")
-    parser.add_argument("--bootstrap", type=int, default=0, metavar="N",
+    parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="also refit N >= 2 resamplings of the cycles (bootstrap standard deviations)")
     args = parser.parse_args(argv)
     try:
-        if args.bootstrap < 0 or args.bootstrap == 1:
-            raise CalibrationError(f"bootstrap={args.bootstrap}: give 0 (none) or at least 2 resamples")
+        if args.bootstrap is not None and args.bootstrap < 2:
+            raise CalibrationError(f"bootstrap={args.bootstrap}: a bootstrap needs at least 2 resamples")
         if not math.isfinite(args.window) or args.window <= 0:
             raise CalibrationError(f"window={args.window} must be a positive strain")
         if args.runs:
@@ -177,7 +177,7 @@ def main(argv=None) -> int:
                 print(f"preset: {preset} (the most faithful one with a reversal run; --preset / PRESET= to choose)")
             out = args.out or preset_output(preset, "fit")
             reversals, cross = reversal_seeds(preset), tuple(other_angles(preset_runs(preset)))
-        report = fit(reversals, out, args.window, cross, bootstrap=args.bootstrap)
+        report = fit(reversals, out, args.window, cross, bootstrap=args.bootstrap or 0)
     except (PipelineError, model.ParameterError, model.SolverError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

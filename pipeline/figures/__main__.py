@@ -14,6 +14,7 @@ import h5py
 
 import model
 
+from .. import io
 from ..cli import Parser
 from ..errors import PipelineError
 from ..paths import check_folder_name, preset_output
@@ -32,6 +33,7 @@ def read_json(path: Path) -> dict:
 def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     """Every figure and the report from the comparison and calibration outputs."""
     metrics = read_json(compare_dir / "metrics.json")
+    io.check_writable_dir(out)
     fit_json = read_json(fit_dir / "fit.json") if (fit_dir / "fit.json").exists() else None
     sets = {label: model.Params.from_dict(values) for label, values in metrics["param_sets"].items()}
     fitted, paper = sets["our fit"], sets["Table 2"]

@@ -123,8 +123,8 @@ def fit_cases(inp):
     return [
         (["--preset", "../../etc"], "preset '../../etc' is not a valid name"),
         (["--preset", "nosuch"], "no reversal run found"),
-        (["--bootstrap", "1", "--runs", str(inp / "theta180.h5")], "bootstrap=1: give 0 (none) or at least 2"),
-        (["--bootstrap", "-3", "--runs", str(inp / "theta180.h5")], "bootstrap=-3: give 0 (none) or at least 2"),
+        (["--bootstrap", "1", "--runs", str(inp / "theta180.h5")], "bootstrap=1: a bootstrap needs at least 2"),
+        (["--bootstrap", "0", "--runs", str(inp / "theta180.h5")], "bootstrap=0: a bootstrap needs at least 2"),
         (["--window", "-1", "--runs", str(inp / "theta180.h5")], "window=-1.0 must be a positive strain"),
         (["--window", "5", "--runs", str(inp / "theta180.h5")], "window=5.0 must be a positive strain shorter"),
         (["--runs", str(inp / "theta180.h5"), str(inp / "theta180.h5")], "is the same run as"),
