@@ -14,6 +14,7 @@ beta_i, Y and C against S behind them).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import sys
@@ -27,6 +28,7 @@ import model
 from .. import io
 from ..cli import Parser
 from ..dataset.dem_file import load
+from ..dataset.derived import DEFAULT, Definitions
 from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
 from ..errors import CalibrationError, PipelineError
 from ..paths import check_folder_name, preset_output
@@ -70,9 +72,11 @@ def check_window(window: float, runs: list) -> None:
 
 
 def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple = (), refine: bool = True,
-        bootstrap: int = 0) -> dict:
+        bootstrap: int = 0, definitions: Definitions = DEFAULT) -> dict:
     """Calibrate from ``reversals``, cross-check on ``cross_runs`` (other angles, Sec. 3.3), refine
-    globally on all of them (from Table 2) and write into ``out_dir``."""
+    globally on all of them (from Table 2) and write into ``out_dir``; every run read with ``definitions``."""
+    reversals = [r.with_definitions(definitions) for r in reversals]
+    cross_runs = tuple(r.with_definitions(definitions) for r in cross_runs)
     if not reversals:
         raise CalibrationError("no reversal run found (theta = 180): run `make dem THETA=180 PRESET=...` first")
     not_reversals = [f"{r.path} (theta = {r.spec['theta_deg']})" for r in reversals if not r.is_reversal]
@@ -105,20 +109,30 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
     bad = [k for k in ("C_eq15", "n", "m", "a1", "b1", "a2", "b2") if not math.isfinite(estimates[k]["value"])]
     if bad:
         raise CalibrationError(f"the fit gave no finite value for {', '.join(bad)}")
-    stepwise = fitted_params(estimates)
+    notes = ["C is Eq. 15's slope: on model data it returns C - 2m (Y still drifts near steady state)",
+             "c3 is held at the paper's 0.14; c2_exponent and the persistence exponent at 1/3 and 3/4"]
+    try:
+        stepwise = fitted_params(estimates)
+    except model.ParameterError as exc:  # the paper's route can land outside the model's domain on noisy cells
+        if refined is None:
+            raise CalibrationError(f"the stepwise calibration gives no valid parameters ({exc})") from None
+        stepwise = None
+        notes.append(f"the stepwise estimates are no valid parameter set ({exc}): no params_stepwise.json")
     params = stepwise if refined is None else dilatancy.params
     report = {"method": "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18), then a global least-squares refinement",
+              "definitions": dataclasses.asdict(definitions),
               "jaumann_window_strain": window, "runs": per_run, "estimates": estimates,
               "sensitivity": sensitivity(reversals),
-              "params_stepwise": stepwise.to_dict(), "params": params.to_dict(), "cross_check": cross,
+              "params_stepwise": stepwise and stepwise.to_dict(), "params": params.to_dict(), "cross_check": cross,
               "global": None if refined is None else refined.to_dict(),
               "dilatancy": None if refined is None else dilatancy.to_dict(),
               "bootstrap": boot,
               "global_runs": [str(r.path) for r in (*reversals, *cross_runs)] if refine else [],
-              "notes": ["C is Eq. 15's slope: on model data it returns C - 2m (Y still drifts near steady state)",
-                        "c3 is held at the paper's 0.14; c2_exponent and the persistence exponent at 1/3 and 3/4"]}
+              "notes": notes}
     write_arrays(out_dir / "fit.h5", arrays, per_run, cross)
-    stepwise.save(out_dir / "params_stepwise.json")
+    (out_dir / "params_stepwise.json").unlink(missing_ok=True)
+    if stepwise is not None:
+        stepwise.save(out_dir / "params_stepwise.json")
     params.save(out_dir / "params.json")
     io.write_json(out_dir / "fit.json", report)
     return report
@@ -151,7 +165,10 @@ def print_report(report: dict, out: Path) -> None:
             q = c["C_quartiles"]
             print(f"  Sec. 3.3, theta = {c['theta_deg']:g}: C = {c['C_median']:+.2f} (quartiles {q[0]:+.2f} "
                   f"{q[1]:+.2f}), Y = {c['n']:+.3f} {c['m']:+.3f} S")
-    print(f"wrote {out / 'params.json'} (global fit), params_stepwise.json, fit.json and fit.h5")
+    for note in report["notes"][2:]:
+        print(f"note: {note}")
+    print(f"wrote {out / 'params.json'} (global fit), fit.json and fit.h5"
+          + (", params_stepwise.json" if report["params_stepwise"] else ""))
 
 
 def main(argv=None) -> int:
@@ -160,6 +177,12 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", nargs="*", type=Path, help="reversal DEM files to fit instead of the preset's")
     parser.add_argument("--window", type=float, default=0.05, help="Savitzky-Golay window in strain (default 0.05)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<preset>/fit)")
+    parser.add_argument("--strain", choices=Definitions.CHOICES["strain"], default=DEFAULT.strain,
+                        help="strain measure: the central band's (bulk, default) or the paper's t*2U/H (nominal)")
+    parser.add_argument("--phi", choices=Definitions.CHOICES["phi"], default=DEFAULT.phi,
+                        help="packing fraction of the central region (default) or of the whole gap")
+    parser.add_argument("--pressure", choices=Definitions.CHOICES["pressure"], default=DEFAULT.pressure,
+                        help="tau over the controlled p (target, default) or over the measured wall stress")
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="also refit N >= 2 resamplings of the cycles (bootstrap standard deviations)")
     args = parser.parse_args(argv)
@@ -177,7 +200,9 @@ def main(argv=None) -> int:
                 print(f"preset: {preset} (the most faithful one with a reversal run; --preset / PRESET= to choose)")
             out = args.out or preset_output(preset, "fit")
             reversals, cross = reversal_seeds(preset), tuple(other_angles(preset_runs(preset)))
-        report = fit(reversals, out, args.window, cross, bootstrap=args.bootstrap or 0)
+        definitions = Definitions(args.strain, args.phi, args.pressure)
+        print(f"definitions: {definitions.label()}")
+        report = fit(reversals, out, args.window, cross, bootstrap=args.bootstrap or 0, definitions=definitions)
     except (PipelineError, model.ParameterError, model.SolverError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

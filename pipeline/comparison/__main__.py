@@ -1,7 +1,8 @@
 """``make compare``: the model against a preset's DEM runs -> ``results/<preset>/compare/``.
 
 ``python -m pipeline.comparison [--preset P] [--params FILE] [--out DIR]`` predicts every run's
-cycle with Table 2 and with the fitted parameters (``fit/params.json``) and writes, atomically:
+cycle with Table 2 and with the fitted parameters (``fit/params.json``), reading the runs with the
+fit's definitions of strain, Phi and p (``fit/fit.json``), and writes, atomically:
 ``compare.h5`` (per run: the DEM's cycle mean and standard error, and each parameter set's model
 cycle at the same samples, in bulk strain; the reversal split into backstress and isotropic part) and
 ``metrics.json`` (the normalised errors per run and parameter set, the backstress share, the
@@ -11,6 +12,7 @@ and the report read these files; they compute nothing.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -22,6 +24,7 @@ import model
 
 from .. import io
 from ..cli import Parser
+from ..dataset.derived import DEFAULT, Definitions
 from ..dataset.lookup import preset_runs
 from ..errors import DemFileError, PipelineError
 from ..paths import check_folder_name, preset_output
@@ -67,7 +70,8 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
     io.check_writable_dir(out_dir)
     predictions = [{label: metrics.model_for(run, params) for label, params in sets.items()} for run in runs]
     ours = sets["our fit"]
-    result = {"preset": preset, "param_sets": {label: p.to_dict() for label, p in sets.items()},
+    result = {"preset": preset, "definitions": dataclasses.asdict(runs[0].definitions),
+              "param_sets": {label: p.to_dict() for label, p in sets.items()},
               "components": list(metrics.COMPONENTS),
               "errors": [{"run": Path(run.path).stem, "parameters": label, **metrics.errors(data, pred)}
                          for run, preds in zip(runs, predictions, strict=True)
@@ -108,7 +112,10 @@ def main(argv=None) -> int:
         preset = check_folder_name(args.preset)
         params_file = args.params or preset_output(preset, "fit", "params.json")
         fitted = model.Params.load(params_file)
-        runs = preset_runs(preset)
+        fit_json = params_file.with_name("fit.json")
+        definitions = Definitions(**json.loads(fit_json.read_text()).get("definitions", {})) \
+            if fit_json.exists() else DEFAULT
+        runs = [r.with_definitions(definitions) for r in preset_runs(preset)]
         if not runs:
             raise DemFileError(f"no DEM run of preset {preset!r}: run `make dem PRESET={preset}` first")
         fit_h5 = params_file.with_name("fit.h5")

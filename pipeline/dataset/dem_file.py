@@ -16,6 +16,7 @@ read the same way; their derived groups are ignored.
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import json
 import math
@@ -96,9 +97,8 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
 
 @dataclass(frozen=True)
 class DemRun:
-    """One DEM run: its raw samples, spec, parameters and provenance; series and cycle derived on demand.
-
-    ``series`` and ``cycle`` use the default definitions of :mod:`pipeline.dataset.derived`.
+    """One DEM run: its raw samples, spec, parameters and provenance; series and cycle derived on demand,
+    with ``definitions`` (:class:`pipeline.dataset.derived.Definitions`; ``with_definitions`` for others).
     """
 
     path: Path
@@ -108,6 +108,7 @@ class DemRun:
     raw: dict
     units: dict
     grain_diameter: np.ndarray = field(repr=False, default=None)
+    definitions: derived.Definitions = derived.DEFAULT
 
     @property
     def theta_deg(self) -> float:
@@ -127,9 +128,13 @@ class DemRun:
     def overrides(self) -> dict:
         return dict(self.spec.get("overrides", {}))
 
+    def with_definitions(self, definitions: derived.Definitions) -> DemRun:
+        """The same run read with other definitions of strain, Phi and p (series and cycle recomputed)."""
+        return dataclasses.replace(self, definitions=definitions)
+
     @cached_property
     def series(self) -> dict:
-        return derived.model_series(self.raw, self.parameters)
+        return derived.model_series(self.raw, self.parameters, self.definitions, self.grain_diameter)
 
     @cached_property
     def cycle(self) -> dict:

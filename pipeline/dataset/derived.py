@@ -10,6 +10,8 @@ tau = sigma', fabric A of Eq. 8, S of Eq. 10, work rates of Sec. 5 per unit p*ga
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from model import deviator, hardening_variable_stack, shear_direction, stretching
@@ -24,6 +26,36 @@ SERIES_UNITS = {
     "D_dev_measured": RATE, "A": "1", "tau_over_p": "1", "mean_stress_over_p": "1", "S": "1",
     "packing_fraction": "1", "w_shear": "p*gamma_dot", "w_vol": "p*gamma_dot",
 }
+
+
+@dataclass(frozen=True)
+class Definitions:
+    """The choices the paper leaves open, applied when a run is read (README, "Definitions").
+
+    ``strain``: ``"bulk"`` (rates per unit strain of the central band, measured: s . dv/dy) or
+    ``"nominal"`` (the paper's t*gamma_dot with gamma_dot = 2U/H0, H0 between the walls' inner planes).
+    ``phi``: ``"central"`` (solid fraction of the central region) or ``"gap"`` (all grains' volume over
+    W^2 (H - d), the cell between the walls' surfaces; H is the gap between the inner planes).
+    ``pressure``: ``"target"`` (tau/p with the controlled p) or ``"wall"`` (tau divided by the wall
+    normal stress measured over each sampling interval).
+    """
+
+    strain: str = "bulk"
+    phi: str = "central"
+    pressure: str = "target"
+
+    CHOICES = {"strain": ("bulk", "nominal"), "phi": ("central", "gap"), "pressure": ("target", "wall")}
+
+    def __post_init__(self):
+        for name, allowed in self.CHOICES.items():
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name}={getattr(self, name)!r} is not one of {', '.join(allowed)}")
+
+    def label(self) -> str:
+        return f"strain {self.strain}, Phi {self.phi}, p {self.pressure}"
+
+
+DEFAULT = Definitions()
 
 
 def shear_rate_tensor(gradient):
@@ -41,16 +73,40 @@ def cycle_D_dev(run) -> np.ndarray:
 
 
 def bulk_over_nominal(run) -> float:
-    """Mean measured bulk shear rate over the nominal one, after the preceding half period."""
-    bulk = np.nanmean(run.series["shear_rate_bulk"][run.series["strain_nominal"] >= 0])
-    return float(bulk / run.parameters["gamma_dot_nominal"])
+    """Strain per unit nominal strain in the run's strain measure: for ``bulk``, the central band's
+    strain over the nominal strain across the cycles (the preceding half period excluded); 1 for ``nominal``."""
+    if run.definitions.strain == "nominal":
+        return 1.0
+    nominal, bulk = run.series["strain_nominal"], run.series["strain_bulk"]
+    last = int(np.argmax(nominal))
+    return float((bulk[last] - bulk[np.argmin(np.abs(nominal))]) / nominal[last])
 
 
-def model_series(raw: dict, parameters: dict) -> dict:
+def bulk_strain(time, strain, direction_deg, gradient, gamma_dot):
+    """Strain of the central band, integral of s . dv/dy in time from the start of the first period.
+
+    Each sampling interval is integrated along the direction it was sheared in, that of its first
+    sample: a sample taken at a change of direction already carries the new direction while the
+    grains still move the old way, and must not count that motion backwards.
+    """
+    s = shear_direction(direction_deg)
+    rate = np.where(np.isfinite(gradient), gradient, 0.0)
+    fallback = ~np.all(np.isfinite(gradient), axis=-1)
+    left = np.where(fallback[:-1], gamma_dot, np.einsum("ni,ni->n", s[:-1], rate[:-1]))
+    right = np.where(fallback[1:], gamma_dot, np.einsum("ni,ni->n", s[:-1], rate[1:]))
+    out = np.concatenate([[0.0], np.cumsum(0.5 * (left + right) * np.diff(time))])
+    return out - out[np.argmin(np.abs(strain))]
+
+
+def gap_packing_fraction(gap, width, grain_diameter):
+    """All grains' volume over the cell between the walls' surfaces, W^2 (H - d) (wall spheres of diameter d)."""
+    return (np.pi / 6 * np.sum(np.asarray(grain_diameter) ** 3)) / (width**2 * (np.asarray(gap) - 1.0))
+
+
+def model_series(raw: dict, parameters: dict, definitions: Definitions = DEFAULT, grain_diameter=None) -> dict:
     """Per-sample model-ready quantities (shear phase, preceding half period included).
 
-    ``strain_bulk`` integrates the measured central-region shear rate along the wall direction,
-    ``s . dv/dy``, in time from the start of the first period; ``D_dev_nominal`` is per unit nominal
+    ``strain_bulk``: :func:`bulk_strain`; ``D_dev_nominal`` is per unit nominal
     gamma_dot (so |D'| = 1/sqrt(2)); ``D_dev_measured`` is in units of sqrt(p/rho)/d. Work rates use
     the nominal D' and are per unit p*gamma_dot: ``w_shear = tau:D'``, ``w_vol = (dPhi/dstrain)/Phi``.
     """
@@ -59,19 +115,21 @@ def model_series(raw: dict, parameters: dict) -> dict:
     s = shear_direction(raw["direction_deg"])
     gradient = raw["velocity_gradient"]
     parallel_rate = np.einsum("ni,ni->n", s, gradient)
-    rate_for_integral = np.where(np.isfinite(parallel_rate), parallel_rate, gamma_dot)
-    time = raw["time"]
-    strain_bulk = np.concatenate([[0.0], np.cumsum(0.5 * (rate_for_integral[1:] + rate_for_integral[:-1])
-                                                    * np.diff(time))])
-    strain_bulk -= strain_bulk[np.argmin(np.abs(strain))]  # 0 at the start of the first period
+    strain_bulk = bulk_strain(raw["time"], strain, raw["direction_deg"], gradient, gamma_dot)
 
     stress = raw["stress_contact"] + raw["stress_kinetic"]
-    p_wall = 1.0  # controlled wall normal stress, the unit of stress
+    # the unit of stress is the controlled p; "wall": the wall stress measured over each sampling interval
+    p_wall = 1.0 + raw["wall_stress_error_mean"][:, None, None] if definitions.pressure == "wall" else 1.0
     tau = deviator(stretching(stress)) / p_wall
     D_nominal = deviator(shear_rate_tensor(s))
     D_measured = deviator(shear_rate_tensor(gradient))
     A = raw["fabric"]
-    phi = raw["packing_fraction"]
+    if definitions.phi == "gap":
+        if grain_diameter is None:
+            raise ValueError("the gap packing fraction needs the grain diameters")
+        phi = gap_packing_fraction(raw["gap"], parameters["width_d"], grain_diameter)
+    else:
+        phi = raw["packing_fraction"]
     dphi = np.gradient(phi, strain)
     return {
         "strain_nominal": strain,
@@ -81,7 +139,7 @@ def model_series(raw: dict, parameters: dict) -> dict:
         "D_dev_measured": D_measured,
         "A": A,
         "tau_over_p": tau,
-        "mean_stress_over_p": -np.trace(stress, axis1=1, axis2=2) / 3 / p_wall,
+        "mean_stress_over_p": -np.trace(stress, axis1=1, axis2=2) / 3 / np.reshape(p_wall, -1),
         "S": hardening_variable_stack(A, D_nominal),
         "packing_fraction": phi,
         "w_shear": np.einsum("nij,nij->n", tau, D_nominal),

@@ -47,7 +47,9 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
     phi = cycle.packing_fraction[phase_index] + rng.normal(scale=noise / 10, size=n)
     within = strain - PERIOD * np.floor(strain / PERIOD + 1e-12)
     direction_deg = np.where((strain < 0) | (within >= PERIOD / 2 - 1e-9), float(theta_deg), 0.0)
-    s = model.shear_direction(direction_deg)
+    # the grains' flow at a sample follows the direction of the interval that ends there: at a change of
+    # direction the sample carries the new wall direction while the central band still moves the old way
+    flowing = model.shear_direction(np.concatenate([direction_deg[:1], direction_deg[:-1]]))
     edges = np.array([0.0, 8.5])
     raw = {
         "iteration": np.arange(n) * 1000, "time": (strain + PRE) / gamma_dot, "strain": strain,
@@ -57,13 +59,14 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
         "wall_stress_error_mean": np.zeros(n), "wall_stress_error_max": np.zeros(n),
         "stress_contact": tau - np.eye(3), "stress_kinetic": np.zeros((n, 3, 3)), "fabric": A,
         "contacts": np.full(n, 1000), "grains": np.full(n, 300), "coordination": np.full(n, 4.0),
-        "packing_fraction": phi, "velocity_gradient": bulk_ratio * gamma_dot * s,
+        "packing_fraction": phi, "velocity_gradient": bulk_ratio * gamma_dot * flowing,
         "profile_edges": np.tile(edges, (n, 1)), "profile_velocity": np.zeros((n, 1, 3)),
         "profile_packing_fraction": phi[:, None], "profile_stress": (tau - np.eye(3))[:, None],
         "profile_fabric": A[:, None], "profile_contacts": np.full((n, 1), 1000),
     }
     check_row(raw)
     spec = {"preset": "synthetic", "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2, "seed": seed,
+            "width_d": 10.0,
             "overrides": dict(overrides or {}), "period_strain": PERIOD, "sample_strain": STEP, "n_cycles": n_cycles,
             "pre_strain": PRE, "inertial_number": gamma_dot, "noise": noise, "model_params": params.to_dict()}
     meta = {"spec": spec, "yade_version": "none (synthetic, made by the model)", "dt": 1.0, "kn": 0.0, "kt": 0.0,

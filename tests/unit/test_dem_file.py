@@ -1,5 +1,7 @@
 """The DEM post-processing and HDF5 round trip, on synthetic runs made by the model (known truth)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -45,10 +47,35 @@ def test_noisy_cycles_report_standard_errors_that_cover_the_truth(tmp_path):
     assert np.sqrt(np.mean(run.cycle["tau_over_p_sem"][:, 0, 1] ** 2)) == pytest.approx(0.02 / np.sqrt(5), rel=0.2)
 
 
-def test_bulk_strain_uses_the_measured_rate(tmp_path):
+def test_bulk_strain_uses_the_measured_rate_and_each_interval_s_own_direction(tmp_path):
+    """At a reversal the sample carries the new direction while the band still moves the old way (its
+    rate along the new direction is negative): the interval ending there is integrated along the old one."""
     run = make_file(tmp_path, 180.0, n_cycles=1, bulk_ratio=1.3)
     s = run.series
-    assert s["strain_bulk"][-1] == pytest.approx(1.3 * s["strain_nominal"][-1], rel=1e-9)
+    changes = np.flatnonzero(np.diff(run.raw["direction_deg"])) + 1
+    assert np.all(s["shear_rate_bulk"][changes] < 0)
+    # the band reverses within the interval after each change, linearly in the synthetic run: that
+    # interval adds no strain, every other one 1.3 x its nominal strain
+    start = np.argmin(np.abs(s["strain_nominal"]))
+    lost = np.array([np.sum((changes >= start) & (changes < j)) for j in range(s["strain_nominal"].size)])
+    np.testing.assert_allclose(s["strain_bulk"], 1.3 * (s["strain_nominal"] - 0.005 * lost), atol=1e-12)
+
+
+def test_definitions_of_strain_packing_fraction_and_pressure(tmp_path):
+    from pipeline.dataset.derived import Definitions, bulk_over_nominal, gap_packing_fraction
+
+    run = make_file(tmp_path, 180.0, n_cycles=1, bulk_ratio=1.3)
+    assert bulk_over_nominal(run) == pytest.approx(1.3 * (1 - 2 * 0.005 / 1.4))  # two reversals in the period
+    assert bulk_over_nominal(run.with_definitions(Definitions(strain="nominal"))) == 1.0
+    gap = run.with_definitions(Definitions(phi="gap"))
+    expected = np.pi / 6 * np.sum(run.grain_diameter**3) / (run.parameters["width_d"] ** 2 * (8.5 - 1.0))
+    np.testing.assert_allclose(gap.series["packing_fraction"], expected)
+    assert gap_packing_fraction(5.0, 4.0, [1.0]) == pytest.approx(np.pi / 6 / 64)
+    raw = dict(run.raw, wall_stress_error_mean=np.full(len(run.raw["strain"]), -0.2))
+    wall = dataclasses.replace(run, raw=raw).with_definitions(Definitions(pressure="wall"))
+    np.testing.assert_allclose(wall.series["tau_over_p"], run.series["tau_over_p"] / 0.8)
+    with pytest.raises(ValueError, match="strain='true' is not one of bulk, nominal"):
+        Definitions(strain="true")
 
 
 def test_reading_a_file_of_another_kind_fails_in_one_line(tmp_path):
@@ -73,8 +100,18 @@ def test_committed_version_1_files_read_the_same_as_when_they_were_written():
     with h5py.File(path) as f:
         assert f.attrs["schema_version"] == 1
         stored = {k: f["cycle"][k][()] for k in ("strain", "A", "tau_over_p", "packing_fraction", "A_sem")}
-        series = {k: f["series"][k][()] for k in ("strain_bulk", "S", "w_vol")}
+        series = {k: f["series"][k][()] for k in ("S", "w_vol")}
+        stored_bulk = f["series"]["strain_bulk"][()]
     for key, value in stored.items():
         np.testing.assert_array_equal(run.cycle[key], value, err_msg=key)
     for key, value in series.items():  # S is evaluated by today's model code: equal to rounding
         np.testing.assert_allclose(run.series[key], value, rtol=1e-12, atol=1e-15, err_msg=key)
+    # the bulk strain is now integrated along each interval's own direction: it differs only from the
+    # first change of direction on, by a small step at each change (the band lags the walls)
+    first_change = np.flatnonzero(np.diff(run.raw["direction_deg"]))[0] + 1
+    np.testing.assert_allclose(np.diff(run.series["strain_bulk"][:first_change]), np.diff(stored_bulk[:first_change]),
+                               atol=1e-12)
+    steps = np.diff(run.series["strain_bulk"] - stored_bulk)
+    changes = np.flatnonzero(np.diff(run.raw["direction_deg"])) + 1
+    moved = np.flatnonzero(np.abs(steps) > 1e-9) + 1
+    assert all(np.min(np.abs(changes - k)) <= 1 for k in moved) and 0.001 < steps.max() < 0.02

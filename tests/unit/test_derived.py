@@ -23,7 +23,7 @@ def synthetic_raw(n_cycles=3, noise=0.0, seed=0):
     stress[:, [0, 1, 2], [0, 1, 2]] = -1.0
     stress[:, 0, 1] = stress[:, 1, 0] = 0.3 * np.sin(2 * np.pi * phase / period) + noise * rng.normal(size=n)
     gamma_dot = 1e-3
-    s = model.shear_direction(direction)
+    s = model.shear_direction(np.concatenate([direction[:1], direction[:-1]]))  # the band lags the walls a sample
     raw = {"strain": strain, "time": (strain + pre) / gamma_dot, "direction_deg": direction,
            "velocity_gradient": 1.2 * gamma_dot * s, "stress_contact": stress, "stress_kinetic": np.zeros_like(stress),
            "fabric": A, "packing_fraction": 0.6 + 0.001 * np.sin(2 * np.pi * phase / period)}
