@@ -123,11 +123,11 @@ system-slurm: ## Debian's slurm-wlm and munge, for the cluster test (apt-get)
 	@if command -v slurmctld >/dev/null && command -v munged >/dev/null; then echo "slurm and munge present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) slurm-wlm munge; fi
 
-system: system-venv ## Debian packages: Yade and h5py for Yade's python3 (apt-get)
-	@if command -v yade >/dev/null && /usr/bin/python3 -c 'import h5py' 2>/dev/null; then \
-	  echo "yade and python3-h5py present"; \
+system: system-venv ## Debian's Yade (apt-get); the scenes need only numpy and yade in Debian's python3
+	@if command -v yade >/dev/null; then \
+	  echo "yade present"; \
 	else \
-	  $(SUDO) apt-get update -qq && $(APT_INSTALL) yade python3-h5py; \
+	  $(SUDO) apt-get update -qq && $(APT_INSTALL) yade; \
 	fi
 
 # ---------------------------------------------------------------- the pipeline

@@ -20,7 +20,7 @@ def yade_python() -> str:
     """The python3 that Debian's Yade is built for (the ``yade`` launcher's interpreter)."""
     launcher = shutil.which("yade")
     if launcher is None:
-        raise YadeMissing("yade not found on PATH: run `make system` (apt-get install yade python3-h5py)")
+        raise YadeMissing("yade not found on PATH: run `make system` (apt-get install yade)")
     with open(launcher, encoding="utf-8", errors="replace") as fh:
         first = fh.readline()
     interpreter = first[2:].strip().split()[0] if first.startswith("#!") else "/usr/bin/python3"
