@@ -72,9 +72,16 @@ def check_window(window: float, runs: list) -> None:
 
 
 def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple = (), refine: bool = True,
-        bootstrap: int = 0, definitions: Definitions = DEFAULT) -> dict:
+        bootstrap: int = 0, definitions: Definitions = DEFAULT, hold: dict | None = None) -> dict:
     """Calibrate from ``reversals``, cross-check on ``cross_runs`` (other angles, Sec. 3.3), refine
-    globally on all of them (from Table 2) and write into ``out_dir``; every run read with ``definitions``."""
+    globally on all of them (from Table 2) and write into ``out_dir``; every run read with ``definitions``;
+    the parameters in ``hold`` are held at the values given instead of fitted."""
+    hold = dict(hold or {})
+    unknown = sorted(set(hold) - set(global_fit.FREE))
+    if unknown:
+        raise CalibrationError(f"cannot hold {', '.join(unknown)}: only {', '.join(global_fit.FREE)} can be held")
+    start = model.Params().replace(**hold)
+    free = tuple(n for n in global_fit.FREE if n not in hold)
     reversals = [r.with_definitions(definitions) for r in reversals]
     cross_runs = tuple(r.with_definitions(definitions) for r in cross_runs)
     if not reversals:
@@ -93,7 +100,7 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
     refined = dilatancy = boot = None
     if refine:
         data = [global_fit.CycleData.from_run(run) for run in (*reversals, *cross_runs)]
-        refined = global_fit.refine(data, model.Params())
+        refined = global_fit.refine(data, start, free)
         dilatancy = global_fit.refine_dilatancy(data, refined.params)
         if bootstrap:
             tic = time.time()
@@ -120,7 +127,7 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
         notes.append(f"the stepwise estimates are no valid parameter set ({exc}): no params_stepwise.json")
     params = stepwise if refined is None else dilatancy.params
     report = {"method": "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18), then a global least-squares refinement",
-              "definitions": dataclasses.asdict(definitions),
+              "definitions": dataclasses.asdict(definitions), "held": hold,
               "jaumann_window_strain": window, "runs": per_run, "estimates": estimates,
               "sensitivity": sensitivity(reversals),
               "params_stepwise": stepwise and stepwise.to_dict(), "params": params.to_dict(), "cross_check": cross,
@@ -153,6 +160,10 @@ def print_report(report: dict, out: Path) -> None:
         for part in (g, report["dilatancy"]):
             for name, value, se in zip(part["free"], part["values"], part["standard_errors"], strict=True):
                 print(f"{name:>30s} = {value:+.4g} ± {se:.2g}")
+        weakest = g["fisher_directions"][0]
+        combination = " ".join(f"{c:+.2f} {n}" for n, c in weakest["direction"].items() if abs(c) >= 0.1)
+        print(f"the data fix least the relative combination {combination}: a relative step of "
+              f"{weakest['relative_step']:.2g} along it costs one reduced chi2 (fit.json: fisher_directions)")
     if report.get("bootstrap"):
         b = report["bootstrap"]
         print("bootstrap standard deviations: " + ", ".join(
@@ -183,6 +194,8 @@ def main(argv=None) -> int:
                         help="packing fraction of the central region (default) or of the whole gap")
     parser.add_argument("--pressure", choices=Definitions.CHOICES["pressure"], default=DEFAULT.pressure,
                         help="tau over the controlled p (target, default) or over the measured wall stress")
+    parser.add_argument("--hold", action="append", default=[], metavar="NAME=VALUE",
+                        help="hold a flow-rule or fabric parameter at VALUE instead of fitting it (repeatable)")
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="also refit N >= 2 resamplings of the cycles (bootstrap standard deviations)")
     args = parser.parse_args(argv)
@@ -201,8 +214,16 @@ def main(argv=None) -> int:
             out = args.out or preset_output(preset, "fit")
             reversals, cross = reversal_seeds(preset), tuple(other_angles(preset_runs(preset)))
         definitions = Definitions(args.strain, args.phi, args.pressure)
+        hold = {}
+        for item in args.hold:
+            name, _, value = item.partition("=")
+            try:
+                hold[name] = float(value)
+            except ValueError:
+                raise CalibrationError(f"--hold {item!r} is not NAME=VALUE with a number") from None
         print(f"definitions: {definitions.label()}")
-        report = fit(reversals, out, args.window, cross, bootstrap=args.bootstrap or 0, definitions=definitions)
+        report = fit(reversals, out, args.window, cross, bootstrap=args.bootstrap or 0, definitions=definitions,
+                     hold=hold)
     except (PipelineError, model.ParameterError, model.SolverError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -78,12 +78,29 @@ class GlobalFit:
     nfev: int
     success: bool
     message: str
+    directions: tuple = ()
 
     def to_dict(self) -> dict:
         return {"params": self.params.to_dict(), "free": list(self.names), "values": self.values.tolist(),
                 "standard_errors": self.standard_errors.tolist(), "correlation": self.correlation.tolist(),
                 "reduced_chi2": self.reduced_chi2, "nfev": self.nfev, "success": self.success,
-                "message": self.message}
+                "message": self.message, "fisher_directions": list(self.directions)}
+
+
+def fisher_directions(jac: np.ndarray, values: np.ndarray, names, reduced_chi2: float) -> tuple[dict, ...]:
+    """Eigen-directions of the Fisher matrix in relative parameters (d ln theta), weakest first.
+
+    ``relative_step`` is the relative change along a direction that raises chi^2 by the reduced chi^2
+    (one unit of noise if the misfit were noise): a large step is a combination the data do not fix.
+    """
+    scaled = jac * np.where(values != 0, np.abs(values), 1.0)[None, :]
+    strength, vectors = np.linalg.eigh(scaled.T @ scaled)
+    out = []
+    for lam, v in zip(strength, vectors.T, strict=True):
+        v = v * np.sign(v[np.argmax(np.abs(v))])
+        out.append({"relative_step": float(np.sqrt(reduced_chi2 / max(lam, 1e-300))),
+                    "direction": {n: float(c) for n, c in zip(names, v, strict=True)}})
+    return tuple(out)
 
 
 def predict_cycle(data: CycleData, params: model.Params) -> model.Result:
@@ -126,7 +143,8 @@ def refine(data: list[CycleData], start: model.Params, names=FREE, max_nfev: int
     se = np.sqrt(np.diag(cov))
     corr = cov / np.outer(se, se)
     params = start.replace(**dict(zip(names, map(float, sol.x), strict=True)))
-    return GlobalFit(params, tuple(names), sol.x, se, corr, chi2, int(sol.nfev), bool(sol.success), sol.message)
+    return GlobalFit(params, tuple(names), sol.x, se, corr, chi2, int(sol.nfev), bool(sol.success), sol.message,
+                     fisher_directions(sol.jac, sol.x, names, chi2))
 
 
 DILATANCY = ("c2_coef", "phi_c")

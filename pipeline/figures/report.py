@@ -58,6 +58,16 @@ def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int) -> Path:
              "## Parameters", "", "| parameter | our fit | ± | Table 2 |", "|---|---|---|---|"]
     for name in NAMES:
         lines.append(f"| {name} | {ours[name]:+.4g} | {se.get(name, float('nan')):.2g} | {paper[name]:+.4g} |")
+    directions = (fit_json or {}).get("global", {}) or {}
+    if directions.get("fisher_directions"):
+        lines += ["", "## What the data fix", "",
+                  "Eigen-directions of the global fit's Fisher matrix in relative parameters, weakest first: the "
+                  "relative step along each that raises chi^2 by one reduced chi^2. The ± above are not "
+                  "confidence intervals: the reduced chi^2 is model misfit, not noise.", "",
+                  "| relative step | combination (components >= 0.1) |", "|---|---|"]
+        for d in directions["fisher_directions"]:
+            combination = " ".join(f"{c:+.2f} {n}" for n, c in d["direction"].items() if abs(c) >= 0.1)
+            lines.append(f"| {d['relative_step']:.2g} | {combination} |")
     lines += ["", "## Model against DEM", "",
               "RMSE over the cycle divided by the steady |A12| or |tau12/p|.", "",
               "| run | parameters | " + " | ".join(components) + " |", "|---|---|" + "---|" * len(components)]

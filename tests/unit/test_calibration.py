@@ -160,3 +160,19 @@ def test_the_strain_measure_option_recovers_the_truth_of_each_measure(tmp_path):
     for name in ("C", "n"):  # bulk strain is a uniform rescaling only away from the reversals: a few per cent
         assert getattr(fits["nominal"], name) == pytest.approx(getattr(TRUE, name), rel=0.03), name
         assert getattr(fits["bulk"], name) == pytest.approx(getattr(TRUE, name), rel=0.08), name
+
+
+def test_held_parameters_stay_and_the_fisher_directions_name_the_weakest_combination(tmp_path, capsys):
+    runs = [synthetic_run(tmp_path, theta=t, name=f"h{int(t)}", n_cycles=2, noise=0.005, seed=int(t))
+            for t in (180.0, 90.0)]
+    report = fit.fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], hold={"a2": TRUE.a2})
+    g = report["global"]
+    assert "a2" not in g["free"] and g["params"]["a2"] == TRUE.a2 and report["held"] == {"a2": TRUE.a2}
+    steps = [d["relative_step"] for d in g["fisher_directions"]]
+    assert len(steps) == len(g["free"]) == 6 and steps == sorted(steps, reverse=True)
+    for d in g["fisher_directions"]:
+        assert np.linalg.norm(list(d["direction"].values())) == pytest.approx(1.0)
+    with pytest.raises(CalibrationError, match="cannot hold phi_c: only C, n, m"):
+        fit.fit(runs[:1], tmp_path / "fit2", hold={"phi_c": 0.6})
+    assert fit.main(["--runs", str(runs[0].path), "--hold", "a2=x", "--out", str(tmp_path / "f3")]) == 2
+    assert "--hold 'a2=x' is not NAME=VALUE" in capsys.readouterr().err
