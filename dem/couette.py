@@ -2,7 +2,7 @@
 
 Run by ``python -m pipeline.runs`` (``make dem``) as ``python3 -m dem.couette RUN_DIR`` (Debian's python3, Yade imported
 as a library by ``dem/yade_lib.py``: no remote console is opened); RUN_DIR holds
-``spec.json`` (every parameter, resolved and validated by ``pipeline/dem_config.py``) and receives
+``spec.json`` (every parameter, resolved and validated by ``pipeline/runs/spec.py``) and receives
 checkpoints and ``raw.npz``. Units: d = p = rho = 1 (time in d sqrt(rho/p)); strain t*gamma_dot.
 
 Cell: periodic along e1 and e3 (period W), walls normal to e2. Each wall is a rigid, non-dynamic

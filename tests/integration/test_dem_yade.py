@@ -13,7 +13,7 @@ import pytest
 from dem.contact import contact_constants, pair_reduced_mass, restitution
 from pipeline.dataset.dem_file import SCHEMA, load
 from pipeline.paths import ROOT
-from pipeline.runs import spec as dem_config
+from pipeline.runs import spec as run_spec
 from pipeline.runs import yade as yade_command
 
 pytestmark = pytest.mark.yade
@@ -40,7 +40,7 @@ def tiny_run(tmp_path_factory):
 
 
 def test_collisions_restitution_stiffness_ratio_and_sliding(tmp_path):
-    spec = dem_config.resolve(90, "paper")
+    spec = run_spec.resolve(90, "paper")
     (tmp_path / "spec.json").write_text(json.dumps(spec))
     subprocess.run(yade_command.command("collision", tmp_path / "spec.json", tmp_path / "out.json"), check=True,
                    capture_output=True, cwd=tmp_path, env=yade_command.environment())
@@ -59,8 +59,8 @@ def test_collisions_restitution_stiffness_ratio_and_sliding(tmp_path):
 def test_tiny_run_end_to_end_into_hdf5(tiny_run):
     results, stdout = tiny_run
     assert "ETA" in stdout and "steps/s" in stdout
-    spec = dem_config.resolve(90, "tiny")
-    run_file = load(dem_config.output_path(spec, results))
+    spec = run_spec.resolve(90, "tiny")
+    run_file = load(run_spec.output_path(spec, results))
     assert run_file.provenance["preset"] == "tiny" and run_file.provenance["yade_version"].startswith("20")
     assert run_file.spec == spec
     n = len(run_file.raw["strain"])
@@ -94,7 +94,7 @@ def test_tiny_run_end_to_end_into_hdf5(tiny_run):
 
 
 def test_interrupted_and_resumed_run_is_bit_identical(tiny_run, tmp_path):
-    reference = load(dem_config.output_path(dem_config.resolve(90, "tiny"), tiny_run[0]))
+    reference = load(run_spec.output_path(run_spec.resolve(90, "tiny"), tiny_run[0]))
     proc = subprocess.Popen(launcher("--theta", "90", "--preset", "tiny", results=tmp_path), cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     for line in proc.stdout:
@@ -104,7 +104,7 @@ def test_interrupted_and_resumed_run_is_bit_identical(tiny_run, tmp_path):
     output = proc.stdout.read()
     assert proc.wait() == 130, output
     assert "interrupted: checkpoint" in output
-    out = dem_config.output_path(dem_config.resolve(90, "tiny"), tmp_path)
+    out = run_spec.output_path(run_spec.resolve(90, "tiny"), tmp_path)
     assert not out.exists()
     resumed = run("--theta", "90", "--preset", "tiny", results=tmp_path)
     assert resumed.returncode == 0 and "resumed from checkpoint" in resumed.stdout
@@ -140,7 +140,7 @@ def test_bad_input_fails_before_yade_starts(tmp_path, args, message):
 def test_a_second_run_of_the_same_spec_is_refused(tmp_path):
     import fcntl
 
-    lock_path = dem_config.work_dir(dem_config.resolve(90, "tiny"), tmp_path).with_suffix(".lock")
+    lock_path = run_spec.work_dir(run_spec.resolve(90, "tiny"), tmp_path).with_suffix(".lock")
     lock_path.parent.mkdir(parents=True)
     with open(lock_path, "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)

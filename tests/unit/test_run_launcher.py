@@ -6,15 +6,15 @@ import pytest
 
 from pipeline.errors import SpecError
 from pipeline.runs import launch as dem
-from pipeline.runs import spec as dem_config
+from pipeline.runs import spec as run_spec
 
 
 def test_prepare_writes_the_spec_and_refuses_a_checkpoint_of_another_spec(tmp_path):
-    spec = dem_config.resolve(90, "tiny")
+    spec = run_spec.resolve(90, "tiny")
     run_dir = dem.prepare(spec, tmp_path, fresh=False)
     assert json.loads((run_dir / "spec.json").read_text()) == spec
     (run_dir / "checkpoint.yade.gz").write_bytes(b"x")
-    other = dem_config.resolve(90, "tiny", overrides={"seed": 5.0})
+    other = run_spec.resolve(90, "tiny", overrides={"seed": 5.0})
     other["folder"] = spec["folder"]  # same folder, other physics
     with pytest.raises(SpecError, match="holds a checkpoint of another spec"):
         dem.prepare(other, tmp_path, fresh=False)
@@ -23,8 +23,8 @@ def test_prepare_writes_the_spec_and_refuses_a_checkpoint_of_another_spec(tmp_pa
 
 
 def test_an_existing_result_is_not_run_again(tmp_path, capsys):
-    spec = dem_config.resolve(90, "tiny")
-    out = dem_config.output_path(spec, tmp_path)
+    spec = run_spec.resolve(90, "tiny")
+    out = run_spec.output_path(spec, tmp_path)
     out.parent.mkdir(parents=True)
     out.write_bytes(b"done")
     assert dem.run(spec, tmp_path) == out

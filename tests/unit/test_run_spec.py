@@ -5,12 +5,12 @@ import math
 import pytest
 
 from pipeline.errors import SpecError
-from pipeline.runs import spec as dem_config
+from pipeline.runs import spec as run_spec
 from pipeline.runs.spec import resolve
 
 
 def test_every_preset_resolves_and_the_paper_preset_is_section_2():
-    presets = dem_config.load_presets()
+    presets = run_spec.load_presets()
     assert {"paper", "reduced", "quick", "tiny"} <= set(presets)
     for name in presets:
         resolve(90, name)
@@ -28,12 +28,12 @@ def test_names_and_paths():
     assert resolve(90, "quick", rotate_at=0.1)["name"] == "theta090_rot0.10"
     assert resolve(92.5, "quick")["name"] == "theta092.5"
     spec = resolve(30, "reduced")
-    assert dem_config.output_path(spec).parts[-3:] == ("reduced", "dem", "theta030.h5")
-    assert dem_config.work_dir(spec).name == "theta030.run"
+    assert run_spec.output_path(spec).parts[-3:] == ("reduced", "dem", "theta030.h5")
+    assert run_spec.work_dir(spec).name == "theta030.run"
 
 
 def test_overrides_change_the_folder_and_are_validated():
-    spec = resolve(90, "quick", overrides=dem_config.parse_overrides(["friction_deg=30", "seed=4"]))
+    spec = resolve(90, "quick", overrides=run_spec.parse_overrides(["friction_deg=30", "seed=4"]))
     assert spec["friction_deg"] == 30 and spec["seed"] == 4 and isinstance(spec["seed"], int)
     assert spec["folder"].startswith("quick-") and spec["folder"] != "quick"
 
@@ -59,6 +59,6 @@ def test_bad_input_is_a_one_line_error_naming_the_value(kwargs, message):
 
 def test_malformed_override():
     with pytest.raises(SpecError, match="not of the form key=value"):
-        dem_config.parse_overrides(["gap_d"])
+        run_spec.parse_overrides(["gap_d"])
     with pytest.raises(SpecError, match="gap_d='big' is not a number"):
-        dem_config.parse_overrides(["gap_d=big"])
+        run_spec.parse_overrides(["gap_d=big"])
