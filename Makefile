@@ -77,7 +77,7 @@ COMPARE_DIR := results/$(DATA_PRESET)/compare
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
 .PHONY: help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
-	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-definitions compare figures demo-dem clean
+	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-definitions fit-profile compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -170,6 +170,10 @@ fit-bootstrap: venv ## the fit plus a bootstrap over cycles (BOOT=100 refits) ->
 fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<PRESET>/fit/definitions.md
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration.definitions --preset $(DATA_PRESET)
+
+fit-profile: venv ## the profile likelihood of every fitted parameter (a few minutes) -> results/<PRESET>/fit/profiles.json
+	$(SAY_PRESET)
+	$(PY) -m pipeline.calibration.profile --preset $(DATA_PRESET)
 
 compare: $(COMPARE_DIR)/metrics.json ## the model against the preset's runs -> results/<PRESET>/compare/
 

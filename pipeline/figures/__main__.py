@@ -18,7 +18,7 @@ from .. import io
 from ..cli import Parser
 from ..errors import PipelineError
 from ..paths import check_folder_name, preset_output
-from . import cycles, laws, report, reversal
+from . import cycles, laws, profiles, report, reversal
 
 
 def read_json(path: Path) -> dict:
@@ -58,6 +58,8 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
         if reversal_runs:
             made.append(reversal.work_figure(reversal_runs, "our fit", figures / "fig9_work_rates.png"))
         n_runs = len(runs)
+    if (fit_dir / "profiles.json").exists():
+        made.append(profiles.plot(read_json(fit_dir / "profiles.json"), paper, figures / "profiles.png"))
     fit_h5 = fit_dir / "fit.h5"
     if fit_h5.exists():
         made.append(laws.fabric_law(fit_h5, fitted, paper, figures / "fig3_fabric_law.png"))

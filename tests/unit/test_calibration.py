@@ -176,3 +176,21 @@ def test_held_parameters_stay_and_the_fisher_directions_name_the_weakest_combina
         fit.fit(runs[:1], tmp_path / "fit2", hold={"phi_c": 0.6})
     assert fit.main(["--runs", str(runs[0].path), "--hold", "a2=x", "--out", str(tmp_path / "f3")]) == 2
     assert "--hold 'a2=x' is not NAME=VALUE" in capsys.readouterr().err
+
+
+def test_profile_intervals_match_the_jacobian_where_the_noise_is_the_misfit(tmp_path):
+    """On model data with white noise the chi^2 is noise, the problem nearly linear near the optimum, and
+    the 68 % profile interval is the Jacobian's +-1 standard error; the profile's minimum is the fit."""
+    from pipeline.calibration.profile import profiles
+
+    runs = [synthetic_run(tmp_path, theta=t, name=f"p{int(t)}", n_cycles=3, noise=0.01, seed=int(t) + 3)
+            for t in (180.0, 90.0)]
+    data = [global_fit.CycleData.from_run(r) for r in runs]
+    best = global_fit.refine(data, TRUE)
+    result = profiles(data, best, points=5, span=3.0)
+    for name, p in result["parameters"].items():
+        low, high = p["intervals"]["68"]
+        assert min(p["chi2_rise"]) < 0.05 * result["reduced_chi2"], name
+        assert low is not None and high is not None, name
+        assert (high - low) / 2 == pytest.approx(p["jacobian_se"], rel=0.2), name
+        assert low < p["best"] < high, name

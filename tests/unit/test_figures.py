@@ -67,3 +67,19 @@ def test_relaxation_strain_of_an_exponential():
     noisy = x + np.random.default_rng(1).normal(0, 0.1, x.size)
     assert relaxation_strain(strain, noisy) == pytest.approx(0.15 * np.log(20), rel=0.15)
     assert np.isnan(relaxation_strain(strain, np.random.default_rng(2).normal(0, 1, x.size)))
+
+
+def test_the_profile_figure_is_drawn_from_profiles_json(compared, tmp_path):
+    tmp, _ = compared
+    fit_dir = tmp_path / "fit"
+    fit_dir.mkdir()
+    for name in ("fit.json", "fit.h5"):
+        (fit_dir / name).write_bytes((tmp / "fit" / name).read_bytes())
+    grid = np.linspace(-6.0, -5.2, 5)
+    profile = {"best": -5.6, "jacobian_se": 0.1, "grid": grid.tolist(), "chi2_rise": ((grid + 5.6) ** 2 * 400).tolist(),
+               "intervals": {"68": [-5.65, -5.55], "95": [-5.7, -5.5]}}
+    (fit_dir / "profiles.json").write_text(json.dumps({"reduced_chi2": 1.0, "dof": 100, "levels": {"68": 1, "95": 4},
+                                                       "parameters": {"C": profile}}))
+    made = draw(tmp / "compare", fit_dir, tmp_path / "out")
+    png = tmp_path / "out" / "figures" / "profiles.png"
+    assert png in made and png.read_bytes()[:4] == b"\x89PNG"
