@@ -26,11 +26,11 @@ import h5py
 import model
 
 from .. import io
-from ..cli import Parser
+from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import load
 from ..dataset.derived import DEFAULT, Definitions
 from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
-from ..errors import CalibrationError, PipelineError
+from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
 from . import global_fit
 from .stepwise import calibrate_run, combine, cross_check_run, fitted_params, sensitivity, stepwise_bootstrap
@@ -182,6 +182,7 @@ def print_report(report: dict, out: Path) -> None:
           + (", params_stepwise.json" if report["params_stepwise"] else ""))
 
 
+@one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", help="preset whose runs to fit (default: the most faithful one with runs)")
@@ -199,34 +200,30 @@ def main(argv=None) -> int:
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="also refit N >= 2 resamplings of the cycles (bootstrap standard deviations)")
     args = parser.parse_args(argv)
-    try:
-        if args.bootstrap is not None and args.bootstrap < 2:
-            raise CalibrationError(f"bootstrap={args.bootstrap}: a bootstrap needs at least 2 resamples")
-        if not math.isfinite(args.window) or args.window <= 0:
-            raise CalibrationError(f"window={args.window} must be a positive strain")
-        if args.runs:
-            reversals, cross = [load(p) for p in args.runs], ()
-            out = args.out or preset_output(check_folder_name(args.preset or "custom"), "fit")
-        else:
-            preset = args.preset or default_preset()
-            if args.preset is None:
-                print(f"preset: {preset} (the most faithful one with a reversal run; --preset / PRESET= to choose)")
-            out = args.out or preset_output(preset, "fit")
-            reversals, cross = reversal_seeds(preset), tuple(other_angles(preset_runs(preset)))
-        definitions = Definitions(args.strain, args.phi, args.pressure)
-        hold = {}
-        for item in args.hold:
-            name, _, value = item.partition("=")
-            try:
-                hold[name] = float(value)
-            except ValueError:
-                raise CalibrationError(f"--hold {item!r} is not NAME=VALUE with a number") from None
-        print(f"definitions: {definitions.label()}")
-        report = fit(reversals, out, args.window, cross, bootstrap=args.bootstrap or 0, definitions=definitions,
-                     hold=hold)
-    except (PipelineError, model.ParameterError, model.SolverError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    if args.bootstrap is not None and args.bootstrap < 2:
+        raise CalibrationError(f"bootstrap={args.bootstrap}: a bootstrap needs at least 2 resamples")
+    if not math.isfinite(args.window) or args.window <= 0:
+        raise CalibrationError(f"window={args.window} must be a positive strain")
+    if args.runs:
+        reversals, cross = [load(p) for p in args.runs], ()
+        out = args.out or preset_output(check_folder_name(args.preset or "custom"), "fit")
+    else:
+        preset = args.preset or default_preset()
+        if args.preset is None:
+            print(f"preset: {preset} (the most faithful one with a reversal run; --preset / PRESET= to choose)")
+        out = args.out or preset_output(preset, "fit")
+        reversals, cross = reversal_seeds(preset), tuple(other_angles(preset_runs(preset)))
+    definitions = Definitions(args.strain, args.phi, args.pressure)
+    hold = {}
+    for item in args.hold:
+        name, _, value = item.partition("=")
+        try:
+            hold[name] = float(value)
+        except ValueError:
+            raise CalibrationError(f"--hold {item!r} is not NAME=VALUE with a number") from None
+    print(f"definitions: {definitions.label()}")
+    report = fit(reversals, out, args.window, cross, bootstrap=args.bootstrap or 0, definitions=definitions,
+                 hold=hold)
     print_report(report, out)
     return 0
 

@@ -17,7 +17,7 @@ import numpy as np
 import model
 
 from .. import io
-from ..cli import Parser
+from ..cli import Parser, one_line_errors
 from ..dataset.derived import Definitions
 from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
 from ..errors import PipelineError
@@ -62,21 +62,18 @@ def markdown(rows: list[dict], preset: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+@one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration.definitions", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="reduced")
     parser.add_argument("--out", help="output folder (default results/<preset>/fit)")
     args = parser.parse_args(argv)
-    try:
-        preset = check_folder_name(args.preset)
-        out = io.check_writable_dir(args.out or preset_output(preset, "fit"))
-        runs = [*reversal_seeds(preset), *other_angles(preset_runs(preset))]
-        if not runs:
-            raise PipelineError(f"no run of preset {preset!r}")
-        rows = compare_definitions(runs)
-    except (PipelineError, model.ParameterError, model.SolverError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    preset = check_folder_name(args.preset)
+    out = io.check_writable_dir(args.out or preset_output(preset, "fit"))
+    runs = [*reversal_seeds(preset), *other_angles(preset_runs(preset))]
+    if not runs:
+        raise PipelineError(f"no run of preset {preset!r}")
+    rows = compare_definitions(runs)
     io.write_json(out / "definitions.json", rows)
     io.write_text(out / "definitions.md", markdown(rows, preset))
     print(f"wrote {out / 'definitions.md'} and definitions.json")

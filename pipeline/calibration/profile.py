@@ -19,7 +19,7 @@ import numpy as np
 import model
 
 from .. import io
-from ..cli import Parser
+from ..cli import Parser, one_line_errors
 from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
 from ..errors import CalibrationError, PipelineError
 from ..paths import check_folder_name, preset_output
@@ -71,6 +71,7 @@ def profiles(data: list, best: global_fit.GlobalFit, points: int = 9, span: floa
     return {"reduced_chi2": best.reduced_chi2, "dof": dof, "levels": LEVELS, "parameters": out}
 
 
+@one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration.profile", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="reduced")
@@ -78,27 +79,23 @@ def main(argv=None) -> int:
     parser.add_argument("--span", type=float, default=8.0, help="half-width in Jacobian standard errors (default 8)")
     parser.add_argument("--out", help="output folder (default results/<preset>/fit)")
     args = parser.parse_args(argv)
-    try:
-        preset = check_folder_name(args.preset)
-        if args.points < 3 or not (np.isfinite(args.span) and args.span > 0):
-            raise PipelineError(f"points={args.points} must be >= 3 and span={args.span} > 0")
-        out = io.check_writable_dir(args.out or preset_output(preset, "fit"))
-        runs = [*reversal_seeds(preset), *other_angles(preset_runs(preset))]
-        if not runs:
-            raise PipelineError(f"no run of preset {preset!r}")
-        data = [global_fit.CycleData.from_run(r) for r in runs]
-        best = global_fit.refine(data, model.Params())
-        tic = time.time()
+    preset = check_folder_name(args.preset)
+    if args.points < 3 or not (np.isfinite(args.span) and args.span > 0):
+        raise PipelineError(f"points={args.points} must be >= 3 and span={args.span} > 0")
+    out = io.check_writable_dir(args.out or preset_output(preset, "fit"))
+    runs = [*reversal_seeds(preset), *other_angles(preset_runs(preset))]
+    if not runs:
+        raise PipelineError(f"no run of preset {preset!r}")
+    data = [global_fit.CycleData.from_run(r) for r in runs]
+    best = global_fit.refine(data, model.Params())
+    tic = time.time()
 
-        def progress(done, total):
-            rate = done / (time.time() - tic)
-            print(f"profile {done}/{total} ({done / total:.0%}), {rate:.2f} fits/s, ETA {(total - done) / rate:.0f} s",
-                  flush=True)
+    def progress(done, total):
+        rate = done / (time.time() - tic)
+        print(f"profile {done}/{total} ({done / total:.0%}), {rate:.2f} fits/s, ETA {(total - done) / rate:.0f} s",
+              flush=True)
 
-        result = profiles(data, best, args.points, args.span, progress)
-    except (PipelineError, model.ParameterError, model.SolverError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    result = profiles(data, best, args.points, args.span, progress)
     io.write_json(out / "profiles.json", result)
     for name, p in result["parameters"].items():
         low, high = p["intervals"]["68"]

@@ -23,10 +23,10 @@ import numpy as np
 import model
 
 from .. import io
-from ..cli import Parser
+from ..cli import Parser, one_line_errors
 from ..dataset.derived import DEFAULT, Definitions
 from ..dataset.lookup import preset_runs
-from ..errors import DemFileError, PipelineError
+from ..errors import DemFileError
 from ..paths import check_folder_name, preset_output
 from . import metrics
 
@@ -68,7 +68,7 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
 def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str) -> dict:
     """Predict, measure and write ``compare.h5`` and ``metrics.json`` into ``out_dir``."""
     io.check_writable_dir(out_dir)
-    predictions = [{label: metrics.model_for(run, params) for label, params in sets.items()} for run in runs]
+    predictions = [metrics.model_for(run, sets) for run in runs]
     ours = sets["our fit"]
     result = {"preset": preset, "definitions": dataclasses.asdict(runs[0].definitions),
               "param_sets": {label: p.to_dict() for label, p in sets.items()},
@@ -102,29 +102,26 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
     return result
 
 
+@one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.comparison", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="reduced")
     parser.add_argument("--params", type=Path, help="fitted parameters (default results/<preset>/fit/params.json)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<preset>/compare)")
     args = parser.parse_args(argv)
-    try:
-        preset = check_folder_name(args.preset)
-        params_file = args.params or preset_output(preset, "fit", "params.json")
-        fitted = model.Params.load(params_file)
-        fit_json = params_file.with_name("fit.json")
-        definitions = Definitions(**json.loads(fit_json.read_text()).get("definitions", {})) \
-            if fit_json.exists() else DEFAULT
-        runs = [r.with_definitions(definitions) for r in preset_runs(preset)]
-        if not runs:
-            raise DemFileError(f"no DEM run of preset {preset!r}: run `make dem PRESET={preset}` first")
-        fit_h5 = params_file.with_name("fit.h5")
-        out = args.out or preset_output(preset, "compare")
-        compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5 if fit_h5.exists() else None, out,
-                preset)
-    except (PipelineError, model.ParameterError, model.SolverError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    preset = check_folder_name(args.preset)
+    params_file = args.params or preset_output(preset, "fit", "params.json")
+    fitted = model.Params.load(params_file)
+    fit_json = params_file.with_name("fit.json")
+    definitions = Definitions(**json.loads(fit_json.read_text()).get("definitions", {})) \
+        if fit_json.exists() else DEFAULT
+    runs = [r.with_definitions(definitions) for r in preset_runs(preset)]
+    if not runs:
+        raise DemFileError(f"no DEM run of preset {preset!r}: run `make dem PRESET={preset}` first")
+    fit_h5 = params_file.with_name("fit.h5")
+    out = args.out or preset_output(preset, "compare")
+    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5 if fit_h5.exists() else None, out,
+            preset)
     print(f"wrote {out / 'compare.h5'} and metrics.json")
     return 0
 

@@ -18,10 +18,10 @@ from ..calibration.global_fit import CycleData, predict_cycle
 COMPONENTS = {"A12": ("A", 0, 1), "A32": ("A", 2, 1), "tau12": ("tau", 0, 1), "tau32": ("tau", 2, 1)}
 
 
-def model_for(run, params: model.Params) -> tuple[CycleData, model.Result]:
-    """The run's cycle as the fit sees it, and the model's prediction at its samples."""
+def model_for(run, sets: dict) -> dict[str, tuple[CycleData, model.Result]]:
+    """The run's cycle as the fit sees it (built once), and each parameter set's prediction at its samples."""
     data = CycleData.from_run(run)
-    return data, predict_cycle(data, params)
+    return {label: (data, predict_cycle(data, params)) for label, params in sets.items()}
 
 
 def errors(data: CycleData, pred: model.Result) -> dict[str, float]:

@@ -130,7 +130,7 @@ class DemRun:
 
     def with_definitions(self, definitions: derived.Definitions) -> DemRun:
         """The same run read with other definitions of strain, Phi and p (series and cycle recomputed)."""
-        return dataclasses.replace(self, definitions=definitions)
+        return self if definitions == self.definitions else dataclasses.replace(self, definitions=definitions)
 
     @cached_property
     def series(self) -> dict:

@@ -15,7 +15,7 @@ import h5py
 import model
 
 from .. import io
-from ..cli import Parser
+from ..cli import Parser, one_line_errors
 from ..errors import PipelineError
 from ..paths import check_folder_name, preset_output
 from . import cycles, laws, profiles, report, reversal
@@ -68,6 +68,7 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     return made
 
 
+@one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.figures", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="reduced")
@@ -75,13 +76,9 @@ def main(argv=None) -> int:
     parser.add_argument("--fit", type=Path, help="calibration folder (default results/<preset>/fit)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<preset>)")
     args = parser.parse_args(argv)
-    try:
-        preset = check_folder_name(args.preset)
-        made = draw(args.compare or preset_output(preset, "compare"), args.fit or preset_output(preset, "fit"),
-                    args.out or preset_output(preset))
-    except (PipelineError, model.ParameterError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    preset = check_folder_name(args.preset)
+    made = draw(args.compare or preset_output(preset, "compare"), args.fit or preset_output(preset, "fit"),
+                args.out or preset_output(preset))
     for path in made:
         print(f"wrote {path}")
     return 0

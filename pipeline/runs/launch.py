@@ -17,9 +17,9 @@ import sys
 from pathlib import Path
 
 from .. import io
-from ..cli import Parser
+from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import write_h5
-from ..errors import PipelineError, SpecError
+from ..errors import SpecError
 from ..paths import RESULTS_DIR, ROOT
 from . import spec as run_spec
 from . import yade
@@ -150,6 +150,7 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
     return out
 
 
+@one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.runs", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
@@ -168,18 +169,14 @@ def main(argv=None) -> int:
     p.add_argument("--results", type=Path, default=RESULTS_DIR, help="results folder (default: results/)")
     p.add_argument("--print-path", action="store_true", help="print the HDF5 path this run writes, then exit")
     args = parser.parse_args(argv)
-    try:
-        spec = run_spec.resolve(args.theta, args.preset, args.rotate_at, run_spec.parse_overrides(args.set),
-                                allow_inertial=args.allow_inertial)
-        if not 1 <= args.threads <= 256:
-            raise SpecError(f"threads={args.threads} must be between 1 and 256")
-        if args.print_path:
-            print(run_spec.output_path(spec, args.results))
-            return 0
-        out = run(spec, args.results, args.fresh, args.threads)
-    except PipelineError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    spec = run_spec.resolve(args.theta, args.preset, args.rotate_at, run_spec.parse_overrides(args.set),
+                            allow_inertial=args.allow_inertial)
+    if not 1 <= args.threads <= 256:
+        raise SpecError(f"threads={args.threads} must be between 1 and 256")
+    if args.print_path:
+        print(run_spec.output_path(spec, args.results))
+        return 0
+    out = run(spec, args.results, args.fresh, args.threads)
     print(f"wrote {out}")
     return 0
 

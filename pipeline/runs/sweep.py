@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .. import io
-from ..cli import Parser
+from ..cli import Parser, one_line_errors
 from ..errors import PipelineError, SpecError
 from ..paths import CONFIG_DIR, RESULTS_DIR, ROOT
 from . import spec as run_spec
@@ -340,6 +340,7 @@ def format_status(sweep: Sweep, rows: list[dict]) -> str:
 
 
 # ---------------------------------------------------------------- command line
+@one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.runs.sweep", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
@@ -360,34 +361,30 @@ def main(argv=None) -> int:
     pr.add_argument("--sweep")
     pr.add_argument("--results", type=Path, default=RESULTS_DIR)
     args = parser.parse_args(argv)
-    try:
-        if args.command == "status":
-            sweep = read_plan(args.results, args.sweep)
-            print(format_status(sweep, status(sweep)))
-            return 0
-        if args.command == "preset":
-            print(read_plan(args.results, args.sweep).preset)
-            return 0
-        config = load_cluster_config()
-        sweep = plan(args.preset, args.thetas, args.rotate_ats, args.seeds, args.set, args.results)
-        if args.launch == "slurm":
-            slurm = apply_overrides(config["slurm"], args.slurm, "slurm")
-            check_slurm(slurm, sweep, config["throughput"])
-        jobs = args.jobs or config["local"]["jobs"]
-        if jobs < 1:
-            raise SpecError(f"jobs={jobs} must be >= 1")
-        write_plan(sweep)
-        print(f"sweep {sweep.ident}: {len(sweep.tasks)} run(s) of preset {sweep.preset} "
-              f"({sum(t.output.exists() for t in sweep.tasks)} done)")
-        if args.launch == "local":
-            return run_local(sweep, jobs)
-        job = submit(sweep, slurm)
-        print("every run is done: nothing submitted" if job is None else
-              f"submitted job array {job} ({sweep.folder / 'job.sh'}); follow it with `make sweep-status`")
+    if args.command == "status":
+        sweep = read_plan(args.results, args.sweep)
+        print(format_status(sweep, status(sweep)))
         return 0
-    except PipelineError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    if args.command == "preset":
+        print(read_plan(args.results, args.sweep).preset)
+        return 0
+    config = load_cluster_config()
+    sweep = plan(args.preset, args.thetas, args.rotate_ats, args.seeds, args.set, args.results)
+    if args.launch == "slurm":
+        slurm = apply_overrides(config["slurm"], args.slurm, "slurm")
+        check_slurm(slurm, sweep, config["throughput"])
+    jobs = args.jobs or config["local"]["jobs"]
+    if jobs < 1:
+        raise SpecError(f"jobs={jobs} must be >= 1")
+    write_plan(sweep)
+    print(f"sweep {sweep.ident}: {len(sweep.tasks)} run(s) of preset {sweep.preset} "
+          f"({sum(t.output.exists() for t in sweep.tasks)} done)")
+    if args.launch == "local":
+        return run_local(sweep, jobs)
+    job = submit(sweep, slurm)
+    print("every run is done: nothing submitted" if job is None else
+          f"submitted job array {job} ({sweep.folder / 'job.sh'}); follow it with `make sweep-status`")
+    return 0
 
 
 if __name__ == "__main__":
