@@ -98,8 +98,11 @@ class Params:
         except ParameterError as exc:
             raise ParameterError(f"{source}: {exc}") from None
 
-    def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2) + "\n"
+    def to_json(self, metadata: dict | None = None) -> str:
+        """The parameters as a JSON object; ``metadata`` (what fitted them, how well each is determined)
+        goes under the key ``"metadata"``, which reading ignores."""
+        values = self.to_dict() if metadata is None else {**self.to_dict(), "metadata": metadata}
+        return json.dumps(values, indent=2) + "\n"
 
     @classmethod
     def from_json(cls, text: str, source: str = "parameters") -> Params:
@@ -114,6 +117,8 @@ class Params:
             values = json.loads(text, object_pairs_hook=unique_keys)
         except json.JSONDecodeError as exc:
             raise ParameterError(f"{source}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+        if isinstance(values, dict):
+            values.pop("metadata", None)
         return cls.from_dict(values, source)
 
     @classmethod
@@ -125,11 +130,11 @@ class Params:
             raise ParameterError(f"{path}: cannot read parameters ({exc.strerror})") from None
         return cls.from_json(text, str(path))
 
-    def save(self, path: str | Path) -> None:
-        """Write atomically (temporary file, then rename)."""
+    def save(self, path: str | Path, metadata: dict | None = None) -> None:
+        """Write atomically (temporary file, then rename), with ``metadata`` if given (see ``to_json``)."""
         path = Path(path)
         tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(self.to_json())
+        tmp.write_text(self.to_json(metadata))
         tmp.replace(path)
 
 

@@ -26,13 +26,13 @@ import h5py
 import model
 
 from .. import io
-from ..cli import Parser, one_line_errors
+from ..cli import Parser, add_definition_arguments, definitions_from, one_line_errors
 from ..dataset.dem_file import load
 from ..dataset.derived import DEFAULT, Definitions
 from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
 from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
-from . import global_fit
+from . import design, global_fit, identifiability
 from .stepwise import calibrate_run, combine, cross_check_run, fitted_params, sensitivity, stepwise_bootstrap
 
 PRESETS_BY_FIDELITY = ("paper", "reduced", "quick")
@@ -72,10 +72,13 @@ def check_window(window: float, runs: list) -> None:
 
 
 def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple = (), refine: bool = True,
-        bootstrap: int = 0, definitions: Definitions = DEFAULT, hold: dict | None = None) -> dict:
+        bootstrap: int = 0, definitions: Definitions = DEFAULT, hold: dict | None = None,
+        left_out: tuple = ()) -> dict:
     """Calibrate from ``reversals``, cross-check on ``cross_runs`` (other angles, Sec. 3.3), refine
     globally on all of them (from Table 2) and write into ``out_dir``; every run read with ``definitions``;
-    the parameters in ``hold`` are held at the values given instead of fitted."""
+    the parameters in ``hold`` are held at the values given instead of fitted. ``left_out``: runs the fit
+    does not use (the Fig. 7 rotations, kept for the comparison), named among the candidates of
+    ``next_runs``."""
     hold = dict(hold or {})
     unknown = sorted(set(hold) - set(global_fit.FREE))
     if unknown:
@@ -93,15 +96,22 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
     check_window(window, [*reversals, *cross_runs])
     if bootstrap and bootstrap < 2:
         raise CalibrationError(f"bootstrap={bootstrap}: a bootstrap needs at least 2 resamples")
+    if bootstrap and not any(r.spec["n_cycles"] > 1 for r in (*reversals, *cross_runs)):
+        raise CalibrationError("a bootstrap needs runs with more than one cycle (the noise is measured from them)")
     io.check_writable_dir(out_dir)
     per_run = [calibrate_run(run, window=window) for run in reversals]
     cross = [cross_check_run(run, window=window) for run in cross_runs]
     arrays = {"reversal": [r.pop("arrays") for r in per_run], "cross_check": [c.pop("arrays") for c in cross]}
-    refined = dilatancy = boot = None
+    refined = dilatancy = boot = noise = identifiable = None
+    next_runs = []
     if refine:
-        data = [global_fit.CycleData.from_run(run) for run in (*reversals, *cross_runs)]
-        refined = global_fit.refine(data, start, free)
+        data, noise = global_fit.prepare([*reversals, *cross_runs])
+        refined = global_fit.refine(data, start, free, noise=noise)
         dilatancy = global_fit.refine_dilatancy(data, refined.params)
+        identifiable = identifiability.summary(refined, data, hold)
+        if not hold:
+            rotations = [(r.spec["theta_deg"], r.spec["rotate_at_strain"]) for r in left_out]
+            next_runs = design.rank(refined, noise, [*reversals, *cross_runs], rotations)
         if bootstrap:
             tic = time.time()
 
@@ -110,7 +120,7 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
                 print(f"bootstrap {done}/{total} ({done / total:.0%}), {rate:.2f} fits/s, "
                       f"ETA {(total - done) / rate:.0f} s", flush=True)
 
-            boot = global_fit.bootstrap([*reversals, *cross_runs], model.Params(), bootstrap, progress=progress)
+            boot = global_fit.bootstrap(data, noise, refined, bootstrap, progress=progress)
             boot["stepwise"] = stepwise_bootstrap(reversals, bootstrap, window)
     estimates = combine(per_run)
     bad = [k for k in ("C_eq15", "n", "m", "a1", "b1", "a2", "b2") if not math.isfinite(estimates[k]["value"])]
@@ -132,6 +142,8 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
               "sensitivity": sensitivity(reversals),
               "params_stepwise": stepwise and stepwise.to_dict(), "params": params.to_dict(), "cross_check": cross,
               "global": None if refined is None else refined.to_dict(),
+              "noise": None if noise is None else noise.to_dict(), "identifiability": identifiable,
+              "next_runs": next_runs,
               "dilatancy": None if refined is None else dilatancy.to_dict(),
               "bootstrap": boot,
               "global_runs": [str(r.path) for r in (*reversals, *cross_runs)] if refine else [],
@@ -140,7 +152,10 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
     (out_dir / "params_stepwise.json").unlink(missing_ok=True)
     if stepwise is not None:
         stepwise.save(out_dir / "params_stepwise.json")
-    params.save(out_dir / "params.json")
+    params.save(out_dir / "params.json", None if identifiable is None else {
+        "fit": "global (pipeline.calibration.global_fit)", "definitions": dataclasses.asdict(definitions),
+        "held": hold, "intervals_68": identifiable["intervals_68"],
+        "not_determined": identifiable["not_determined"], "misfit": refined.misfit})
     io.write_json(out_dir / "fit.json", report)
     return report
 
@@ -153,22 +168,56 @@ def default_preset() -> str:
     raise CalibrationError("no reversal run of any preset: run `make dem THETA=180` first")
 
 
+def print_global(report: dict) -> None:
+    """The global fit first: values with their 68 % intervals from the measured noise, what is determined."""
+    g, ident, nm = report["global"], report["identifiability"], report["noise"]
+    print(f"global fit on {len(report['global_runs'])} run(s); misfit {g['misfit']:.2f} (chi^2 per degree of "
+          f"freedom in units of the DEM's noise: 1 is a fit within the noise)")
+    print(f"intervals: 68 % from the DEM's noise ({nm['source']}; correlated over "
+          f"{min(min(v) for v in nm['correlation_strain'].values()):.2f}-"
+          f"{max(max(v) for v in nm['correlation_strain'].values()):.2f} strain), not scaled by the misfit")
+    for name, p in ident["parameters"].items():
+        band = p["intervals"]["68"]
+        text = "[open]" if band is None else f"[{band[0]:+.4g}, {band[1]:+.4g}]"
+        print(f"{name:>8s} = {p['value']:+.4g}  68 % {text:>24s}  {p['status']}")
+    d = report["dilatancy"]
+    for name, value, se in zip(d["free"], d["values"], d["standard_errors"], strict=True):
+        print(f"{name:>8s} = {value:+.4g} ± {se:.2g} (Eq. 18 on Phi; its scatter taken as white)")
+    for label, items in (("fixed best", ident["strongest"]), ("fixed least", ident["weakest"])):
+        print(f"the data {label}: " + "; ".join(f"{c['combination']} (±{c['relative_step']:.2g})" for c in items))
+    if ident["not_determined"]:
+        print(f"not determined by these runs: {', '.join(ident['not_determined'])} (hold with --hold NAME=VALUE)")
+    t = ident["table2"]
+    if t:
+        where = ("inside" if t["inside"]["95"] else "outside") if t["quantiles"] else "undecided"
+        lenient = ("inside" if t["inside_misfit_widened"]["95"] else "outside") if t["quantiles"] else "undecided"
+        bound = f" against {t['quantiles']['95']:.0f}" if t["quantiles"] else ""
+        print(f"Table 2 on these data: chi^2 {t['relative_rise']:+.1%} above the best fit (a rise of "
+              f"{t['chi2_rise']:.0f}{bound}): {where} the 95 % region from the noise, {lenient} it when widened "
+              "by the misfit (make fit-definitions: under each definition)")
+
+
+def print_next_runs(report: dict, count: int = 5) -> None:
+    if not report["next_runs"]:
+        return
+    first = report["next_runs"][0]
+    print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first['weakest_before']:.2g}; "
+          "fit.json: next_runs):")
+    for r in report["next_runs"][:count]:
+        print(f"  {r['run']}: ±{r['weakest_after']:.2g}, {r['cpu_hours']:.2f} CPU-hours")
+
+
 def print_report(report: dict, out: Path) -> None:
     if report["global"]:
-        g = report["global"]
-        print(f"global fit on {len(report['global_runs'])} run(s), reduced chi2 {g['reduced_chi2']:.2f}:")
-        for part in (g, report["dilatancy"]):
-            for name, value, se in zip(part["free"], part["values"], part["standard_errors"], strict=True):
-                print(f"{name:>30s} = {value:+.4g} ± {se:.2g}")
-        weakest = g["fisher_directions"][0]
-        combination = " ".join(f"{c:+.2f} {n}" for n, c in weakest["direction"].items() if abs(c) >= 0.1)
-        print(f"the data fix least the relative combination {combination}: a relative step of "
-              f"{weakest['relative_step']:.2g} along it costs one reduced chi2 (fit.json: fisher_directions)")
+        print_global(report)
+        print_next_runs(report)
     if report.get("bootstrap"):
         b = report["bootstrap"]
-        print("bootstrap standard deviations: " + ", ".join(
-            f"{n} {sd:.2g}" for n, sd in zip(b["free"], b["standard_deviation"], strict=True)))
-    print("the paper's stepwise route (Sec. 4), mean over the reversal runs:")
+        print(f"noise bootstrap ({len(b['replicates'])} refits, blocks of {b['block_strain']:g} strain), 68 %: "
+              + ", ".join(f"{n} [{lo:+.4g}, {hi:+.4g}]" for n, (lo, hi) in zip(b["free"], b["interval_68"],
+                                                                               strict=True)))
+    print("the paper's stepwise route (Sec. 4), mean ± standard error over the reversal runs "
+          "(noisy on small cells; fit.json: sensitivity):")
     for key, e in report["estimates"].items():
         print(f"{key:>30s} = {e['value']:+.4g} ± {e['standard_error']:.2g}")
     for c in report["cross_check"]:
@@ -189,12 +238,7 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", nargs="*", type=Path, help="reversal DEM files to fit instead of the preset's")
     parser.add_argument("--window", type=float, default=0.05, help="Savitzky-Golay window in strain (default 0.05)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<preset>/fit)")
-    parser.add_argument("--strain", choices=Definitions.CHOICES["strain"], default=DEFAULT.strain,
-                        help="strain measure: the central band's (bulk, default) or the paper's t*2U/H (nominal)")
-    parser.add_argument("--phi", choices=Definitions.CHOICES["phi"], default=DEFAULT.phi,
-                        help="packing fraction of the central region (default) or of the whole gap")
-    parser.add_argument("--pressure", choices=Definitions.CHOICES["pressure"], default=DEFAULT.pressure,
-                        help="tau over the controlled p (target, default) or over the measured wall stress")
+    add_definition_arguments(parser)
     parser.add_argument("--hold", action="append", default=[], metavar="NAME=VALUE",
                         help="hold a flow-rule or fabric parameter at VALUE instead of fitting it (repeatable)")
     parser.add_argument("--bootstrap", type=int, metavar="N",
@@ -205,15 +249,17 @@ def main(argv=None) -> int:
     if not math.isfinite(args.window) or args.window <= 0:
         raise CalibrationError(f"window={args.window} must be a positive strain")
     if args.runs:
-        reversals, cross = [load(p) for p in args.runs], ()
+        reversals, cross, left_out = [load(p) for p in args.runs], (), ()
         out = args.out or preset_output(check_folder_name(args.preset or "custom"), "fit")
     else:
         preset = args.preset or default_preset()
         if args.preset is None:
             print(f"preset: {preset} (the most faithful one with a reversal run; --preset / PRESET= to choose)")
         out = args.out or preset_output(preset, "fit")
-        reversals, cross = reversal_seeds(preset), tuple(other_angles(preset_runs(preset)))
-    definitions = Definitions(args.strain, args.phi, args.pressure)
+        every = preset_runs(preset)
+        reversals, cross = reversal_seeds(preset), tuple(other_angles(every))
+        left_out = tuple(r for r in every if not r.default_rotation)
+    definitions = definitions_from(args)
     hold = {}
     for item in args.hold:
         name, _, value = item.partition("=")
@@ -223,7 +269,7 @@ def main(argv=None) -> int:
             raise CalibrationError(f"--hold {item!r} is not NAME=VALUE with a number") from None
     print(f"definitions: {definitions.label()}")
     report = fit(reversals, out, args.window, cross, bootstrap=args.bootstrap or 0, definitions=definitions,
-                 hold=hold)
+                 hold=hold, left_out=left_out)
     print_report(report, out)
     return 0
 

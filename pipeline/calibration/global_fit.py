@@ -1,16 +1,19 @@
 """Global refinement: every flow-rule and fabric parameter fitted at once to the cycles of every angle.
 
 Beyond the paper's stepwise method (``pipeline.calibration.stepwise``): the model's converged periodic cycle is
-integrated for each run's protocol (theta, rotate_at) with the strain measured in *bulk* strain
-(the period becomes ``bulk_over_nominal * 1.4``), and ``scipy.optimize.least_squares`` minimises
-the residuals of the off-diagonal and normal components of A and tau/p, each divided by its
-noise scale: the cycle's standard error, or with one cycle the rms scatter of that component about
-its smoothed cycle; floored at ``FLOOR``. Standard errors
-and the correlation matrix come from the Jacobian at the optimum, scaled by the reduced chi-square.
+integrated for each run's protocol (theta, rotate_at) in the runs' strain measure (the period becomes
+``bulk_over_nominal * 1.4``), and ``scipy.optimize.least_squares`` minimises the residuals of the 12, 32,
+11, 22 and 13 components of A and tau/p, each divided by its noise per sample (``noise.NoiseModel``:
+pooled over runs, cycles and seeds). The covariance of the estimates is the sandwich
+``H^-1 J^T Sigma J H^-1`` with ``H = J^T J`` and ``Sigma`` the noise's measured correlation along strain and
+between A and tau (``refine``): the noise as it is, not a Jacobian scaled by a reduced chi^2 that is
+model misfit. ``misfit`` (chi^2 per degree of freedom in noise units) says how far the model is from the
+data beyond their noise.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,24 +21,25 @@ from scipy.optimize import least_squares
 
 import model
 
-from ..dataset.derived import bulk_over_nominal, cycle_D_dev, resampled_cycle
+from ..dataset.derived import bulk_over_nominal
 from ..errors import CalibrationError
-from .estimators import smooth_segments
+from . import noise as noise_model
+from .noise import COMPONENTS, QUANTITIES
 
 #: the parameters refined (the persistence exponent and the dilatancy stay as given)
 FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")
-COMPONENTS = ((0, 1), (2, 1), (0, 0), (1, 1), (0, 2))
-FLOOR = {"A": 2e-3, "tau": 1e-2}  # smallest noise scale per sample (fabric, tau/p)
 
 
 @dataclass(frozen=True)
 class CycleData:
-    """One run's cycle, as the global fit needs it (strain on the nominal grid)."""
+    """One run's cycle, as the global fit needs it (strain on the nominal grid; the per-sample noise
+    scale of each component, 1 where no noise model is given)."""
 
     theta_deg: float
     rotate_at: float
     period: float
     bulk_over_nominal: float
+    n_cycles: int
     strain: np.ndarray
     A: np.ndarray
     tau: np.ndarray
@@ -44,27 +48,28 @@ class CycleData:
     phi: np.ndarray
 
     @classmethod
-    def from_run(cls, run) -> CycleData:
+    def from_run(cls, run, noise: noise_model.NoiseModel | None = None) -> CycleData:
         c = run.cycle
-        ratio = bulk_over_nominal(run)
-        A_sem, tau_sem = c["A_sem"], c["tau_over_p_sem"]
-        if np.isnan(A_sem).all():  # one cycle: the scatter about the smoothed cycle, per component
-            D = cycle_D_dev(run)
-            A_sem = _scatter(c["strain"], c["A"], D)
-            tau_sem = _scatter(c["strain"], c["tau_over_p"], D)
+        n = run.spec["n_cycles"]
         # the last sample closes the period: the DEM has turned back to e1 there, the model's output
         # at the period's end has not, so it is left out
         keep = slice(0, -1)
-        return cls(run.spec["theta_deg"], run.spec["rotate_at_strain"], run.spec["period_strain"], ratio,
-                   c["strain"][keep], c["A"][keep], c["tau_over_p"][keep], np.maximum(A_sem, FLOOR["A"])[keep],
-                   np.maximum(tau_sem, FLOOR["tau"])[keep], c["packing_fraction"][keep])
+        scales = []
+        for q in QUANTITIES:
+            scale = np.ones(c[q][keep].shape)
+            if noise is not None:
+                for (i, j), sigma in zip(COMPONENTS, noise.sigma(q, n), strict=True):
+                    scale[:, i, j] = sigma
+            scales.append(scale)
+        return cls(run.spec["theta_deg"], run.spec["rotate_at_strain"], run.spec["period_strain"],
+                   bulk_over_nominal(run), n, c["strain"][keep], c["A"][keep], c["tau_over_p"][keep], *scales,
+                   c["packing_fraction"][keep])
 
 
-def _scatter(strain, X, D, window: float = 0.05) -> np.ndarray:
-    """Per-component rms deviation of X from its segment-wise smoothed self, broadcast to X's shape."""
-    smooth, _ = smooth_segments(strain, X, D, window_strain=window)
-    rms = np.sqrt(np.nanmean((X - smooth) ** 2, axis=0))
-    return np.broadcast_to(rms, X.shape).copy()
+def prepare(runs: list) -> tuple[list[CycleData], noise_model.NoiseModel]:
+    """The noise model measured on ``runs`` and every run's cycle scaled by it."""
+    noise = noise_model.estimate(runs)
+    return [CycleData.from_run(r, noise) for r in runs], noise
 
 
 @dataclass(frozen=True)
@@ -74,43 +79,52 @@ class GlobalFit:
     values: np.ndarray
     standard_errors: np.ndarray
     correlation: np.ndarray
-    reduced_chi2: float
+    misfit: float
     nfev: int
     success: bool
     message: str
     directions: tuple = ()
+    chi2: float = float("nan")
+    covariance: np.ndarray | None = None
+    white_covariance: np.ndarray | None = None
 
     def to_dict(self) -> dict:
+        cov = lambda m: None if m is None else np.where(np.isfinite(m), m, None).tolist()  # noqa: E731
         return {"params": self.params.to_dict(), "free": list(self.names), "values": self.values.tolist(),
-                "standard_errors": self.standard_errors.tolist(), "correlation": self.correlation.tolist(),
-                "reduced_chi2": self.reduced_chi2, "nfev": self.nfev, "success": self.success,
-                "message": self.message, "fisher_directions": list(self.directions)}
+                "standard_errors": [v if np.isfinite(v) else None for v in self.standard_errors.tolist()],
+                "correlation": cov(self.correlation), "covariance": cov(self.covariance),
+                "white_covariance": cov(self.white_covariance), "misfit": self.misfit, "chi2": self.chi2,
+                "nfev": self.nfev, "success": self.success, "message": self.message,
+                "directions": list(self.directions)}
 
 
-def fisher_directions(jac: np.ndarray, values: np.ndarray, names, reduced_chi2: float) -> tuple[dict, ...]:
-    """Eigen-directions of the Fisher matrix in relative parameters (d ln theta), weakest first.
+def directions(covariance: np.ndarray, values: np.ndarray, names) -> tuple[dict, ...]:
+    """Eigen-directions of the covariance in relative parameters (d ln theta), weakest first.
 
-    ``relative_step`` is the relative change along a direction that raises chi^2 by the reduced chi^2
-    (one unit of noise if the misfit were noise): a large step is a combination the data do not fix.
+    ``relative_step`` is one standard deviation along the direction, as a relative change: a large
+    step is a combination the data do not fix; ``inf`` where they fix nothing at all.
     """
-    scaled = jac * np.where(values != 0, np.abs(values), 1.0)[None, :]
-    strength, vectors = np.linalg.eigh(scaled.T @ scaled)
+    scale = np.where(values != 0, np.abs(values), 1.0)
+    finite = np.where(np.isfinite(covariance), covariance, 0.0)
+    strength, vectors = np.linalg.eigh(finite / np.outer(scale, scale))
+    undetermined = ~np.isfinite(np.diag(covariance))
     out = []
-    for lam, v in zip(strength, vectors.T, strict=True):
+    for lam, v in zip(strength[::-1], vectors.T[::-1], strict=True):
         v = v * np.sign(v[np.argmax(np.abs(v))])
-        out.append({"relative_step": float(np.sqrt(reduced_chi2 / max(lam, 1e-300))),
-                    "direction": {n: float(c) for n, c in zip(names, v, strict=True)}})
-    return tuple(out)
+        step = np.inf if np.any(undetermined & (np.abs(v) > 0.01)) else float(np.sqrt(max(lam, 0.0)))
+        out.append({"relative_step": step, "direction": {n: float(c) for n, c in zip(names, v, strict=True)}})
+    return tuple(sorted(out, key=lambda d: -d["relative_step"]))
 
 
 def predict_cycle(data: CycleData, params: model.Params) -> model.Result:
-    """The model's periodic cycle for ``data``'s protocol, in bulk strain, at its samples."""
+    """The model's periodic cycle for ``data``'s protocol, in its strain measure, at its samples."""
     r = data.bulk_over_nominal
     history = model.periodic_cycle(data.theta_deg, rotate_at=r * data.rotate_at, period=r * data.period)
     return model.periodic(history, params=params, times=r * data.strain)
 
 
 def residuals(values: np.ndarray, data: list[CycleData], base: model.Params, names=FREE) -> np.ndarray:
+    """Model minus DEM over the noise scale: per run, per component, the A block then the tau block."""
     params = base.replace(**dict(zip(names, map(float, values), strict=True)))
     out = []
     for d in data:
@@ -124,8 +138,35 @@ def residuals(values: np.ndarray, data: list[CycleData], base: model.Params, nam
     return np.concatenate(out)
 
 
-def refine(data: list[CycleData], start: model.Params, names=FREE, max_nfev: int = 200) -> GlobalFit:
-    """Least squares from ``start``; a fit that fails or sits at a bound raises CalibrationError."""
+def covariances(jac: np.ndarray, data: list[CycleData], noise: noise_model.NoiseModel | None) -> tuple:
+    """(sandwich, white) covariance of the estimates: ``H^-1 J^T Sigma J H^-1`` with the noise's correlation
+    ``Sigma``, and ``H^-1`` (the noise taken as white). Parameters the data do not fix (a null direction of
+    H) get infinite variance."""
+    H = jac.T @ jac
+    strength, vectors = np.linalg.eigh(H)
+    null = strength <= 1e-10 * max(strength.max(), 1e-300)
+    inverse = np.linalg.pinv(H, hermitian=True, rcond=1e-10)
+    meat = np.zeros_like(H)
+    row = 0
+    for d in data:
+        length = len(d.strain)
+        for k in range(len(COMPONENTS)):
+            J = jac[row:row + 2 * length]
+            sigma = np.eye(2 * length) if noise is None else noise.covariance(k, length)
+            meat += J.T @ sigma @ J
+            row += 2 * length
+    sandwich, white = inverse @ meat @ inverse, inverse.copy()
+    loose = np.any(np.abs(vectors[:, null]) > 0.01, axis=1)
+    for m in (sandwich, white):
+        m[loose, :] = np.inf
+        m[:, loose] = np.inf
+    return sandwich, white
+
+
+def refine(data: list[CycleData], start: model.Params, names=FREE, max_nfev: int = 200,
+           noise: noise_model.NoiseModel | None = None) -> GlobalFit:
+    """Least squares from ``start``, its covariance with ``noise``'s correlation (white without one);
+    a fit that fails raises CalibrationError."""
     if not data:
         raise CalibrationError("no run to fit")
     x0 = np.array([getattr(start, n) for n in names])
@@ -133,18 +174,15 @@ def refine(data: list[CycleData], start: model.Params, names=FREE, max_nfev: int
                         max_nfev=max_nfev, method="trf")
     if not sol.success or not np.all(np.isfinite(sol.x)):
         raise CalibrationError(f"the global fit did not converge ({sol.message})")
-    dof = max(sol.fun.size - sol.x.size, 1)
-    chi2 = float(2 * sol.cost / dof)
-    jtj = sol.jac.T @ sol.jac
-    try:
-        cov = np.linalg.inv(jtj) * chi2
-    except np.linalg.LinAlgError:
-        raise CalibrationError("the global fit is degenerate (singular Jacobian): fit fewer parameters") from None
+    chi2 = float(2 * sol.cost)
+    misfit = chi2 / max(sol.fun.size - sol.x.size, 1)
+    cov, white = covariances(sol.jac, data, noise)
     se = np.sqrt(np.diag(cov))
-    corr = cov / np.outer(se, se)
+    with np.errstate(invalid="ignore"):
+        corr = cov / np.outer(se, se)
     params = start.replace(**dict(zip(names, map(float, sol.x), strict=True)))
-    return GlobalFit(params, tuple(names), sol.x, se, corr, chi2, int(sol.nfev), bool(sol.success), sol.message,
-                     fisher_directions(sol.jac, sol.x, names, chi2))
+    return GlobalFit(params, tuple(names), sol.x, se, corr, misfit, int(sol.nfev), bool(sol.success), sol.message,
+                     directions(cov, sol.x, names), chi2, cov, white)
 
 
 DILATANCY = ("c2_coef", "phi_c")
@@ -184,28 +222,44 @@ def refine_dilatancy(data: list[CycleData], params: model.Params) -> GlobalFit:
     return GlobalFit(fitted, DILATANCY, sol.x, se, cov / np.outer(se, se), chi2, int(sol.nfev), True, sol.message)
 
 
-def resampled(data: CycleData, run, rng: np.random.Generator) -> CycleData:
-    """``data`` with its cycle means recomputed from cycles drawn with replacement (same noise scales)."""
-    c = resampled_cycle(run, rng)  # the last sample is left out, as in from_run
-    return CycleData(data.theta_deg, data.rotate_at, data.period, data.bulk_over_nominal, data.strain,
-                     c["A"][:-1], c["tau_over_p"][:-1], data.A_scale, data.tau_scale, c["packing_fraction"][:-1])
+def with_noise(data: CycleData, noise: noise_model.NoiseModel, block: int, rng: np.random.Generator) -> CycleData:
+    """``data`` plus a draw of the measured noise: blocks of ``block`` samples of the DEM's own deviations
+    (every component of A and tau at once, from a random series and start), scaled to the noise of
+    ``data``'s cycle mean."""
+    length = len(data.strain)
+    picks = []
+    while sum(len(p["A"]) for p in picks) < length:
+        series = noise.pool[rng.integers(len(noise.pool))]
+        start = rng.integers(len(series["A"]))
+        idx = (start + np.arange(block)) % len(series["A"])
+        picks.append({q: series[q][idx] for q in QUANTITIES})
+    fields = {}
+    for q, attr in zip(QUANTITIES, ("A", "tau"), strict=True):
+        draw = np.concatenate([p[q] for p in picks])[:length]
+        gain = np.ones((3, 3))
+        for (i, j), target, pooled in zip(COMPONENTS, noise.sigma(q, data.n_cycles), noise.pool_sigma[q], strict=True):
+            gain[i, j] = target / pooled
+        fields[attr] = getattr(data, attr) + draw * gain
+    return dataclasses.replace(data, **fields)
 
 
-def bootstrap(runs: list, start: model.Params, replicates: int, seed: int = 0,
-              progress=None) -> dict:
-    """Refit C, n, m, a_i, b_i on ``replicates`` resamplings of every run's cycles (runs with one cycle
-    stay as they are). Returns the replicates' values, standard deviations and 2.5/97.5 percentiles."""
-    if not any(r.spec["n_cycles"] > 1 for r in runs):
-        raise CalibrationError("a bootstrap over cycles needs runs with more than one cycle")
+def bootstrap(data: list[CycleData], noise: noise_model.NoiseModel, best: GlobalFit, replicates: int,
+              block_strain: float = 0.2, seed: int = 0, progress=None) -> dict:
+    """Refit ``best``'s parameters on ``replicates`` copies of the data, each with a fresh draw of the
+    DEM's own noise added in blocks of ``block_strain`` (``with_noise``). The spread of the refits about
+    ``best`` is the noise's; the basic-bootstrap 68 and 95 % intervals reflect it about ``best``."""
+    block = max(1, round(block_strain / noise.sample_strain))
     rng = np.random.default_rng(seed)
-    base = [CycleData.from_run(r) for r in runs]
     values = []
     for k in range(replicates):
-        data = [resampled(d, r, rng) if r.spec["n_cycles"] > 1 else d for d, r in zip(base, runs, strict=True)]
-        values.append(refine(data, start).values)
+        noisy = [with_noise(d, noise, block, rng) for d in data]
+        values.append(refine(noisy, best.params, best.names).values)
         if progress:
             progress(k + 1, replicates)
     v = np.array(values)
-    return {"free": list(FREE), "replicates": v.tolist(), "standard_deviation": v.std(axis=0, ddof=1).tolist(),
-            "percentile_2.5": np.percentile(v, 2.5, axis=0).tolist(),
-            "percentile_97.5": np.percentile(v, 97.5, axis=0).tolist(), "seed": seed}
+    out = {"free": list(best.names), "replicates": v.tolist(), "standard_deviation": v.std(axis=0, ddof=1).tolist(),
+           "block_strain": block * noise.sample_strain, "seed": seed}
+    for level, (lo, hi) in {"68": (16, 84), "95": (2.5, 97.5)}.items():
+        q_lo, q_hi = np.percentile(v, lo, axis=0), np.percentile(v, hi, axis=0)
+        out[f"interval_{level}"] = np.stack([2 * best.values - q_hi, 2 * best.values - q_lo], axis=1).tolist()
+    return out

@@ -1,16 +1,20 @@
 """Profile likelihood of the global fit (``make fit-profile``): each parameter held on a grid, the rest refitted.
 
-``python -m pipeline.calibration.profile [--preset P] [--points 9] [--span 8]`` reads the preset's runs
-as ``make fit`` does, fits them, then for every parameter of the global fit refits the others with it
-held at ``points`` values across +-``span`` Jacobian standard errors, and writes
-``results/<preset>/fit/profiles.json``: for each parameter the grid, the chi^2 rise above the best fit,
-and the intervals where the rise stays below one (68 %) and four (95 %) times the best fit's reduced
-chi^2 — the misfit treated as inflated noise, as the Jacobian errors do, but along the real, curved
-valley instead of its tangent. An interval the grid does not close is reported as open.
+``python -m pipeline.calibration.profile [--preset P] [--points 9] [--span 4] [--strain ...] [--phi ...]``
+reads the preset's runs as ``make fit`` does (with the definitions given), fits them, then for every
+parameter of the global fit refits the others with it held at ``points`` values across +-``span``
+standard errors, and writes ``profiles.json`` beside the fit (``profiles-<strain>-<phi>-<p>.json`` for
+other definitions than the default): for each parameter the grid, the chi^2 rise above the best fit
+(in units of the DEM's noise) and the 68 / 95 % intervals where the rise stays below 1 / 3.84 times
+the parameter's noise factor ``V_kk / (H^-1)_kk`` (the sandwich variance over the white one: how much
+the noise's correlation along strain inflates that parameter's variance). Along a curved valley the
+interval follows the curve; a side the grid does not close is reported as open, and a flat profile
+(no rise anywhere) marks a parameter the data do not determine.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 
@@ -19,13 +23,14 @@ import numpy as np
 import model
 
 from .. import io
-from ..cli import Parser, one_line_errors
-from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
+from ..cli import Parser, add_definition_arguments, definitions_from, one_line_errors
+from ..dataset.derived import DEFAULT
+from ..dataset.lookup import fit_runs
 from ..errors import CalibrationError, PipelineError
 from ..paths import check_folder_name, preset_output
 from . import global_fit
 
-LEVELS = {"68": 1.0, "95": 4.0}  # chi^2 rise, in units of the best fit's reduced chi^2
+LEVELS = {"68": 1.0, "95": 3.841459}  # chi^2_1 quantiles, times each parameter's noise factor
 
 
 def interval(grid: np.ndarray, rise: np.ndarray, threshold: float) -> list:
@@ -45,30 +50,36 @@ def interval(grid: np.ndarray, rise: np.ndarray, threshold: float) -> list:
     return bounds
 
 
-def profiles(data: list, best: global_fit.GlobalFit, points: int = 9, span: float = 8.0, progress=None) -> dict:
+def grid_for(value: float, se: float, points: int, span: float) -> np.ndarray:
+    """``points`` values across +-``span`` standard errors, or +-100 % of the value where the error is infinite."""
+    half = span * se if np.isfinite(se) else max(abs(value), 1e-3)
+    return value + half * np.linspace(-1, 1, points)
+
+
+def profiles(data: list, best: global_fit.GlobalFit, points: int = 9, span: float = 4.0, progress=None) -> dict:
     """The profile of every parameter of ``best`` (see the module docstring)."""
-    dof = sum(2 * len(d.strain) * len(global_fit.COMPONENTS) for d in data) - len(best.names)
-    chi2_min = best.reduced_chi2 * dof
     out, done, total = {}, 0, points * len(best.names)
     for k, name in enumerate(best.names):
-        grid = best.values[k] + span * best.standard_errors[k] * np.linspace(-1, 1, points)
+        grid = grid_for(best.values[k], best.standard_errors[k], points, span)
         free = tuple(n for n in best.names if n != name)
         rise = []
         for value in grid:
             try:
                 fit = global_fit.refine(data, best.params.replace(**{name: float(value)}), free)
-                rise.append(fit.reduced_chi2 * (dof + 1) - chi2_min)
+                rise.append(fit.chi2 - best.chi2)
             except (CalibrationError, model.ParameterError):
                 rise.append(np.inf)
             done += 1
             if progress:
                 progress(done, total)
         rise = np.maximum(np.array(rise), 0.0)
-        out[name] = {"best": float(best.values[k]), "jacobian_se": float(best.standard_errors[k]),
-                     "grid": grid.tolist(), "chi2_rise": rise.tolist(),
-                     "intervals": {level: interval(grid, rise, factor * best.reduced_chi2)
-                                   for level, factor in LEVELS.items()}}
-    return {"reduced_chi2": best.reduced_chi2, "dof": dof, "levels": LEVELS, "parameters": out}
+        with np.errstate(invalid="ignore"):
+            factor = best.covariance[k, k] / best.white_covariance[k, k]
+        factor = float(factor) if np.isfinite(factor) else 1.0
+        out[name] = {"best": float(best.values[k]), "standard_error": float(best.standard_errors[k]),
+                     "noise_factor": factor, "grid": grid.tolist(), "chi2_rise": rise.tolist(),
+                     "intervals": {level: interval(grid, rise, q * factor) for level, q in LEVELS.items()}}
+    return {"misfit": best.misfit, "levels": LEVELS, "parameters": out}
 
 
 @one_line_errors
@@ -76,18 +87,20 @@ def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration.profile", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="reduced")
     parser.add_argument("--points", type=int, default=9, help="values per parameter (default 9)")
-    parser.add_argument("--span", type=float, default=8.0, help="half-width in Jacobian standard errors (default 8)")
+    parser.add_argument("--span", type=float, default=4.0, help="half-width in standard errors (default 4)")
     parser.add_argument("--out", help="output folder (default results/<preset>/fit)")
+    add_definition_arguments(parser)
     args = parser.parse_args(argv)
     preset = check_folder_name(args.preset)
     if args.points < 3 or not (np.isfinite(args.span) and args.span > 0):
         raise PipelineError(f"points={args.points} must be >= 3 and span={args.span} > 0")
+    definitions = definitions_from(args)
     out = io.check_writable_dir(args.out or preset_output(preset, "fit"))
-    runs = [*reversal_seeds(preset), *other_angles(preset_runs(preset))]
+    runs = [r.with_definitions(definitions) for r in fit_runs(preset)]
     if not runs:
         raise PipelineError(f"no run of preset {preset!r}")
-    data = [global_fit.CycleData.from_run(r) for r in runs]
-    best = global_fit.refine(data, model.Params())
+    data, noise = global_fit.prepare(runs)
+    best = global_fit.refine(data, model.Params(), noise=noise)
     tic = time.time()
 
     def progress(done, total):
@@ -95,14 +108,15 @@ def main(argv=None) -> int:
         print(f"profile {done}/{total} ({done / total:.0%}), {rate:.2f} fits/s, ETA {(total - done) / rate:.0f} s",
               flush=True)
 
-    result = profiles(data, best, args.points, args.span, progress)
-    io.write_json(out / "profiles.json", result)
-    for name, p in result["parameters"].items():
+    result = {"definitions": dataclasses.asdict(definitions), **profiles(data, best, args.points, args.span, progress)}
+    name = "profiles.json" if definitions == DEFAULT else f"profiles-{definitions.slug()}.json"
+    io.write_json(out / name, result)
+    for key, p in result["parameters"].items():
         low, high = p["intervals"]["68"]
         text = lambda v: "open" if v is None else f"{v:+.4g}"  # noqa: E731
-        print(f"{name:>4s} = {p['best']:+.4g}: 68 % profile interval [{text(low)}, {text(high)}] "
-              f"(Jacobian +-{p['jacobian_se']:.2g})")
-    print(f"wrote {out / 'profiles.json'}")
+        print(f"{key:>4s} = {p['best']:+.4g}: 68 % profile interval [{text(low)}, {text(high)}] "
+              f"(sandwich ±{p['standard_error']:.2g}, noise factor {p['noise_factor']:.1f})")
+    print(f"wrote {out / name}")
     return 0
 
 

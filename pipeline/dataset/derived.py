@@ -54,6 +54,10 @@ class Definitions:
     def label(self) -> str:
         return f"strain {self.strain}, Phi {self.phi}, p {self.pressure}"
 
+    def slug(self) -> str:
+        """``bulk-central-target``: the definitions in a file name."""
+        return f"{self.strain}-{self.phi}-{self.pressure}"
+
 
 DEFAULT = Definitions()
 

@@ -23,3 +23,8 @@ def reversal_seeds(preset: str, roots: tuple[Path, ...] = DATA_ROOTS) -> list[De
 def other_angles(runs: list[DemRun]) -> list[DemRun]:
     """The runs at angles other than 180 degrees, rotated at half the period (the Sec. 3.3 cross-check)."""
     return [r for r in runs if not r.is_reversal and r.default_rotation]
+
+
+def fit_runs(preset: str, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
+    """What the global fit uses: the preset's reversal seeds, then its other angles at the default rotation."""
+    return [*reversal_seeds(preset, roots), *other_angles(preset_runs(preset, roots))]

@@ -4,7 +4,10 @@
 ``dem/couette.py`` would write them to ``raw.npz``, for the Fig. 1 protocol (the preceding half
 period at theta, then ``n_cycles`` periods), sampled every 0.005 strain, in DEM units (p = 1).
 The fabric, stress and packing fraction are the model's converged periodic cycle plus Gaussian
-noise of standard deviation ``noise`` (fabric and tau/p) and ``noise / 10`` (packing fraction).
+noise of standard deviation ``noise`` (fabric and tau/p) and ``noise / 10`` (packing fraction); with
+``correlation_strain`` > 0 the noise is DEM-like: an AR(1) process along strain, correlation
+exp(-lag/correlation_strain), and the tau noise of each component correlated with its fabric noise
+by ``a_tau_correlation``.
 Walls and profiles are placeholders (one bin). Used to test the post-processing against the
 model and to calibrate on data whose parameters are known.
 """
@@ -23,15 +26,35 @@ from ..runs.spec import protocol_defaults
 PERIOD, PRE, STEP = (protocol_defaults()[k] for k in ("period_strain", "pre_strain", "sample_strain"))
 
 
-def _symmetric_traceless_noise(rng, n, scale):
-    m = rng.normal(scale=scale, size=(n, 3, 3))
-    m = (m + np.swapaxes(m, 1, 2)) / np.sqrt(2)  # off-diagonal components: standard deviation `scale`
+def _symmetric_traceless(m):
+    m = (m + np.swapaxes(m, 1, 2)) / np.sqrt(2)  # off-diagonal components keep the standard deviation
     return m - np.trace(m, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
+
+
+def _ar1(white, rho: float):
+    """x_t = rho x_(t-1) + sqrt(1 - rho^2) e_t along the first axis, stationary from the first sample."""
+    out = np.empty_like(white)
+    out[0] = white[0]
+    for t in range(1, len(white)):
+        out[t] = rho * out[t - 1] + np.sqrt(1 - rho**2) * white[t]
+    return out
+
+
+def dem_like_noise(rng, n: int, scale: float, correlation_strain: float = 0.0, a_tau_correlation: float = 0.0,
+                   step: float = 0.005):
+    """Noise for A and tau/p, ``(n, 3, 3)`` each: symmetric, traceless, standard deviation ``scale`` off the
+    diagonal, correlated along strain and between A and tau (see the module docstring)."""
+    rho = np.exp(-step / correlation_strain) if correlation_strain > 0 else 0.0
+    a = _ar1(rng.normal(size=(n, 3, 3)), rho)
+    b = _ar1(rng.normal(size=(n, 3, 3)), rho)
+    c = a_tau_correlation
+    return scale * _symmetric_traceless(a), scale * _symmetric_traceless(c * a + np.sqrt(1 - c**2) * b)
 
 
 def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles: int = 2, noise: float = 0.0,
                   seed: int = 0, gamma_dot: float = 1e-3, bulk_ratio: float = 1.0,
-                  overrides: dict | None = None) -> tuple[dict, dict]:
+                  overrides: dict | None = None, correlation_strain: float = 0.0,
+                  a_tau_correlation: float = 0.0) -> tuple[dict, dict]:
     """Raw samples and metadata of a synthetic run (rotation at half the period, Fig. 1)."""
     params = params or model.Params()
     cycle = model.predict(theta_deg, params=params)  # strain 0, 0.005, ..., 1.4
@@ -42,8 +65,9 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
     phase_index = np.round(np.mod(strain, PERIOD) / STEP).astype(int) % per_period
     n = len(strain)
     rng = np.random.default_rng(seed)
-    A = cycle.A[phase_index] + _symmetric_traceless_noise(rng, n, noise)
-    tau = cycle.tau[phase_index] + _symmetric_traceless_noise(rng, n, noise)
+    noise_A, noise_tau = dem_like_noise(rng, n, noise, correlation_strain, a_tau_correlation, STEP)
+    A = cycle.A[phase_index] + noise_A
+    tau = cycle.tau[phase_index] + noise_tau
     phi = cycle.packing_fraction[phase_index] + rng.normal(scale=noise / 10, size=n)
     within = strain - PERIOD * np.floor(strain / PERIOD + 1e-12)
     direction_deg = np.where((strain < 0) | (within >= PERIOD / 2 - 1e-9), float(theta_deg), 0.0)

@@ -59,7 +59,11 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
             made.append(reversal.work_figure(reversal_runs, "our fit", figures / "fig9_work_rates.png"))
         n_runs = len(runs)
     if (fit_dir / "profiles.json").exists():
-        made.append(profiles.plot(read_json(fit_dir / "profiles.json"), paper, figures / "profiles.png"))
+        result = read_json(fit_dir / "profiles.json")
+        if profiles.belongs_to(result, fit_json):
+            made.append(profiles.plot(result, paper, figures / "profiles.png"))
+        else:
+            print(f"{fit_dir / 'profiles.json'} profiles another fit than fit.json: not drawn (make fit-profile)")
     fit_h5 = fit_dir / "fit.h5"
     if fit_h5.exists():
         made.append(laws.fabric_law(fit_h5, fitted, paper, figures / "fig3_fabric_law.png"))

@@ -44,30 +44,65 @@ def second_law_line(law: dict) -> str:
             f"({'holds' if law['holds'] else 'VIOLATED'})")
 
 
+def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]:
+    """Our parameters with their 68 % intervals and status beside Table 2; what the data fix; Table 2's test."""
+    ident = (fit_json or {}).get("identifiability") or {}
+    params = ident.get("parameters", {})
+    dilatancy = (fit_json or {}).get("dilatancy") or {"free": [], "standard_errors": []}
+    se = dict(zip(dilatancy["free"], dilatancy["standard_errors"], strict=True))
+    lines = ["| parameter | our fit | 68 % interval | status | Table 2 |", "|---|---|---|---|---|"]
+    for name in NAMES:
+        p = params.get(name)
+        if p:
+            band = p["intervals"]["68"]
+            text = "open" if band is None else f"{band[0]:+.4g} to {band[1]:+.4g}"
+            lines.append(f"| {name} | {ours[name]:+.4g} | {text} | {p['status']} | {paper[name]:+.4g} |")
+        else:
+            spread = f"± {se[name]:.2g} (Φ scatter taken as white)" if name in se else ""
+            lines.append(f"| {name} | {ours[name]:+.4g} | {spread} | | {paper[name]:+.4g} |")
+    if not ident:
+        return lines
+    g, noise = fit_json["global"], fit_json["noise"]
+    lengths = [v for values in noise["correlation_strain"].values() for v in values]
+    lines += ["", f"Intervals from the DEM's own noise ({noise['source']}; correlated over "
+              f"{min(lengths):.2f}-{max(lengths):.2f} strain, A and tau/p noise correlated at "
+              f"{min(noise['A_tau_correlation']):+.2f} to {max(noise['A_tau_correlation']):+.2f}), "
+              f"not scaled by the misfit. Misfit: {g['misfit']:.2f} (chi^2 per degree of freedom in noise units; "
+              "1 = the model fits within the noise). `make fit-profile` gives the profile intervals, "
+              "`make fit-bootstrap` a bootstrap of the noise.", "",
+              "## What the data fix", "",
+              "Eigen-directions of the covariance in relative parameters: a direction stands for the product of "
+              "the powers shown, and its ± is one standard deviation of that product, relative.", "",
+              "| | combination | ± (relative) |", "|---|---|---|"]
+    for label, items in (("best fixed", ident["strongest"]), ("least fixed", ident["weakest"])):
+        lines += [f"| {label} | {c['combination']} | {c['relative_step']:.2g} |" for c in items]
+    if ident["not_determined"]:
+        lines += ["", f"Not determined by these runs: {', '.join(ident['not_determined'])}."]
+    t = ident.get("table2")
+    if t and t["quantiles"]:
+        verdict = {True: "inside", False: "outside"}
+        lines += ["", f"Table 2 as a hypothesis (its C, n, m, a_i, b_i on these data): chi^2 {t['relative_rise']:+.1%} "
+                  f"above the best fit, a rise of {t['chi2_rise']:.0f} against {t['quantiles']['95']:.0f} for the "
+                  f"95 % region from the noise: {verdict[t['inside']['95']]} it; "
+                  f"{verdict[t['inside_misfit_widened']['95']]} it when the region is widened by the misfit."]
+    runs = fit_json.get("next_runs") or []
+    if runs:
+        lines += ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
+                  f"Its relative ± is {runs[0]['weakest_before']:.2g} now (fit.json: next_runs, every candidate).", "",
+                  "| run | weakest ± after | largest relative ± after | CPU-hours |", "|---|---|---|---|"]
+        lines += [f"| {r['run']} | {r['weakest_after']:.2g} | {r['worst_relative_se_after']:.2g} | "
+                  f"{r['cpu_hours']:.2f} |" for r in runs[:6]]
+    return lines
+
+
 def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int) -> Path:
     """Write report.md from the comparison's ``metrics`` and the calibration's ``fit_json``."""
     sets = metrics["param_sets"]
     paper, ours = sets["Table 2"], sets["our fit"]
-    se = {}
-    for part in ("global", "dilatancy"):
-        if fit_json and fit_json.get(part):
-            se.update(zip(fit_json[part]["free"], fit_json[part]["standard_errors"], strict=True))
     components = metrics["components"]
     lines = [f"# Model against our DEM: preset `{metrics['preset']}`", "",
-             f"{n_runs} DEM run(s); the model runs in bulk strain for each run's protocol.", "",
-             "## Parameters", "", "| parameter | our fit | ± | Table 2 |", "|---|---|---|---|"]
-    for name in NAMES:
-        lines.append(f"| {name} | {ours[name]:+.4g} | {se.get(name, float('nan')):.2g} | {paper[name]:+.4g} |")
-    directions = (fit_json or {}).get("global", {}) or {}
-    if directions.get("fisher_directions"):
-        lines += ["", "## What the data fix", "",
-                  "Eigen-directions of the global fit's Fisher matrix in relative parameters, weakest first: the "
-                  "relative step along each that raises chi^2 by one reduced chi^2. The ± above are not "
-                  "confidence intervals: the reduced chi^2 is model misfit, not noise.", "",
-                  "| relative step | combination (components >= 0.1) |", "|---|---|"]
-        for d in directions["fisher_directions"]:
-            combination = " ".join(f"{c:+.2f} {n}" for n, c in d["direction"].items() if abs(c) >= 0.1)
-            lines.append(f"| {d['relative_step']:.2g} | {combination} |")
+             f"{n_runs} DEM run(s); the model runs in the fit's strain measure for each run's protocol.", "",
+             "## Parameters", "", *parameter_lines(ours, paper, fit_json)]
     lines += ["", "## Model against DEM", "",
               "RMSE over the cycle divided by the steady |A12| or |tau12/p|.", "",
               "| run | parameters | " + " | ".join(components) + " |", "|---|---|" + "---|" * len(components)]

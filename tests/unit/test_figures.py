@@ -69,17 +69,27 @@ def test_relaxation_strain_of_an_exponential():
     assert np.isnan(relaxation_strain(strain, np.random.default_rng(2).normal(0, 1, x.size)))
 
 
-def test_the_profile_figure_is_drawn_from_profiles_json(compared, tmp_path):
+def test_the_profile_figure_is_drawn_from_profiles_json_of_the_same_fit_only(compared, tmp_path):
     tmp, _ = compared
     fit_dir = tmp_path / "fit"
     fit_dir.mkdir()
     for name in ("fit.json", "fit.h5"):
         (fit_dir / name).write_bytes((tmp / "fit" / name).read_bytes())
-    grid = np.linspace(-6.0, -5.2, 5)
-    profile = {"best": -5.6, "jacobian_se": 0.1, "grid": grid.tolist(), "chi2_rise": ((grid + 5.6) ** 2 * 400).tolist(),
-               "intervals": {"68": [-5.65, -5.55], "95": [-5.7, -5.5]}}
-    (fit_dir / "profiles.json").write_text(json.dumps({"reduced_chi2": 1.0, "dof": 100, "levels": {"68": 1, "95": 4},
-                                                       "parameters": {"C": profile}}))
-    made = draw(tmp / "compare", fit_dir, tmp_path / "out")
+    g = json.loads((fit_dir / "fit.json").read_text())["global"]
+
+    def profile(best):
+        grid = best + np.linspace(-0.4, 0.4, 5)
+        return {"best": best, "standard_error": 0.1, "noise_factor": 4.0, "grid": grid.tolist(),
+                "chi2_rise": ((grid - best) ** 2 * 400).tolist(), "intervals": {"68": [best - 0.05, best + 0.05],
+                                                                                 "95": [best - 0.1, best + 0.1]}}
+
     png = tmp_path / "out" / "figures" / "profiles.png"
+    stale = {n: profile(v + 1.0) for n, v in zip(g["free"], g["values"], strict=True)}
+    (fit_dir / "profiles.json").write_text(json.dumps({"misfit": 1.0, "levels": {"68": 1, "95": 3.84},
+                                                       "parameters": stale}))
+    assert png not in draw(tmp / "compare", fit_dir, tmp_path / "out")
+    same = {n: profile(v) for n, v in zip(g["free"], g["values"], strict=True)}
+    (fit_dir / "profiles.json").write_text(json.dumps({"misfit": 1.0, "levels": {"68": 1, "95": 3.84},
+                                                       "parameters": same}))
+    made = draw(tmp / "compare", fit_dir, tmp_path / "out")
     assert png in made and png.read_bytes()[:4] == b"\x89PNG"

@@ -1,0 +1,120 @@
+"""Which DEM runs would fix the worst-determined parameters best per CPU-hour (``fit.json`` → ``next_runs``).
+
+For each candidate run (another seed of an angle already run, a reversal before steady state, more
+cycles, denser sampling, or a committed run the fit leaves out) the model's cycle at the best fit gives
+its Jacobian; with the DEM's measured noise (scale and correlation along strain, ``noise.NoiseModel``)
+that is the information the run would add, ``J^T Sigma^-1 J`` (what a fit weighting by the full noise
+covariance would extract: an upper bound for our least squares). Added to the present information
+``V^-1`` it gives the covariance after the run. Reported per candidate: the standard deviation along the
+present weakest direction and the largest relative standard error of any parameter, before and after,
+and the CPU-hours the run costs (from the committed runs' loop time per unit strain, one thread).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+import model
+
+from ..dataset.derived import bulk_over_nominal
+from . import global_fit
+from .noise import COMPONENTS, QUANTITIES, NoiseModel
+
+
+@dataclasses.dataclass(frozen=True)
+class Candidate:
+    label: str
+    theta_deg: float
+    rotate_at: float = 0.7
+    n_cycles: int = 2
+    sample_strain: float = 0.005
+    cost_factor: float = 1.0  # CPU time relative to a run of the same strain at the default sampling
+
+    def strain_run(self, period: float, pre: float) -> float:
+        return pre + self.n_cycles * period
+
+
+def candidates(existing_rotations: list[tuple[float, float]]) -> list[Candidate]:
+    """The runs considered: committed runs the fit leaves out first (they cost nothing), then new ones."""
+    out = [Candidate(f"fit the committed theta = {t:g}, rotated at {r:g} (no new run)", t, r, cost_factor=0.0)
+           for t, r in existing_rotations]
+    out += [Candidate("another reversal seed (theta = 180)", 180.0)]
+    out += [Candidate(f"another seed at theta = {t:g}", t) for t in (30.0, 60.0, 90.0, 120.0, 150.0)]
+    out += [Candidate(f"a reversal before steady state (theta = 180 at {r:g})", 180.0, r) for r in (0.1, 0.2, 0.35)]
+    out += [Candidate(f"theta = 90 rotated at {r:g} (Fig. 7)", 90.0, r) for r in (0.1, 0.2)]
+    out += [Candidate("a reversal run for four cycles instead of two", 180.0, n_cycles=4),
+            Candidate("a reversal sampled every 0.001 strain", 180.0, sample_strain=0.001, cost_factor=1.05)]
+    return out
+
+
+def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel, params: model.Params):
+    """A pseudo-run of ``c``: the model's cycle as data (the values do not matter, only the Jacobian) with the
+    noise scales of an ``n_cycles`` mean."""
+    strain = np.arange(round(period / c.sample_strain)) * c.sample_strain
+    probe = global_fit.CycleData(c.theta_deg, c.rotate_at, period, ratio, c.n_cycles, strain,
+                                 np.zeros((len(strain), 3, 3)), np.zeros((len(strain), 3, 3)),
+                                 np.ones((len(strain), 3, 3)), np.ones((len(strain), 3, 3)), np.zeros(len(strain)))
+    pred = global_fit.predict_cycle(probe, params)
+    scales = []
+    for q in QUANTITIES:
+        scale = np.ones((len(strain), 3, 3))
+        for (i, j), sigma in zip(COMPONENTS, noise.sigma(q, c.n_cycles), strict=True):
+            scale[:, i, j] = sigma
+        scales.append(scale)
+    return dataclasses.replace(probe, A=pred.A, tau=pred.tau, A_scale=scales[0], tau_scale=scales[1],
+                               phi=pred.packing_fraction)
+
+
+def information(data: global_fit.CycleData, noise: NoiseModel, fit: global_fit.GlobalFit) -> np.ndarray:
+    """J^T Sigma^-1 J of one (pseudo-)run at the best fit, Sigma the noise's correlation at its sampling."""
+    base = fit.params
+    f0 = global_fit.residuals(fit.values, [data], base, fit.names)
+    jac = np.empty((f0.size, len(fit.names)))
+    for k, value in enumerate(fit.values):
+        step = 1e-4 * max(abs(value), 1e-2)
+        shifted = fit.values.copy()
+        shifted[k] += step
+        jac[:, k] = (global_fit.residuals(shifted, [data], base, fit.names) - f0) / step
+    length, info, row = len(data.strain), np.zeros((len(fit.names),) * 2), 0
+    ratio = data.strain[1] / noise.sample_strain if length > 1 else 1.0
+    for k in range(len(COMPONENTS)):
+        J = jac[row:row + 2 * length]
+        sigma = noise.covariance(k, length, lag_scale=ratio) + 1e-9 * np.eye(2 * length)
+        info += J.T @ np.linalg.solve(sigma, J)
+        row += 2 * length
+    return info
+
+
+def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rotations: list) -> list[dict]:
+    """Every candidate with its effect on the weakest direction and the worst relative error, best per
+    CPU-hour first (runs that cost nothing first of all)."""
+    scale = np.where(fit.values != 0, np.abs(fit.values), 1.0)
+    V = fit.covariance
+    if V is None or not np.all(np.isfinite(V)):
+        return []
+    present = np.linalg.pinv(V, hermitian=True)
+    weakest = np.array([fit.directions[0]["direction"][n] for n in fit.names]) / scale
+    reference = next(r for r in runs if r.is_reversal)
+    spec = reference.spec
+    seconds_per_strain = float(np.mean([r.parameters["loop_seconds"] / (r.spec["pre_strain"] + r.spec["n_cycles"]
+                                                                        * r.spec["period_strain"]) for r in runs]))
+    ratio = bulk_over_nominal(reference)
+
+    def measures(cov):
+        return float(np.sqrt(weakest @ cov @ weakest)), float(np.max(np.sqrt(np.diag(cov)) / scale))
+
+    before = measures(V)
+    out = []
+    for c in candidates(existing_rotations):
+        data = candidate_data(c, spec["period_strain"], ratio, noise, fit.params)
+        after = measures(np.linalg.pinv(present + information(data, noise, fit), hermitian=True))
+        hours = c.cost_factor * c.strain_run(spec["period_strain"], spec["pre_strain"]) * seconds_per_strain / 3600
+        gain = 1 - after[0] / before[0]
+        out.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "n_cycles": c.n_cycles,
+                    "sample_strain": c.sample_strain, "cpu_hours": hours,
+                    "weakest_before": before[0], "weakest_after": after[0],
+                    "worst_relative_se_before": before[1], "worst_relative_se_after": after[1],
+                    "gain_per_cpu_hour": gain / hours if hours > 0 else float("inf")})
+    return sorted(out, key=lambda r: -r["gain_per_cpu_hour"])
