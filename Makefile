@@ -23,6 +23,9 @@ FRESH ?=
 THREADS ?= 1
 BOOT ?= 100
 ALLOW_INERTIAL ?=
+# make fit-profile [STRAIN=bulk|nominal] [PHI=central|gap]
+STRAIN ?= bulk
+PHI ?= central
 # make sweep PRESET=... THETAS="30 60 90" [ROTATE_ATS="0.1 0.2"] [SEEDS="1 2 3"] [SET=...] [LAUNCH=local|slurm]
 #            [SLURM="partition=... time_limit=HH:MM:SS ..."] [JOBS=2]
 THETAS ?=
@@ -46,6 +49,8 @@ $(call check,THETA,$(NUMBER_CHARS),a number)
 $(call check,ROTATE_AT,$(NUMBER_CHARS),a number)
 $(call check,THREADS,$(DIGITS),a whole number)
 $(call check,BOOT,$(DIGITS),a whole number)
+$(call check,STRAIN,$(LOWER),bulk or nominal)
+$(call check,PHI,$(LOWER),central or gap)
 $(call check,FRESH,$(NAME_CHARS),1 or empty)
 $(call check,ALLOW_INERTIAL,$(NAME_CHARS),1 or empty)
 $(call check,THETAS,$(NUMBER_CHARS),a list of numbers)
@@ -163,7 +168,7 @@ $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(call RUN_FILES
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration --preset $(DATA_PRESET)
 
-fit-bootstrap: venv ## the fit plus a bootstrap over cycles (BOOT=100 refits) -> fit.json
+fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 refits, a few minutes) -> fit.json
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --bootstrap $(BOOT)
 
@@ -171,9 +176,9 @@ fit-definitions: venv ## the global fit under each definition of strain, Phi and
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration.definitions --preset $(DATA_PRESET)
 
-fit-profile: venv ## the profile likelihood of every fitted parameter (a few minutes) -> results/<PRESET>/fit/profiles.json
+fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=nominal PHI=gap] (minutes) -> fit/profiles*.json
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration.profile --preset $(DATA_PRESET)
+	$(PY) -m pipeline.calibration.profile --preset $(DATA_PRESET) --strain $(STRAIN) --phi $(PHI)
 
 compare: $(COMPARE_DIR)/metrics.json ## the model against the preset's runs -> results/<PRESET>/compare/
 
