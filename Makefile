@@ -82,7 +82,7 @@ COMPARE_DIR := results/$(DATA_PRESET)/compare
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
 .PHONY: help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
-	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-definitions fit-profile compare figures demo-dem clean
+	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-definitions fit-profile fidelity fidelity-table compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -180,6 +180,14 @@ fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=no
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration.profile --preset $(DATA_PRESET) --strain $(STRAIN) --phi $(PHI)
 
+fidelity: venv ## the fidelity ladder (config/fidelity.toml): make its missing DEM runs (JOBS=2), then results/fidelity/
+	$(PY) -m pipeline.studies.fidelity --run --jobs $(or $(JOBS),2)
+	$(PY) -m pipeline.figures.fidelity
+
+fidelity-table: venv ## results/fidelity/ from the committed summaries and the runs present, no DEM (under a minute)
+	$(PY) -m pipeline.studies.fidelity
+	$(PY) -m pipeline.figures.fidelity
+
 compare: $(COMPARE_DIR)/metrics.json ## the model against the preset's runs -> results/<PRESET>/compare/
 
 $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 &: $(FIT_DIR)/params.json $(FIT_DIR)/fit.h5 \
@@ -193,4 +201,4 @@ results/$(DATA_PRESET)/report.md: $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/com
 	$(PY) -m pipeline.figures --preset $(DATA_PRESET)
 
 clean: ## remove generated results (keeps the venv and the DEM runs under results/<preset>/dem/)
-	rm -rf results/model results/bench results/*/fit results/*/compare results/*/figures results/*/report.md
+	rm -rf results/model results/bench results/fidelity results/*/fit results/*/compare results/*/figures results/*/report.md

@@ -1,0 +1,98 @@
+"""The fidelity ladder of ``config/fidelity.toml``: its runs, which of them exist, and running the rest.
+
+A rung is one axis value at one angle: a run of the ladder's preset with that value's overrides (values
+equal to the preset's own are dropped, so the preset itself is one run shared by every axis). A run
+*exists* when its compact summary is committed (``data/fidelity/<folder>/<name>.json``) or its DEM file
+is in ``results/`` or the reference dataset; the rest run through the sweep machinery (``make -j``,
+one Yade thread each, resumable from checkpoints).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from ...errors import SpecError
+from ...paths import CONFIG_DIR, DATA_ROOTS, RESULTS_DIR, ROOT, first_existing
+from ...runs import spec as run_spec
+from ...runs.sweep import Sweep, Task
+
+LADDER_FILE = CONFIG_DIR / "fidelity.toml"
+SUMMARY_DIR = ROOT / "data" / "fidelity"
+
+
+@dataclass(frozen=True)
+class Rung:
+    axis: str
+    overrides: dict  # the axis value, as written in the ladder
+    theta_deg: float
+    spec: dict
+
+    @property
+    def relative(self) -> Path:
+        """``<folder>/dem/<name>.h5``: where the run lives under a data root."""
+        return Path(self.spec["folder"], "dem", f"{self.spec['name']}.h5")
+
+    @property
+    def label(self) -> str:
+        return " ".join(f"{k}={v:g}" for k, v in self.overrides.items())
+
+
+def load(path: Path = LADDER_FILE) -> dict:
+    try:
+        with path.open("rb") as f:
+            ladder = tomllib.load(f)
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise SpecError(f"{path}: cannot read the ladder ({exc})") from None
+    if "preset" not in ladder or not ladder.get("axes"):
+        raise SpecError(f"{path}: a ladder needs a preset and at least one axis")
+    return ladder
+
+
+def rungs(ladder: dict) -> list[Rung]:
+    """Every rung, each validated as ``make dem`` would (a bad value is an error before anything runs)."""
+    preset = ladder["preset"]
+    defaults = run_spec.load_presets()[preset]
+    out = []
+    for axis, entry in ladder["axes"].items():
+        for value in entry["values"]:
+            overrides = {k: float(v) for k, v in value.items() if float(v) != defaults.get(k)}
+            for theta in entry.get("thetas", ladder["thetas"]):
+                try:
+                    spec = run_spec.resolve(theta, preset, overrides=overrides)
+                except SpecError as exc:
+                    raise SpecError(f"{LADDER_FILE.name}, axis {axis}, {value}: {exc}") from None
+                out.append(Rung(axis, {k: float(v) for k, v in value.items()}, float(theta), spec))
+    return out
+
+
+def summary_path(rung: Rung, root: Path = SUMMARY_DIR) -> Path:
+    return root / rung.spec["folder"] / f"{rung.spec['name']}.json"
+
+
+def dem_file(rung: Rung, roots: tuple[Path, ...] = DATA_ROOTS) -> Path | None:
+    return first_existing(rung.relative, roots)
+
+
+def missing(all_rungs: list[Rung], summaries: Path = SUMMARY_DIR, roots: tuple[Path, ...] = DATA_ROOTS) -> list[Rung]:
+    """The runs that have neither a summary nor a DEM file, each once."""
+    out = {}
+    for r in all_rungs:
+        if not summary_path(r, summaries).exists() and dem_file(r, roots) is None:
+            out.setdefault(r.relative, r)
+    return list(out.values())
+
+
+def sweep_of(to_run: list[Rung], preset: str, results: Path = RESULTS_DIR) -> Sweep:
+    """The runs to make as a sweep (``pipeline.runs.sweep``): its plan, folder and local or SLURM launch."""
+    tasks = []
+    for r in to_run:
+        args = ("--theta", f"{r.theta_deg:g}", "--preset", preset)
+        args += tuple(x for k, v in sorted(r.spec["overrides"].items()) for x in ("--set", f"{k}={v:g}"))
+        tasks.append(Task(args, run_spec.output_path(r.spec, results), f"{r.spec['folder']}/{r.spec['name']}"))
+    digest = hashlib.sha1(json.dumps([t.args for t in tasks]).encode()).hexdigest()[:8]
+    ident = f"fidelity-{digest}"
+    return Sweep(ident, results / "sweeps" / ident, preset, tuple(tasks), results)

@@ -1,0 +1,138 @@
+"""The fidelity table: every rung's steady values, fit and cost against the reference and against Table 2.
+
+The reference at each angle is the ensemble of the ``seed`` axis (mean over seeds, standard error =
+standard deviation / sqrt(seeds)); with one seed, that run (its windows' standard error). A rung's
+*shift* is its value minus the reference's, with both errors combined; ``error`` is the relative shift
+of the steady shear stress ratio, the quantity every preset must get right. For the seed axis each
+seed's shift is its scatter about the ensemble: the statistical error of one run. ``precision`` says how
+many runs of the reference setting a target error on a fitted parameter costs, from the seeds' scatter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+import model
+
+STEADY = ("mu", "A_norm", "A_aligned", "phi_central", "phi_gap")
+FITTED = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
+TARGETS = {"C": 0.05, "n": 0.05, "m": 0.10, "b1": 0.10, "b2": 0.10}  # relative precision asked of an ensemble
+
+
+def reference(summaries: list[dict]) -> dict:
+    """Ensemble mean and standard error of the steady values and fitted parameters over ``summaries``."""
+    out = {"runs": len(summaries), "steady": {}, "fit": {}, "fit_sd": {}}
+    for name in STEADY:
+        values = np.array([s["steady"][name]["mean"] for s in summaries])
+        se = (np.std(values, ddof=1) / np.sqrt(len(values)) if len(values) > 1
+              else summaries[0]["steady"][name]["standard_error"])
+        out["steady"][name] = {"mean": float(values.mean()), "standard_error": float(se)}
+    fits = [s["fit"]["values"] for s in summaries if s.get("fit") and "values" in s["fit"]]
+    for name in FITTED if fits else ():
+        values = np.array([f[name] for f in fits if name in f])
+        if len(values) == 0:
+            continue
+        sd = float(np.std(values, ddof=1)) if len(values) > 1 else float("nan")
+        out["fit"][name] = {"mean": float(values.mean()), "standard_error": sd / np.sqrt(len(values))}
+        out["fit_sd"][name] = sd
+    return out
+
+
+def precision(ref: dict, cpu_hours: float) -> dict:
+    """Runs (and CPU-hours) of the reference setting for the relative precision ``TARGETS`` on each parameter."""
+    out = {}
+    for name, target in TARGETS.items():
+        sd, mean = ref["fit_sd"].get(name), ref["fit"].get(name, {}).get("mean")
+        if sd is None or not np.isfinite(sd) or not mean:
+            continue
+        runs = int(np.ceil((sd / (target * abs(mean))) ** 2))
+        out[name] = {"target": target, "runs": max(runs, 1), "cpu_hours": max(runs, 1) * cpu_hours}
+    return out
+
+
+def row(summary: dict, rung_axis: str, rung_label: str, ref: dict) -> dict:
+    steady, out = summary["steady"], {}
+    for name in STEADY:
+        shift = steady[name]["mean"] - ref["steady"][name]["mean"]
+        se = float(np.hypot(steady[name]["standard_error"], ref["steady"][name]["standard_error"]))
+        out[name] = {**steady[name], "shift": shift, "shift_se": se}
+    mu = ref["steady"]["mu"]["mean"]
+    fit = summary.get("fit") or {}
+    paper = model.PAPER
+    return {"axis": rung_axis, "setting": rung_label, "theta_deg": summary["theta_deg"], "folder": summary["folder"],
+            "name": summary["name"], "cost": summary["cost"], "steady": out,
+            "bulk_over_nominal": summary["bulk_over_nominal"],
+            "error": abs(out["mu"]["shift"]) / mu, "error_se": out["mu"]["shift_se"] / mu,
+            "fit": fit.get("values"), "fit_se": fit.get("standard_errors"), "fit_misfit": fit.get("misfit"),
+            "fit_vs_table2": {n: v / getattr(paper, n) - 1 for n, v in (fit.get("values") or {}).items()},
+            "fit_vs_reference": {n: v - ref["fit"][n]["mean"] for n, v in (fit.get("values") or {}).items()
+                                 if n in ref["fit"]},
+            "rmse_tau12": {k: v["tau12"] for k, v in (fit.get("rmse") or {}).items()}}
+
+
+def pareto(rows: list[dict], seed_axis: str = "seed") -> list[int]:
+    """Indices of the settings no other beats in both CPU time and error (the Pareto front), cheapest first;
+    the seeds are replicates of one setting, not settings, and stay out."""
+    order = sorted((i for i, r in enumerate(rows) if r["axis"] != seed_axis),
+                   key=lambda i: (rows[i]["cost"]["cpu_hours"], rows[i]["error"]))
+    front, best = [], np.inf
+    for i in order:
+        if rows[i]["error"] < best:
+            front.append(i)
+            best = rows[i]["error"]
+    return front
+
+
+def build(entries: list[tuple], seed_axis: str = "seed") -> dict:
+    """``entries``: (axis, setting label, summary) for every rung with a summary. Rows per angle, the
+    references, the ensemble's precision and the Pareto front of each angle."""
+    thetas = sorted({s["theta_deg"] for _, _, s in entries}, reverse=True)
+    out = {"references": {}, "precision": {}, "rows": [], "pareto": {}}
+    for theta in thetas:
+        at = [(a, label, s) for a, label, s in entries if s["theta_deg"] == theta]
+        seeds = {s["folder"]: s for a, _, s in at if a == seed_axis}
+        base = list(seeds.values()) or [s for _, _, s in at if not s["overrides"]][:1] or [at[0][2]]
+        ref = reference(base)
+        out["references"][f"{theta:g}"] = ref
+        cpu = float(np.mean([s["cost"]["cpu_hours"] for s in base]))
+        out["precision"][f"{theta:g}"] = precision(ref, cpu)
+        rows = [row(s, a, label, ref) for a, label, s in at]
+        out["pareto"][f"{theta:g}"] = [len(out["rows"]) + i for i in pareto(rows)]
+        out["rows"] += rows
+    return out
+
+
+def markdown(table: dict) -> str:
+    lines = ["# The fidelity ladder", "",
+             "Each row: one setting (an axis of `config/fidelity.toml` moved from the `reduced` preset). μ is the "
+             "steady τ:D'/(p|D'|) (τ12/p along the shear), over the last 0.3 strain before each change of direction; "
+             "*shift* is the row minus the reference (the seeds' ensemble at that angle), ± both errors combined. "
+             "The fit is the global fit on that run alone (± from its own noise). CPU-hours of the DEM loop, "
+             "one thread.", ""]
+    for theta, ref in table["references"].items():
+        mu = ref["steady"]["mu"]
+        lines += [f"## θ = {theta}°: reference {ref['runs']} run(s), μ = {mu['mean']:.4f} ± {mu['standard_error']:.4f}",
+                  "", "| axis | setting | CPU-h | steps/s | grains | μ | shift of μ | |A| | Φ central | Φ gap | "
+                  "band/nominal | C | n | m | b1 | b2 | RMSE τ12 own / Table 2 |", "|" + "---|" * 17]
+        shown = set()
+        for r in table["rows"]:
+            if f"{r['theta_deg']:g}" != theta or (r["folder"], r["name"]) in shown:
+                continue  # the preset's own run sits on every axis: shown once, on the first
+            shown.add((r["folder"], r["name"]))
+            s, c = r["steady"], r["cost"]
+            fit = r["fit"] or {}
+            params = " | ".join(f"{fit[n]:+.3g}" if n in fit else "" for n in ("C", "n", "m", "b1", "b2"))
+            rmse = r["rmse_tau12"]
+            lines.append(
+                f"| {r['axis']} | {r['setting']} | {c['cpu_hours']:.2f} | {c['steps_per_second'] or 0:.0f} | "
+                f"{c['grains']} | "
+                f"{s['mu']['mean']:.4f} ± {s['mu']['standard_error']:.4f} | {s['mu']['shift']:+.4f} ± "
+                f"{s['mu']['shift_se']:.4f} | {s['A_norm']['mean']:.4f} | {s['phi_central']['mean']:.3f} | "
+                f"{s['phi_gap']['mean']:.3f} | {r['bulk_over_nominal']:.2f} | {params} | "
+                + (f"{rmse.get('own fit', np.nan):.3f} / {rmse.get('Table 2', np.nan):.3f}" if rmse else "") + " |")
+        prec = table["precision"].get(theta) or {}
+        if prec:
+            lines += ["", "Ensemble cost of a target precision at the reference setting (from the seeds' scatter): "
+                      + "; ".join(f"{n} ±{p['target']:.0%}: {p['runs']} run(s), {p['cpu_hours']:.1f} CPU-h"
+                                  for n, p in prec.items()), ""]
+    return "\n".join(lines) + "\n"

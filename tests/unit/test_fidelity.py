@@ -1,0 +1,82 @@
+"""The fidelity study's bookkeeping, summaries and errors, on model-made runs and made-up summaries."""
+
+import json
+
+import numpy as np
+import pytest
+from helpers import synthetic_run
+
+import model
+from pipeline.studies.fidelity import ladder, table
+from pipeline.studies.fidelity.summary import change_strains, summarize
+
+
+def test_the_ladder_is_validated_and_its_preset_run_is_one_run_on_every_axis(tmp_path):
+    rungs = ladder.rungs(ladder.load())
+    base = [r for r in rungs if not r.spec["overrides"] and r.theta_deg == 180.0]
+    assert len(base) == len(ladder.load()["axes"]) and len({r.relative for r in base}) == 1
+    bad = tmp_path / "bad.toml"
+    bad.write_text('preset = "reduced"\nthetas = [180.0]\n[axes.x]\nvalues = [{ dt_safety = 0.9 }]\n')
+    with pytest.raises(Exception, match="dt_safety"):
+        ladder.rungs(ladder.load(bad))
+
+
+def test_a_run_with_a_summary_or_a_file_is_not_run_again_and_the_rest_is_a_sweep(tmp_path):
+    rungs = ladder.rungs(ladder.load())
+    summaries, results = tmp_path / "summaries", tmp_path / "results"
+    first, second = rungs[0], next(r for r in rungs if r.relative != rungs[0].relative)
+    path = ladder.summary_path(first, summaries)
+    path.parent.mkdir(parents=True)
+    path.write_text("{}")
+    (results / second.relative).parent.mkdir(parents=True)
+    (results / second.relative).write_bytes(b"")
+    todo = ladder.missing(rungs, summaries, roots=(results,))
+    relatives = [r.relative for r in todo]
+    assert first.relative not in relatives and second.relative not in relatives
+    assert len(relatives) == len(set(relatives)) == len({r.relative for r in rungs}) - 2
+    sweep = ladder.sweep_of(todo, "reduced", results)
+    assert [t.output for t in sweep.tasks] == [results / r.relative for r in todo]
+    from pipeline.runs.spec import output_path, resolve
+    from pipeline.runs.sweep import _resolve_args
+
+    for task, rung in zip(sweep.tasks, todo, strict=True):  # the launcher's arguments make exactly that run
+        assert output_path(resolve(*_resolve_args(task.args)), results) == results / rung.relative
+
+
+def test_the_summary_recovers_the_models_steady_values_and_the_runs_own_fit(tmp_path):
+    run = synthetic_run(tmp_path, n_cycles=2, noise=0.002, seed=3)
+    s = summarize(run)
+    json.dumps(s)  # compact and JSON-able
+    cycle = model.predict(180)
+    before = cycle.strain < 0.7 - 1e-9
+    mu_model = cycle.tau[before][-1, 0, 1]  # the steady tau12/p along the shear, at the end of a segment
+    assert len(change_strains(run.spec)) == 5  # 0, 0.7, 1.4, 2.1, 2.8
+    assert s["steady"]["mu"]["mean"] == pytest.approx(mu_model, abs=0.01)
+    assert s["steady"]["A_norm"]["mean"] == pytest.approx(np.linalg.norm(cycle.A[before][-1]), abs=0.005)
+    assert s["fit"]["values"]["b2"] == pytest.approx(model.PAPER.b2, rel=0.15)
+    assert s["fit"]["rmse"]["own fit"]["tau12"] <= s["fit"]["rmse"]["Table 2"]["tau12"] + 0.02
+
+
+def _summary(folder, mu, se=0.005, cpu=0.5, C=-5.6):
+    steady = {k: {"mean": v, "standard_error": se} for k, v in
+              {"mu": mu, "A_norm": 0.09, "A_aligned": -0.06, "phi_central": 0.6, "phi_gap": 0.65}.items()}
+    return {"folder": folder, "name": "theta180", "theta_deg": 180.0, "overrides": {}, "steady": steady,
+            "bulk_over_nominal": 1.4, "cost": {"cpu_hours": cpu, "steps_per_second": 1000, "grains": 714},
+            "fit": {"values": {n: (C if n == "C" else getattr(model.PAPER, n)) for n in table.FITTED},
+                    "standard_errors": {}, "rmse": {}}}
+
+
+def test_the_table_recovers_a_known_bias_against_the_seeds_noise_and_prices_a_precision():
+    rng = np.random.default_rng(0)
+    seeds = [("seed", f"seed={k}", _summary(f"s{k}", 0.38 + rng.normal(0, 0.01), C=-5.6 + rng.normal(0, 0.3)))
+             for k in range(12)]
+    biased = ("inertial_number", "inertial_number=0.003", _summary("hi", 0.42, cpu=0.2))
+    result = table.build([*seeds, biased])
+    ref = result["references"]["180"]
+    assert ref["runs"] == 12 and ref["steady"]["mu"]["standard_error"] == pytest.approx(0.01 / np.sqrt(12), rel=0.4)
+    row = next(r for r in result["rows"] if r["axis"] == "inertial_number")
+    assert abs(row["steady"]["mu"]["shift"] - 0.04) < 2 * row["steady"]["mu"]["shift_se"]
+    assert row["error"] == pytest.approx(0.04 / 0.38, rel=0.15)
+    runs = result["precision"]["180"]["C"]["runs"]  # (0.3 / (0.05 * 5.6))^2 = 1.1 -> about 1-3 runs
+    assert 1 <= runs <= 4
+    assert [result["rows"][i]["axis"] for i in result["pareto"]["180"]] == ["inertial_number"]
