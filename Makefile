@@ -82,7 +82,7 @@ COMPARE_DIR := results/$(DATA_PRESET)/compare
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
 .PHONY: help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
-	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-definitions fit-profile fidelity fidelity-table compare figures demo-dem clean
+	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-profile fidelity fidelity-table compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -171,6 +171,10 @@ $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(call RUN_FILES
 fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 refits, a few minutes) -> fit.json
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --bootstrap $(BOOT)
+
+fit-jackknife: venv ## the fit plus a jackknife over the reversal seeds (one refit per seed) -> fit.json
+	$(SAY_PRESET)
+	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --jackknife
 
 fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<PRESET>/fit/definitions.md
 	$(SAY_PRESET)

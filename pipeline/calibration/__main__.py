@@ -73,7 +73,7 @@ def check_window(window: float, runs: list) -> None:
 
 def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple = (), refine: bool = True,
         bootstrap: int = 0, definitions: Definitions = DEFAULT, hold: dict | None = None,
-        left_out: tuple = ()) -> dict:
+        left_out: tuple = (), jackknife: bool = False) -> dict:
     """Calibrate from ``reversals``, cross-check on ``cross_runs`` (other angles, Sec. 3.3), refine
     globally on all of them (from Table 2) and write into ``out_dir``; every run read with ``definitions``;
     the parameters in ``hold`` are held at the values given instead of fitted. ``left_out``: runs the fit
@@ -96,13 +96,15 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
     check_window(window, [*reversals, *cross_runs])
     if bootstrap and bootstrap < 2:
         raise CalibrationError(f"bootstrap={bootstrap}: a bootstrap needs at least 2 resamples")
+    if jackknife and len(reversals) < 3:
+        raise CalibrationError(f"a jackknife over seeds needs at least 3 reversal seeds, not {len(reversals)}")
     if bootstrap and not any(r.spec["n_cycles"] > 1 for r in (*reversals, *cross_runs)):
         raise CalibrationError("a bootstrap needs runs with more than one cycle (the noise is measured from them)")
     io.check_writable_dir(out_dir)
     per_run = [calibrate_run(run, window=window) for run in reversals]
     cross = [cross_check_run(run, window=window) for run in cross_runs]
     arrays = {"reversal": [r.pop("arrays") for r in per_run], "cross_check": [c.pop("arrays") for c in cross]}
-    refined = dilatancy = boot = noise = identifiable = None
+    refined = dilatancy = boot = noise = identifiable = jack = None
     next_runs = []
     if refine:
         data, noise = global_fit.prepare([*reversals, *cross_runs])
@@ -122,6 +124,9 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
 
             boot = global_fit.bootstrap(data, noise, refined, bootstrap, progress=progress)
             boot["stepwise"] = stepwise_bootstrap(reversals, bootstrap, window)
+        if jackknife:
+            jack = global_fit.jackknife(data, list(range(len(reversals))), refined,
+                                        progress=lambda d, t: print(f"jackknife {d}/{t} ({d / t:.0%})", flush=True))
     estimates = combine(per_run)
     bad = [k for k in ("C_eq15", "n", "m", "a1", "b1", "a2", "b2") if not math.isfinite(estimates[k]["value"])]
     if bad:
@@ -145,7 +150,7 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
               "noise": None if noise is None else noise.to_dict(), "identifiability": identifiable,
               "next_runs": next_runs,
               "dilatancy": None if refined is None else dilatancy.to_dict(),
-              "bootstrap": boot,
+              "bootstrap": boot, "jackknife": jack,
               "global_runs": [str(r.path) for r in (*reversals, *cross_runs)] if refine else [],
               "notes": notes}
     write_arrays(out_dir / "fit.h5", arrays, per_run, cross)
@@ -216,6 +221,11 @@ def print_report(report: dict, out: Path) -> None:
         print(f"noise bootstrap ({len(b['replicates'])} refits, blocks of {b['block_strain']:g} strain), 68 %: "
               + ", ".join(f"{n} [{lo:+.4g}, {hi:+.4g}]" for n, (lo, hi) in zip(b["free"], b["interval_68"],
                                                                                strict=True)))
+    if report.get("jackknife"):
+        j = report["jackknife"]
+        print(f"jackknife over the {len(j['left_out'])} reversal seeds: standard errors "
+              + ", ".join(f"{n} {se:.2g} ({r:.1f}x the noise model's)" for n, se, r in
+                          zip(j["free"], j["standard_error"], j["over_sandwich"], strict=True)))
     print("the paper's stepwise route (Sec. 4), mean ± standard error over the reversal runs "
           "(noisy on small cells; fit.json: sensitivity):")
     for key, e in report["estimates"].items():
@@ -241,6 +251,8 @@ def main(argv=None) -> int:
     add_definition_arguments(parser)
     parser.add_argument("--hold", action="append", default=[], metavar="NAME=VALUE",
                         help="hold a flow-rule or fabric parameter at VALUE instead of fitting it (repeatable)")
+    parser.add_argument("--jackknife", action="store_true",
+                        help="also refit leaving out one reversal seed at a time (needs 3 or more seeds)")
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="also refit N >= 2 resamplings of the cycles (bootstrap standard deviations)")
     args = parser.parse_args(argv)
@@ -269,7 +281,7 @@ def main(argv=None) -> int:
             raise CalibrationError(f"--hold {item!r} is not NAME=VALUE with a number") from None
     print(f"definitions: {definitions.label()}")
     report = fit(reversals, out, args.window, cross, bootstrap=args.bootstrap or 0, definitions=definitions,
-                 hold=hold, left_out=left_out)
+                 hold=hold, left_out=left_out, jackknife=args.jackknife)
     print_report(report, out)
     return 0
 

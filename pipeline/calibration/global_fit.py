@@ -263,3 +263,22 @@ def bootstrap(data: list[CycleData], noise: noise_model.NoiseModel, best: Global
         q_lo, q_hi = np.percentile(v, lo, axis=0), np.percentile(v, hi, axis=0)
         out[f"interval_{level}"] = np.stack([2 * best.values - q_hi, 2 * best.values - q_lo], axis=1).tolist()
     return out
+
+
+def jackknife(data: list[CycleData], seeds: list[int], best: GlobalFit, progress=None) -> dict:
+    """Refit ``best``'s parameters leaving out one seed at a time (``seeds``: the indices in ``data`` of
+    the runs that are seeds of one protocol, at least three). The jackknife standard error
+    sqrt((N-1)/N sum (theta_i - mean)^2) carries everything that differs between seeds (the packing, the
+    fit's nonlinearity), which a noise model measured within runs may miss."""
+    if len(seeds) < 3:
+        raise CalibrationError(f"a jackknife over seeds needs at least 3 seeds of one protocol, not {len(seeds)}")
+    values = []
+    for k, left in enumerate(seeds):
+        values.append(refine([d for i, d in enumerate(data) if i != left], best.params, best.names).values)
+        if progress:
+            progress(k + 1, len(seeds))
+    v = np.array(values)
+    n = len(seeds)
+    se = np.sqrt((n - 1) / n * np.sum((v - v.mean(axis=0)) ** 2, axis=0))
+    return {"free": list(best.names), "left_out": seeds, "values": v.tolist(), "standard_error": se.tolist(),
+            "over_sandwich": (se / best.standard_errors).tolist()}

@@ -79,3 +79,14 @@ def test_the_noise_bootstrap_agrees_with_the_sandwich_errors(tmp_path):
     assert np.all((ratio > 0.4) & (ratio < 2.5)), dict(zip(best.names, ratio, strict=True))
     for (low, high), value in zip(boot["interval_68"], best.values, strict=True):
         assert low < value < high
+
+
+def test_the_jackknife_over_seeds_agrees_with_the_noise_model_where_seeds_differ_only_by_noise(tmp_path):
+    runs = [synthetic_run(tmp_path, name=f"j{s}", seed=s + 90, **NOISE) for s in range(5)]
+    data, nm = global_fit.prepare(runs)
+    best = global_fit.refine(data, TRUE, noise=nm)
+    jack = global_fit.jackknife(data, list(range(5)), best)
+    ratio = np.array(jack["over_sandwich"])
+    assert np.all((ratio > 0.25) & (ratio < 3)) and 0.5 < np.exp(np.mean(np.log(ratio))) < 2, ratio
+    with pytest.raises(global_fit.CalibrationError, match="at least 3 seeds"):
+        global_fit.jackknife(data[:2], [0, 1], best)
