@@ -82,7 +82,7 @@ COMPARE_DIR := results/$(DATA_PRESET)/compare
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
 .PHONY: help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
-	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-profile fidelity fidelity-table compare figures demo-dem clean
+	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-profile fidelity fidelity-table stability compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -191,6 +191,9 @@ fidelity: venv ## the fidelity ladder (config/fidelity.toml): make its missing D
 fidelity-table: venv ## results/fidelity/ from the committed summaries and the runs present, no DEM (under a minute)
 	$(PY) -m pipeline.studies.fidelity
 	$(PY) -m pipeline.figures.fidelity
+
+stability: venv ## the DEM on stiff and extreme cases, small cells (about 15 min) -> results/fidelity/stability.md
+	$(PY) -m pipeline.studies.stability
 
 compare: $(COMPARE_DIR)/metrics.json ## the model against the preset's runs -> results/<PRESET>/compare/
 

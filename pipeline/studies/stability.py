@@ -43,7 +43,7 @@ class Case:
     allow_inertial: bool = False
 
 
-PHYSICAL_SMALL = {"width_d": 4.0, "gap_d": 3.4}  # the quick preset's physics in a 4d cell
+PHYSICAL_SMALL = {"width_d": 4.0, "gap_d": 3.4, "region_margin_d": 1.0}  # the quick physics in a 4d cell
 
 CASES = (
     Case("baseline", "the tiny preset as it is"),
@@ -132,6 +132,8 @@ def main(argv=None) -> int:
     unknown = [c for c in chosen if c not in known]
     if unknown:
         raise PipelineError(f"unknown case(s) {', '.join(unknown)} (known: {', '.join(known)})")
+    for label in chosen:  # every case's spec is checked before anything runs
+        spec_of(known[label])
     out = io.check_writable_dir(args.out)
     rows = []
     for k, label in enumerate(chosen):

@@ -80,3 +80,17 @@ def test_the_table_recovers_a_known_bias_against_the_seeds_noise_and_prices_a_pr
     runs = result["precision"]["180"]["C"]["runs"]  # (0.3 / (0.05 * 5.6))^2 = 1.1 -> about 1-3 runs
     assert 1 <= runs <= 4
     assert [result["rows"][i]["axis"] for i in result["pareto"]["180"]] == ["inertial_number"]
+
+
+def test_stability_cases_are_distinct_runs_and_only_the_unchecked_ones_pass_the_bounds():
+    from pipeline.errors import SpecError
+    from pipeline.runs.spec import resolve
+    from pipeline.studies import stability
+
+    specs = [stability.spec_of(c) for c in stability.CASES]
+    assert len({(s["folder"], s["name"]) for s in specs}) == len(specs)
+    for case, spec in zip(stability.CASES, specs, strict=True):
+        for key, value in case.unchecked.items():
+            assert spec[key] == value and spec["overrides"][key] == value
+            with pytest.raises(SpecError):
+                resolve(case.theta_deg, case.preset, overrides={**case.overrides, key: value})
