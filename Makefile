@@ -23,6 +23,8 @@ FRESH ?=
 THREADS ?= 1
 BOOT ?= 100
 ALLOW_INERTIAL ?=
+# make profile-dem [PRESETS=reduced,paper] [THREADS=1]
+PRESETS ?= reduced,paper
 # make fit-profile [STRAIN=bulk|nominal] [PHI=central|gap]
 STRAIN ?= bulk
 PHI ?= central
@@ -45,11 +47,13 @@ strip_chars = $(if $(2),$(call strip_chars,$(subst $(firstword $(2)),,$(1)),$(wo
 # $(call check,NAME,allowed characters,what they may be)
 check = $(if $(strip $(call strip_chars,$(subst $(space),,$($(1))),$(2))),$(error $(1)='$($(1))' is not $(3)))
 space := $(subst ,, )
+comma := ,
 $(call check,THETA,$(NUMBER_CHARS),a number)
 $(call check,ROTATE_AT,$(NUMBER_CHARS),a number)
 $(call check,THREADS,$(DIGITS),a whole number)
 $(call check,BOOT,$(DIGITS),a whole number)
 $(call check,STRAIN,$(LOWER),bulk or nominal)
+$(call check,PRESETS,$(NAME_CHARS) $(comma),a comma-separated list of presets)
 $(call check,PHI,$(LOWER),central or gap)
 $(call check,FRESH,$(NAME_CHARS),1 or empty)
 $(call check,ALLOW_INERTIAL,$(NAME_CHARS),1 or empty)
@@ -82,7 +86,7 @@ COMPARE_DIR := results/$(DATA_PRESET)/compare
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
 .PHONY: help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
-	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-profile fidelity fidelity-table stability compare figures demo-dem clean
+	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-profile fidelity fidelity-table stability profile-dem compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -191,6 +195,9 @@ fidelity: venv ## the fidelity ladder (config/fidelity.toml): make its missing D
 fidelity-table: venv ## results/fidelity/ from the committed summaries and the runs present, no DEM (under a minute)
 	$(PY) -m pipeline.studies.fidelity
 	$(PY) -m pipeline.figures.fidelity
+
+profile-dem: venv ## where Yade's time goes, per engine (PRESETS=reduced,paper; THREADS=1) -> results/bench/dem_profile.md
+	$(PY) -m pipeline.studies.profile_dem --presets $(PRESETS) --threads $(THREADS)
 
 stability: venv ## the DEM on stiff and extreme cases, small cells (about 15 min) -> results/fidelity/stability.md
 	$(PY) -m pipeline.studies.stability

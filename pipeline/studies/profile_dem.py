@@ -1,0 +1,93 @@
+"""Profile of the DEM scene by engine (``make profile-dem``): where Yade's time goes, per preset and threads.
+
+``python -m pipeline.studies.profile_dem [--presets reduced,paper] [--threads 1,2] [--steps N]`` runs
+``dem/profile.py`` under Yade's python for each preset and thread count, from a compacted state cached
+in ``results/bench/cache/<preset>.yade.gz`` (made on first use), and writes ``results/bench/dem_profile.json``
+and ``dem_profile.md``: steps/s and particle-steps/s, each engine's share, collider sorts, potential and
+real interactions per grain, and the cost of a checkpoint save and reload.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from .. import io
+from ..cli import Parser, one_line_errors
+from ..errors import PipelineError
+from ..paths import RESULTS_DIR
+from ..runs import spec as run_spec
+from ..runs import yade
+
+OUT_DIR = RESULTS_DIR / "bench"
+STEPS = {"tiny": 2000, "quick": 20000, "reduced": 20000, "paper": 3000}
+
+
+def profile(preset: str, threads: int, steps: int, cache: Path) -> dict:
+    spec = run_spec.resolve(180, preset)
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        Path(tmp, "spec.json").write_text(json.dumps(spec))
+        out = Path(tmp, "out.json")
+        command = yade.command("profile", tmp, steps, out, cache)
+        proc = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=yade.environment(threads))
+        if proc.returncode != 0 or not out.exists():
+            raise PipelineError(f"profile of {preset} failed: {(proc.stderr.strip().splitlines() or ['?'])[-1]}")
+        return json.loads(out.read_text())
+
+
+def markdown(rows: list[dict]) -> str:
+    lines = ["# Where Yade's time goes (`make profile-dem`)", "",
+             "| preset | threads | grains + wall spheres | steps/s | M particle-steps/s | interactions per grain "
+             "(potential / real) | collider sorts per 1000 steps | checkpoint save / load (s) |",
+             "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['preset']} | {r['threads']} | {r['grains']} + {r['wall_spheres']} | "
+                     f"{r['steps_per_second']:.0f} | {r['particle_steps_per_second'] / 1e6:.2f} | "
+                     f"{r['interactions_potential_per_grain']:.1f} / {r['interactions_real_per_grain']:.1f} | "
+                     f"{1000 * r['collider_sorts'] / r['steps']:.0f} | "
+                     f"{r['checkpoint_save_seconds']:.1f} / {r['checkpoint_load_seconds']:.1f} |")
+    lines += ["", "Share of the loop time per engine (Yade's timers):", "",
+              "| preset | threads | " + " | ".join(e["engine"] for e in rows[0]["engines"]) + " |",
+              "|---|---|" + "---|" * len(rows[0]["engines"])]
+    for r in rows:
+        lines.append(f"| {r['preset']} | {r['threads']} | " + " | ".join(f"{e['percent']:.1f} %" for e in r["engines"])
+                     + " |")
+    return "\n".join(lines) + "\n"
+
+
+@one_line_errors
+def main(argv=None) -> int:
+    parser = Parser(prog="python -m pipeline.studies.profile_dem", description=__doc__.splitlines()[0])
+    parser.add_argument("--presets", default="reduced,paper")
+    parser.add_argument("--threads", default="1")
+    parser.add_argument("--steps", type=int, help="steps per timing (default per preset)")
+    parser.add_argument("--out", type=Path, default=OUT_DIR)
+    args = parser.parse_args(argv)
+    presets = args.presets.split(",")
+    known = run_spec.load_presets()
+    bad = [p for p in presets if p not in known]
+    if bad:
+        raise PipelineError(f"unknown preset(s) {', '.join(bad)} (known: {', '.join(known)})")
+    try:
+        threads = [int(t) for t in args.threads.split(",")]
+    except ValueError:
+        raise PipelineError(f"--threads {args.threads!r} is not a comma-separated list of whole numbers") from None
+    out = io.check_writable_dir(args.out)
+    rows = []
+    for preset in presets:
+        for n in threads:
+            print(f"profiling {preset} on {n} thread(s) (a paper cell's first compaction takes long)", flush=True)
+            rows.append(profile(preset, n, args.steps or STEPS.get(preset, 10000), out / "cache" / f"{preset}.yade.gz"))
+            print(f"  {rows[-1]['steps_per_second']:.0f} steps/s", flush=True)
+    io.write_json(out / "dem_profile.json", rows)
+    io.write_text(out / "dem_profile.md", markdown(rows))
+    print(f"wrote {out / 'dem_profile.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
