@@ -39,7 +39,24 @@ def profile(preset: str, threads: int, steps: int, cache: Path) -> dict:
         return json.loads(out.read_text())
 
 
-def markdown(rows: list[dict]) -> str:
+def order_experiment(preset: str, steps: int, repeats: int, cache: Path) -> dict:
+    """Steps/s with the grains in creation order against sorted along a Z-order curve (``dem/order.py``),
+    from the cached compaction (made by ``profile`` first)."""
+    if not cache.exists():
+        raise PipelineError(f"no cached compaction {cache}: profile {preset} first")
+    spec = run_spec.resolve(180, preset)
+    with tempfile.TemporaryDirectory() as tmp:
+        Path(tmp, "spec.json").write_text(json.dumps(spec))
+        out = Path(tmp, "out.json")
+        proc = subprocess.run(yade.command("order", tmp, steps, repeats, out, cache), capture_output=True, text=True,
+                              cwd=tmp, env=yade.environment(1))
+        if proc.returncode != 0 or not out.exists():
+            raise PipelineError(f"order experiment on {preset} failed: "
+                                f"{(proc.stderr.strip().splitlines() or ['?'])[-1]}")
+        return json.loads(out.read_text())
+
+
+def markdown(rows: list[dict], orders: list[dict] = ()) -> str:
     lines = ["# Where Yade's time goes (`make profile-dem`)", "",
              "| preset | threads | grains + wall spheres | steps/s | M particle-steps/s | interactions per grain "
              "(potential / real) | collider sorts per 1000 steps | checkpoint save / load (s) |",
@@ -56,6 +73,12 @@ def markdown(rows: list[dict]) -> str:
     for r in rows:
         lines.append(f"| {r['preset']} | {r['threads']} | " + " | ".join(f"{e['percent']:.1f} %" for e in r["engines"])
                      + " |")
+    if orders:
+        lines += ["", "Grains in creation order against sorted in space (Z-order), same state, best of the repeats:",
+                  "",
+                  "| preset | grains | steps/s created | steps/s sorted | speed-up |", "|---|---|---|---|---|"]
+        lines += [f"| {o['preset']} | {o['grains']} | {o['steps_per_second']['created']:.0f} | "
+                  f"{o['steps_per_second']['morton']:.0f} | {o['speedup']:.2f} |" for o in orders]
     return "\n".join(lines) + "\n"
 
 
@@ -65,6 +88,7 @@ def main(argv=None) -> int:
     parser.add_argument("--presets", default="reduced,paper")
     parser.add_argument("--threads", default="1")
     parser.add_argument("--steps", type=int, help="steps per timing (default per preset)")
+    parser.add_argument("--order", action="store_true", help="also time the grains sorted in space against as created")
     parser.add_argument("--out", type=Path, default=OUT_DIR)
     args = parser.parse_args(argv)
     presets = args.presets.split(",")
@@ -83,8 +107,14 @@ def main(argv=None) -> int:
             print(f"profiling {preset} on {n} thread(s) (a paper cell's first compaction takes long)", flush=True)
             rows.append(profile(preset, n, args.steps or STEPS.get(preset, 10000), out / "cache" / f"{preset}.yade.gz"))
             print(f"  {rows[-1]['steps_per_second']:.0f} steps/s", flush=True)
-    io.write_json(out / "dem_profile.json", rows)
-    io.write_text(out / "dem_profile.md", markdown(rows))
+    orders = []
+    for preset in presets if args.order else ():
+        print(f"grain order on {preset}", flush=True)
+        orders.append(order_experiment(preset, args.steps or STEPS.get(preset, 10000), 3,
+                                       out / "cache" / f"{preset}.yade.gz"))
+        print(f"  speed-up {orders[-1]['speedup']:.2f}", flush=True)
+    io.write_json(out / "dem_profile.json", {"profiles": rows, "order": orders})
+    io.write_text(out / "dem_profile.md", markdown(rows, orders))
     print(f"wrote {out / 'dem_profile.md'}")
     return 0
 
