@@ -28,6 +28,7 @@ STEPS = {"tiny": 2000, "quick": 20000, "reduced": 20000, "paper": 3000}
 
 def profile(preset: str, threads: int, steps: int, cache: Path) -> dict:
     spec = run_spec.resolve(180, preset)
+    cache = cache.resolve()  # the scene runs in a scratch folder
     cache.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         Path(tmp, "spec.json").write_text(json.dumps(spec))
@@ -42,6 +43,7 @@ def profile(preset: str, threads: int, steps: int, cache: Path) -> dict:
 def order_experiment(preset: str, steps: int, repeats: int, cache: Path) -> dict:
     """Steps/s with the grains in creation order against sorted along a Z-order curve (``dem/order.py``),
     from the cached compaction (made by ``profile`` first)."""
+    cache = cache.resolve()  # the scene runs in a scratch folder
     if not cache.exists():
         raise PipelineError(f"no cached compaction {cache}: profile {preset} first")
     spec = run_spec.resolve(180, preset)
