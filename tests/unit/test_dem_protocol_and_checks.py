@@ -45,3 +45,5 @@ def test_the_stress_alarm_needs_the_error_to_last():
     assert checks.stress_alarm(0.01, off, spec) == (0, None)  # back on target: the count restarts
     off, problem = checks.stress_alarm(-0.3, 9, spec)
     assert "wall normal stress off target by -30% for 0.05 strain" in problem
+    off, problem = checks.stress_alarm(0.55, 0, spec)  # more than twice the alarm: at once
+    assert off == 1 and "off target by +55% over one sample (more than twice the alarm level, 25%)" in problem
