@@ -16,6 +16,7 @@ import sys
 import time
 
 from dem import couette
+from dem.profile import prepare
 from dem.yade_lib import O, Vector3
 
 MODES = ("bare", "dispatch", "full")
@@ -50,13 +51,8 @@ def timed(mode, steps, every=None):
 def main():
     steps, repeats, out = int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
     couette.configure(sys.argv[1])
-    couette.build(couette.SPEC)
-    couette.RUN = couette.Run()
+    prepare(None, shear_steps=steps)
     state = couette.RUN.state
-    state["next_checkpoint"] = 1 << 62
-    while state["phase"] == "compaction":
-        O.run(20000, True)
-    O.run(steps, True)  # into shear
     state["callback_seconds"] = 0.0
     O.tags["state"] = json.dumps(state)
     O.saveTmp("bench")

@@ -26,8 +26,9 @@ def control():
     couette.control()
 
 
-def prepare(cache):
-    """The compacted scene in memory (from ``cache`` when it exists), the module's RUN restored."""
+def prepare(cache, shear_steps=2000):
+    """The compacted scene, sheared ``shear_steps`` steps, in memory (from ``cache`` when it exists, which
+    is written otherwise); the module's RUN restored, its checkpoints off."""
     if cache and os.path.exists(cache):
         O.load(cache)
         couette.RUN = couette.Run()
@@ -38,7 +39,7 @@ def prepare(cache):
     state["next_checkpoint"] = 1 << 62
     while state["phase"] == "compaction":
         O.run(20000, True)
-    O.run(2000, True)  # into shear
+    O.run(shear_steps, True)  # into shear
     O.tags["state"] = json.dumps(state)
     if cache:
         O.save(cache)
