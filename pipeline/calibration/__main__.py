@@ -110,8 +110,8 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
         data, noise = global_fit.prepare([*reversals, *cross_runs])
         refined = global_fit.refine(data, start, free, noise=noise)
         dilatancy = global_fit.refine_dilatancy(data, refined.params)
-        identifiable = identifiability.summary(refined, data, hold)
-        if not hold:
+        identifiable = identifiability.summary(refined, data, hold, measured=noise.measured)
+        if not hold and noise.measured:
             rotations = [(r.spec["theta_deg"], r.spec["rotate_at_strain"]) for r in left_out]
             next_runs = design.rank(refined, noise, [*reversals, *cross_runs], rotations)
         if bootstrap:
@@ -176,20 +176,27 @@ def default_preset() -> str:
 def print_global(report: dict) -> None:
     """The global fit first: values with their 68 % intervals from the measured noise, what is determined."""
     g, ident, nm = report["global"], report["identifiability"], report["noise"]
+    unit = ("the DEM's noise: 1 is a fit within the noise" if ident["noise_measured"] else
+            "the scatter about a smoothed cycle, which is less than the noise")
     print(f"global fit on {len(report['global_runs'])} run(s); misfit {g['misfit']:.2f} (chi^2 per degree of "
-          f"freedom in units of the DEM's noise: 1 is a fit within the noise)")
-    print(f"intervals: 68 % from the DEM's noise ({nm['source']}; correlated over "
-          f"{min(min(v) for v in nm['correlation_strain'].values()):.2f}-"
-          f"{max(max(v) for v in nm['correlation_strain'].values()):.2f} strain), not scaled by the misfit")
+          f"freedom in units of {unit})")
+    if not ident["noise_measured"]:
+        print(f"intervals: none ({nm['source']}): run two cycles or more, or three seeds")
+    else:
+        print(f"intervals: 68 % from the DEM's noise ({nm['source']}; correlated over "
+              f"{min(min(v) for v in nm['correlation_strain'].values()):.2f}-"
+              f"{max(max(v) for v in nm['correlation_strain'].values()):.2f} strain), not scaled by the misfit")
     for name, p in ident["parameters"].items():
         band = p["intervals"]["68"]
-        text = "[open]" if band is None else f"[{band[0]:+.4g}, {band[1]:+.4g}]"
+        text = "[none]" if band is None else f"[{band[0]:+.4g}, {band[1]:+.4g}]"
         print(f"{name:>8s} = {p['value']:+.4g}  68 % {text:>24s}  {p['status']}")
     d = report["dilatancy"]
     for name, value, se in zip(d["free"], d["values"], d["standard_errors"], strict=True):
         print(f"{name:>8s} = {value:+.4g} ± {se:.2g} (Eq. 18 on Phi; its scatter taken as white)")
     for label, items in (("fixed best", ident["strongest"]), ("fixed least", ident["weakest"])):
-        print(f"the data {label}: " + "; ".join(f"{c['combination']} (±{c['relative_step']:.2g})" for c in items))
+        if ident["noise_measured"]:
+            print(f"the data {label}: " + "; ".join(f"{c['combination']} (±{c['relative_step']:.2g})"
+                                                   for c in items))
     if ident["not_determined"]:
         print(f"not determined by these runs: {', '.join(ident['not_determined'])} (hold with --hold NAME=VALUE)")
     t = ident["table2"]

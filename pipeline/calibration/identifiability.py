@@ -64,11 +64,18 @@ def table2_test(fit: global_fit.GlobalFit, data: list, paper: model.Params = mod
     return out
 
 
-def summary(fit: global_fit.GlobalFit, data: list, hold: dict | None = None) -> dict:
-    """Per parameter its interval and status, the best and worst determined combinations, Table 2's test."""
+UNMEASURED = "no interval: the noise is not measured (one cycle per run, no seeds)"
+
+
+def summary(fit: global_fit.GlobalFit, data: list, hold: dict | None = None, measured: bool = True) -> dict:
+    """Per parameter its interval and status, the best and worst determined combinations, Table 2's test.
+    Without a ``measured`` noise (one cycle per run and no seeds) there are no intervals and no test: the
+    scatter about a smoothed cycle misses the correlated part of the noise, and an interval from it
+    would look tight and mean nothing."""
     params, intervals, loose = {}, {}, []
     for name, value, se in zip(fit.names, fit.values, fit.standard_errors, strict=True):
-        state = status(value, se)
+        se = se if measured else np.inf
+        state = status(value, se) if measured else UNMEASURED
         ranges = {level: [value - z * se, value + z * se] if np.isfinite(se) else None for level, z in Z.items()}
         params[name] = {"value": float(value), "standard_error": float(se) if np.isfinite(se) else None,
                         "status": state, "intervals": ranges}
@@ -79,4 +86,4 @@ def summary(fit: global_fit.GlobalFit, data: list, hold: dict | None = None) -> 
     described = [{**d, "combination": combination(d["direction"])} for d in directions]
     return {"parameters": params, "intervals_68": intervals, "not_determined": loose, "held": dict(hold or {}),
             "weakest": described[:3], "strongest": described[::-1][:3],
-            "table2": None if hold else table2_test(fit, data)}
+            "noise_measured": measured, "table2": None if hold or not measured else table2_test(fit, data)}

@@ -91,6 +91,7 @@ class NoiseModel:
     source: str
     pool: tuple = ()  # the deviation series measured, {q: (samples, 3, 3)}: the bootstrap draws from them
     pool_sigma: dict | None = None  # their sigma per quantity and component
+    measured: bool = True  # False: one cycle per run and no seeds, the scatter about a smoothed cycle stands in
 
     def sigma(self, quantity: str, n_cycles: int) -> np.ndarray:
         """Per-sample noise of an ``n_cycles`` cycle mean, per component."""
@@ -121,7 +122,7 @@ class NoiseModel:
     def to_dict(self) -> dict:
         names = [f"{i + 1}{j + 1}" for i, j in COMPONENTS]
         g = self.autocovariance
-        return {"source": self.source, "components": names,
+        return {"source": self.source, "measured": self.measured, "components": names,
                 "sigma_cycle": {q: self.sigma_cycle[q].tolist() for q in QUANTITIES},
                 "sigma_seed": {q: self.sigma_seed[q].tolist() for q in QUANTITIES},
                 "correlation_strain": self.correlation_strain(),
@@ -167,7 +168,7 @@ def _white_scatter(runs: list) -> NoiseModel:
     pool = tuple({q: d[q][0] for q in QUANTITIES} for d in devs)
     return NoiseModel(runs[0].spec["sample_strain"], sigma, zero, gamma,
                       "scatter about each run's smoothed cycle, taken as white (one cycle per run, no seeds: "
-                      "the correlation is not measurable and the intervals are too narrow)", pool, sigma)
+                      "the noise is not measurable)", pool, sigma, measured=False)
 
 
 def _seed_deviations(runs: list) -> tuple[list[dict], list[int]]:

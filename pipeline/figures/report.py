@@ -63,6 +63,9 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
     if not ident:
         return lines
     g, noise = fit_json["global"], fit_json["noise"]
+    if not ident.get("noise_measured", True):
+        return lines + ["", f"No intervals: {noise['source']}. Two cycles per run, or three seeds, let the noise be "
+                        "measured."]
     lengths = [v for values in noise["correlation_strain"].values() for v in values]
     lines += ["", f"Intervals from the DEM's own noise ({noise['source']}; correlated over "
               f"{min(lengths):.2f}-{max(lengths):.2f} strain, A and tau/p noise correlated at "

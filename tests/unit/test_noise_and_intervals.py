@@ -113,3 +113,18 @@ def test_each_packing_fraction_definition_recovers_the_truth_of_data_built_with_
         found[definition] = global_fit.refine_dilatancy(data, TRUE).params.phi_c
     assert found["gap"] == pytest.approx(TRUE.phi_c, abs=0.006)  # Eq. 18's fit: within 0.005 on exact data
     assert found["gap"] - found["central"] == pytest.approx(0.05, abs=0.006)  # Eq. 18 is not linear in Phi
+
+
+def test_without_a_measured_noise_there_are_no_intervals_and_no_verdict_on_table_2(tmp_path):
+    """One cycle per run and no seeds: the scatter about a smoothed cycle stands in, and nothing it would
+    give is printed as an interval."""
+    from pipeline.calibration.__main__ import fit as calibrate
+
+    runs = [synthetic_run(tmp_path, theta=t, name=f"u{int(t)}", n_cycles=1, seed=int(t), **NOISE)
+            for t in (180.0, 90.0)]
+    report = calibrate(runs[:1], tmp_path / "fit", cross_runs=runs[1:])
+    ident = report["identifiability"]
+    assert not report["noise"]["measured"] and not ident["noise_measured"] and ident["table2"] is None
+    assert all(p["intervals"]["68"] is None and p["status"].startswith("no interval") for p in
+               ident["parameters"].values())
+    assert report["next_runs"] == []
