@@ -20,7 +20,7 @@ import model
 
 from ..dataset.derived import bulk_over_nominal
 from . import global_fit
-from .noise import COMPONENTS, QUANTITIES, NoiseModel
+from .noise import COMPONENTS, NoiseModel
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,12 +57,7 @@ def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel,
                                  np.zeros((len(strain), 3, 3)), np.zeros((len(strain), 3, 3)),
                                  np.ones((len(strain), 3, 3)), np.ones((len(strain), 3, 3)), np.zeros(len(strain)))
     pred = global_fit.predict_cycle(probe, params)
-    scales = []
-    for q in QUANTITIES:
-        scale = np.ones((len(strain), 3, 3))
-        for (i, j), sigma in zip(COMPONENTS, noise.sigma(q, c.n_cycles), strict=True):
-            scale[:, i, j] = sigma
-        scales.append(scale)
+    scales = global_fit.noise_scales(len(strain), noise, c.n_cycles)
     return dataclasses.replace(probe, A=pred.A, tau=pred.tau, A_scale=scales[0], tau_scale=scales[1],
                                phi=pred.packing_fraction)
 

@@ -30,6 +30,19 @@ from .noise import COMPONENTS, QUANTITIES
 FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")
 
 
+def noise_scales(samples: int, noise: noise_model.NoiseModel | None, n_cycles: int) -> list[np.ndarray]:
+    """Per-sample noise scale ``(samples, 3, 3)`` of A and of tau/p for an ``n_cycles`` mean: each fitted
+    component's sigma, 1 elsewhere (and everywhere without a noise model)."""
+    scales = []
+    for q in QUANTITIES:
+        scale = np.ones((samples, 3, 3))
+        if noise is not None:
+            for (i, j), sigma in zip(COMPONENTS, noise.sigma(q, n_cycles), strict=True):
+                scale[:, i, j] = sigma
+        scales.append(scale)
+    return scales
+
+
 @dataclass(frozen=True)
 class CycleData:
     """One run's cycle, as the global fit needs it (strain on the nominal grid; the per-sample noise
@@ -54,13 +67,7 @@ class CycleData:
         # the last sample closes the period: the DEM has turned back to e1 there, the model's output
         # at the period's end has not, so it is left out
         keep = slice(0, -1)
-        scales = []
-        for q in QUANTITIES:
-            scale = np.ones(c[q][keep].shape)
-            if noise is not None:
-                for (i, j), sigma in zip(COMPONENTS, noise.sigma(q, n), strict=True):
-                    scale[:, i, j] = sigma
-            scales.append(scale)
+        scales = noise_scales(len(c["strain"][keep]), noise, n)
         return cls(run.spec["theta_deg"], run.spec["rotate_at_strain"], run.spec["period_strain"],
                    bulk_over_nominal(run), n, c["strain"][keep], c["A"][keep], c["tau_over_p"][keep], *scales,
                    c["packing_fraction"][keep])
