@@ -23,8 +23,8 @@ FRESH ?=
 THREADS ?= 1
 BOOT ?= 100
 ALLOW_INERTIAL ?=
-# make profile-dem [PRESETS=reduced,paper] [THREADS=1]
-PRESETS ?= reduced,paper
+# make profile-dem [PRESETS=reduced,paper] [THREADS=1]; make bench-dem [PRESETS=quick,reduced,paper]
+PRESETS ?=
 # make fit-profile [STRAIN=bulk|nominal] [PHI=central|gap]
 STRAIN ?= bulk
 PHI ?= central
@@ -86,7 +86,7 @@ COMPARE_DIR := results/$(DATA_PRESET)/compare
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
 .PHONY: help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
-	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-profile fidelity fidelity-table stability profile-dem compare figures demo-dem clean
+	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-profile fidelity fidelity-table stability profile-dem bench-dem compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -111,9 +111,12 @@ test-cluster: system system-slurm venv ## a sweep on a real one-node SLURM clust
 lint: venv ## ruff over the whole project
 	$(PY) -m ruff check .
 
-bench: system venv ## benchmarks: model numerics and DEM control/measurement cost, in results/bench/
+bench: system venv ## benchmarks: model numerics, DEM steps/s per preset and the cost of our Python, in results/bench/
 	$(PY) -m pipeline.studies.bench_model --out results/bench
 	$(PY) -m pipeline.studies.bench_dem --out results/bench
+
+bench-dem: system venv ## DEM steps/s, bare and production loop (PRESETS=quick,reduced,paper) -> results/bench/dem_throughput.json
+	$(PY) -m pipeline.studies.bench_dem --presets $(or $(PRESETS),quick$(comma)reduced$(comma)paper) --out results/bench
 
 # ---------------------------------------------------------------- set-up
 venv: $(VENV_STAMP) ## the project virtualenv from pyproject.toml
@@ -197,7 +200,7 @@ fidelity-table: venv ## results/fidelity/ from the committed summaries and the r
 	$(PY) -m pipeline.figures.fidelity
 
 profile-dem: venv ## where Yade's time goes, per engine (PRESETS=reduced,paper; THREADS=1) -> results/bench/dem_profile.md
-	$(PY) -m pipeline.studies.profile_dem --presets $(PRESETS) --threads $(THREADS)
+	$(PY) -m pipeline.studies.profile_dem --presets $(or $(PRESETS),reduced$(comma)paper) --threads $(THREADS)
 
 stability: venv ## the DEM on stiff and extreme cases, small cells (about 15 min) -> results/fidelity/stability.md
 	$(PY) -m pipeline.studies.stability

@@ -1,46 +1,71 @@
-"""DEM benchmark: steps/s of the bare Yade loop and the cost of our control and measurement.
+"""DEM benchmark (``make bench-dem``): steps/s of the bare and the production loop per preset, and the cost
+of our control and measurement.
 
-``python -m pipeline.studies.bench_dem [--presets quick,reduced] [--out results/bench]`` runs
-``dem/bench.py`` under Yade's python for each preset (after compaction and a little shear: the timings
-interleave bare, dispatch and full runs of the same steps from the same state, best of five) and writes
-``dem_overhead.md`` and ``dem_overhead.json``.
+``python -m pipeline.studies.bench_dem [--presets quick,reduced,paper] [--repeats 3] [--out results/bench]`` runs
+``dem/bench.py`` under Yade's python, one thread, for each preset from a compacted, briefly sheared state
+cached in ``<out>/cache/<preset>.yade.gz`` (made on first use: the paper cell's compaction takes the better
+part of an hour once). The timings interleave bare, dispatch and full runs of the same steps from the same
+state, best of the repeats. Writes ``dem_throughput.json`` (one record per preset: grains, wall spheres,
+steps/s and particle-steps/s of the bare and the full loop, Yade's engine timers in each), ``dem_throughput.md``
+and the overhead report ``dem_overhead.md``/``.json``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import shutil
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
+from .. import io
+from ..cli import Parser, one_line_errors
+from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs import spec as run_spec
 from ..runs import yade
 
-#: steps per timed run: about ten sampling intervals of each preset
-STEPS = {"tiny": 3000, "quick": 31000, "reduced": 45000, "paper": 15000}
-REPEATS = 5
+#: steps per timed run: a few seconds of each preset here, several sampling intervals of the small ones
+STEPS = {"tiny": 3000, "quick": 31000, "reduced": 45000, "paper": 1500}
+REPEATS = 3
 
 
-def bench(preset: str, repeats: int = REPEATS) -> dict:
+def bench(preset: str, repeats: int, cache: Path) -> dict:
     spec = run_spec.resolve(180, preset)
+    cache = cache.resolve()  # the scene runs in a scratch folder
+    cache.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         Path(tmp, "spec.json").write_text(json.dumps(spec))
         out = Path(tmp, "out.json")
-        command = yade.command("bench", tmp, STEPS.get(preset, 30000), repeats, out)
+        command = yade.command("bench", tmp, STEPS.get(preset, 30000), repeats, out, cache)
         proc = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=yade.environment(1))
         if proc.returncode != 0 or not out.exists():
-            raise RuntimeError(f"benchmark of preset {preset} failed: {proc.stderr.strip().splitlines()[-1:]}")
+            raise PipelineError(f"benchmark of preset {preset} failed: "
+                                f"{(proc.stderr.strip().splitlines() or ['?'])[-1]}")
         return json.loads(out.read_text())
 
 
-def report(rows: list[dict]) -> str:
-    lines = ["# DEM: steps/s and the cost of control and measurement", "",
+def throughput_record(r: dict) -> dict:
+    """The compact record of one preset in ``dem_throughput.json``; the cost of one interaction visited by
+    the interaction loop (real contacts and the collider's other pairs) and of one body in the integrator,
+    in ns, from the timers of the production loop."""
+    full = r["engines"]["full"]
+    us = full["microseconds_per_step"]
+    bodies = r["grains"] + r["wall_spheres"]
+    return {"preset": r["preset"], "grains": r["grains"], "wall_spheres": r["wall_spheres"], "steps": r["steps"],
+            "repeats": r["repeats"], "threads": 1,
+            "steps_per_second": {m: r["steps_per_second"][m] for m in ("bare", "full")},
+            "particle_steps_per_second": {m: r["particle_steps_per_second"][m] for m in ("bare", "full")},
+            "full_below_bare_percent": 100 * (1 - r["steps_per_second"]["full"] / r["steps_per_second"]["bare"]),
+            "control_and_measurement_percent": r["overhead_percent"],
+            "ns_per_interaction_visit": 1e3 * us["InteractionLoop"] / full["interactions_all"],
+            "ns_per_body_integrated": 1e3 * us["NewtonIntegrator"] / bodies, "engines": r["engines"]}
+
+
+def overhead_report(rows: list[dict]) -> str:
+    lines = ["# DEM: the cost of control and measurement", "",
              "One thread; each mode runs the same steps from the same sheared state (kept in memory), "
-             "best of five, interleaved. "
+             "best of the repeats, interleaved. "
              "bare: no Python in the loop, walls at constant velocity. dispatch: an empty PyRunner every "
              "`control_every_steps` (same trajectory as bare). full: the wall controller and the in-situ sampling "
              "every 0.005 strain, as in production; the time spent in our callbacks is measured inside them. "
@@ -57,23 +82,64 @@ def report(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def throughput_report(records: list[dict]) -> str:
+    lines = ["# DEM throughput (`make bench-dem`)", "",
+             "One thread, best of the repeats, from the same sheared state. bare: Yade's loop alone, walls at "
+             "constant velocity; full: the production loop (wall controller every 10 steps, sampling).", "",
+             "| preset | grains + wall spheres | bare steps/s | full steps/s | bare / full M particle-steps/s "
+             "| full below bare | our Python's cost | ns per interaction visit | ns per body integrated |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in records:
+        sps, pps = r["steps_per_second"], r["particle_steps_per_second"]
+        lines.append(f"| {r['preset']} | {r['grains']} + {r['wall_spheres']} | {sps['bare']:.0f} | {sps['full']:.0f} "
+                     f"| {pps['bare'] / 1e6:.2f} / {pps['full'] / 1e6:.2f} | {r['full_below_bare_percent']:.0f} % "
+                     f"| {r['control_and_measurement_percent']:.1f} % | {r['ns_per_interaction_visit']:.0f} "
+                     f"| {r['ns_per_body_integrated']:.0f} |")
+    lines += ["", "Yade's timers in one more pass of each loop (µs per step; interactions at the end):", "",
+              "| preset | loop | InteractionLoop | NewtonIntegrator | collider | controller | other | collider sorts "
+              "| real contacts | all interactions |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in records:
+        for mode, e in r["engines"].items():
+            us = dict(e["microseconds_per_step"])
+            main = [us.pop("InteractionLoop", 0.0), us.pop("NewtonIntegrator", 0.0),
+                    us.pop("InsertionSortCollider", 0.0), us.pop("controller", 0.0)]
+            lines.append(f"| {r['preset']} | {mode} | " + " | ".join(f"{v:.0f}" for v in main)
+                         + f" | {sum(us.values()):.0f} | {e['collider_sorts']} | {e['interactions_real']} "
+                         f"| {e['interactions_all']} |")
+    return "\n".join(lines) + "\n"
+
+
+@one_line_errors
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pipeline.studies.bench_dem", description=__doc__.splitlines()[0])
-    parser.add_argument("--presets", default="quick,reduced")
+    parser = Parser(prog="python -m pipeline.studies.bench_dem", description=__doc__.splitlines()[0])
+    parser.add_argument("--presets", default="quick,reduced,paper")
+    parser.add_argument("--repeats", type=int, default=REPEATS)
     parser.add_argument("--out", type=Path, default=RESULTS_DIR / "bench")
     args = parser.parse_args(argv)
-    if shutil.which("yade") is None:
-        print("error: yade not found on PATH: run `make system`", file=sys.stderr)
-        return 2
+    presets = [p.strip() for p in args.presets.split(",")]
+    known = run_spec.load_presets()
+    bad = [p for p in presets if p not in known]
+    if bad:
+        raise PipelineError(f"unknown preset(s) {', '.join(bad)} (known: {', '.join(known)})")
+    if args.repeats < 1:
+        raise PipelineError(f"--repeats {args.repeats} must be at least 1")
+    try:
+        yade.yade_python()  # a one-line error now if Yade is missing
+    except yade.YadeMissing as exc:
+        raise PipelineError(str(exc)) from None
+    out = io.check_writable_dir(args.out)
     rows = []
-    for preset in args.presets.split(","):
-        print(f"benchmarking preset {preset} ...", flush=True)
-        rows.append(bench(preset.strip()))
-    text = report(rows)
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "dem_overhead.md").write_text(text)
-    (args.out / "dem_overhead.json").write_text(json.dumps(rows, indent=1))
-    print(text)
+    for preset in presets:
+        print(f"benchmarking {preset} (a paper cell's first compaction takes long) ...", flush=True)
+        rows.append(bench(preset, args.repeats, out / "cache" / f"{preset}.yade.gz"))
+        sps = rows[-1]["steps_per_second"]
+        print(f"  bare {sps['bare']:.0f} steps/s, full {sps['full']:.0f} steps/s", flush=True)
+    records = [throughput_record(r) for r in rows]
+    io.write_json(out / "dem_throughput.json", records)
+    io.write_text(out / "dem_throughput.md", throughput_report(records))
+    io.write_json(out / "dem_overhead.json", rows)
+    io.write_text(out / "dem_overhead.md", overhead_report(rows))
+    print(throughput_report(records))
     return 0
 
 

@@ -36,3 +36,29 @@ def test_the_profile_splits_the_loop_time_by_engine_and_caches_the_compaction(tm
     assert sum(shares.values()) == pytest.approx(100.0) and shares["InteractionLoop"] > 10
     assert again["steps_per_second"] > 0 and again["interactions_real_per_grain"] > 0
     assert again["checkpoint_save_seconds"] > 0
+    assert again["interactions_potential_per_grain"] > again["interactions_real_per_grain"]  # the collider's pairs
+
+
+def test_bench_dem_writes_one_throughput_record_per_preset(tmp_path, capsys):
+    import json
+
+    from pipeline.studies import bench_dem
+
+    assert bench_dem.main(["--presets", "tiny", "--repeats", "1", "--out", str(tmp_path)]) == 0
+    records = json.loads((tmp_path / "dem_throughput.json").read_text())
+    assert [r["preset"] for r in records] == ["tiny"] and (tmp_path / "cache" / "tiny.yade.gz").exists()
+    r = records[0]
+    assert r["grains"] > 0 and r["wall_spheres"] > 0
+    for mode in ("bare", "full"):
+        assert r["steps_per_second"][mode] > 0
+        assert r["particle_steps_per_second"][mode] == pytest.approx(
+            r["steps_per_second"][mode] * (r["grains"] + r["wall_spheres"]))
+        assert r["engines"][mode]["interactions_all"] >= r["engines"][mode]["interactions_real"] > 0
+    assert r["ns_per_interaction_visit"] > 0 and "| tiny |" in capsys.readouterr().out
+
+
+def test_bench_dem_refuses_an_unknown_preset_before_running_anything(tmp_path, capsys):
+    from pipeline.studies import bench_dem
+
+    assert bench_dem.main(["--presets", "tiny,huge", "--out", str(tmp_path)]) == 2
+    assert "huge" in capsys.readouterr().err and not (tmp_path / "dem_throughput.json").exists()

@@ -14,7 +14,9 @@ from pipeline.studies.fidelity.summary import change_strains, summarize
 def test_the_ladder_is_validated_and_its_preset_run_is_one_run_on_every_axis(tmp_path):
     rungs = ladder.rungs(ladder.load())
     base = [r for r in rungs if not r.spec["overrides"] and r.theta_deg == 180.0]
-    assert len(base) == len(ladder.load()["axes"]) and len({r.relative for r in base}) == 1
+    # every axis but the small cells' seeds passes through the preset, always as the same run
+    assert {r.axis for r in base} == set(ladder.load()["axes"]) - {"small_cell_seed"}
+    assert len({r.relative for r in base}) == 1
     bad = tmp_path / "bad.toml"
     bad.write_text('preset = "reduced"\nthetas = [180.0]\n[axes.x]\nvalues = [{ dt_safety = 0.9 }]\n')
     with pytest.raises(Exception, match="dt_safety"):
@@ -94,3 +96,21 @@ def test_stability_cases_are_distinct_runs_and_only_the_unchecked_ones_pass_the_
             assert spec[key] == value and spec["overrides"][key] == value
             with pytest.raises(SpecError):
                 resolve(case.theta_deg, case.preset, overrides={**case.overrides, key: value})
+
+
+def test_small_cells_against_the_reference_cell_recover_the_bias_and_scatter_and_pick_the_winner():
+    rng = np.random.default_rng(1)
+    ref = [("seed", f"seed={k}", _summary(f"r{k}", 0.38 + rng.normal(0, 0.01), cpu=0.6,
+                                          C=-5.6 + rng.normal(0, 0.3))) for k in range(60)]
+    # small cells: 4x cheaper, twice the scatter; a bias in mu well above the ensemble's error, none in C
+    small = [("small_cell_seed", f"seed={k}", _summary(f"s{k}", 0.36 + rng.normal(0, 0.02), cpu=0.15,
+                                                        C=-5.6 + rng.normal(0, 0.6))) for k in range(60)]
+    ens = table.build([*ref, *small])["ensembles"]["180"]
+    assert ens["small_runs_per_reference_run"] == pytest.approx(4.0)
+    mu, c = ens["quantities"]["mu"], ens["quantities"]["C"]
+    assert abs(mu["bias"] + 0.02) < 3 * mu["bias_se"] and mu["sd_small"] == pytest.approx(0.02, rel=0.25)
+    assert mu["better"] == "reference cell"  # a bias of 0.02 beats any number of small runs
+    assert abs(c["bias"]) < 3 * c["bias_se"] and c["sd_reference"] == pytest.approx(0.3, rel=0.25)
+    # no bias: 4 small runs of sd 0.6 give 0.3, a tie with one reference run: decided by the sampled noise
+    assert c["error_small_ensemble"] == pytest.approx(np.sqrt(c["bias"] ** 2 + c["sd_small"] ** 2 / 4))
+    assert table.ensemble_against_larger(ref[:5], 180.0) == {}  # no small cells: no answer

@@ -70,6 +70,45 @@ def row(summary: dict, rung_axis: str, rung_label: str, ref: dict) -> dict:
             "rmse_tau12": {k: v["tau12"] for k, v in (fit.get("rmse") or {}).items()}}
 
 
+def ensemble_against_larger(entries: list[tuple], theta: float, small_axis: str = "small_cell_seed",
+                            ref_axis: str = "seed") -> dict:
+    """Several seeds of the small cell against the reference cell at equal CPU time (θ = ``theta``).
+
+    For μ and each fitted parameter: the small cell's bias (its seeds' mean minus the reference seeds' mean,
+    ± combined standard error) and each setting's scatter per run (standard deviation over its seeds). At a
+    budget of one reference run's CPU time, the small cell's ensemble has the expected error
+    sqrt(bias^2 + sd_small^2 / k), k = small runs in that budget, against the reference's sd_ref: the smaller
+    one wins. The bias is measured, so it carries its own error (reported); an unresolved bias counts as its
+    measured value. Empty when either setting has fewer than two seeds."""
+    small = [s for a, _, s in entries if a == small_axis and s["theta_deg"] == theta]
+    ref = [s for a, _, s in entries if a == ref_axis and s["theta_deg"] == theta]
+    if len(small) < 2 or len(ref) < 2:
+        return {}
+    cpu_small = float(np.mean([s["cost"]["cpu_hours"] for s in small]))
+    cpu_ref = float(np.mean([s["cost"]["cpu_hours"] for s in ref]))
+    k = cpu_ref / cpu_small
+
+    def values(runs, name):
+        if name == "mu":
+            return np.array([s["steady"]["mu"]["mean"] for s in runs])
+        return np.array([s["fit"]["values"][name] for s in runs if s.get("fit") and name in s["fit"].get("values", {})])
+
+    out = {"small_runs": len(small), "reference_runs": len(ref), "cpu_hours_small": cpu_small,
+           "cpu_hours_reference": cpu_ref, "small_runs_per_reference_run": k, "quantities": {}}
+    for name in ("mu", *FITTED):
+        a, b = values(small, name), values(ref, name)
+        if len(a) < 2 or len(b) < 2:
+            continue
+        sd_a, sd_b = float(np.std(a, ddof=1)), float(np.std(b, ddof=1))
+        bias = float(a.mean() - b.mean())
+        bias_se = float(np.hypot(sd_a / np.sqrt(len(a)), sd_b / np.sqrt(len(b))))
+        ensemble = float(np.sqrt(bias**2 + sd_a**2 / k))
+        out["quantities"][name] = {"bias": bias, "bias_se": bias_se, "sd_small": sd_a, "sd_reference": sd_b,
+                                   "error_small_ensemble": ensemble, "error_reference_run": sd_b,
+                                   "better": "small-cell ensemble" if ensemble < sd_b else "reference cell"}
+    return out
+
+
 def pareto(rows: list[dict], seed_axis: str = "seed") -> list[int]:
     """Indices of the settings no other beats in both CPU time and error (the Pareto front), cheapest first;
     the seeds are replicates of one setting, not settings, and stay out."""
@@ -87,7 +126,7 @@ def build(entries: list[tuple], seed_axis: str = "seed") -> dict:
     """``entries``: (axis, setting label, summary) for every rung with a summary. Rows per angle, the
     references, the ensemble's precision and the Pareto front of each angle."""
     thetas = sorted({s["theta_deg"] for _, _, s in entries}, reverse=True)
-    out = {"references": {}, "precision": {}, "rows": [], "pareto": {}}
+    out = {"references": {}, "precision": {}, "rows": [], "pareto": {}, "ensembles": {}}
     for theta in thetas:
         at = [(a, label, s) for a, label, s in entries if s["theta_deg"] == theta]
         seeds = {s["folder"]: s for a, _, s in at if a == seed_axis}
@@ -99,6 +138,8 @@ def build(entries: list[tuple], seed_axis: str = "seed") -> dict:
         rows = [row(s, a, label, ref) for a, label, s in at]
         out["pareto"][f"{theta:g}"] = [len(out["rows"]) + i for i in pareto(rows)]
         out["rows"] += rows
+        if ensemble := ensemble_against_larger(entries, theta):
+            out["ensembles"][f"{theta:g}"] = ensemble
     return out
 
 
@@ -135,4 +176,17 @@ def markdown(table: dict) -> str:
             lines += ["", "Ensemble cost of a target precision at the reference setting (from the seeds' scatter): "
                       + "; ".join(f"{n} ±{p['target']:.0%}: {p['runs']} run(s), {p['cpu_hours']:.1f} CPU-h"
                                   for n, p in prec.items()), ""]
+        ens = table.get("ensembles", {}).get(theta)
+        if ens:
+            lines += [f"Small cells against the reference cell at equal CPU time: {ens['small_runs']} seeds of the small "
+                      f"cell ({ens['cpu_hours_small']:.2f} CPU-h each) against {ens['reference_runs']} of the reference "
+                      f"({ens['cpu_hours_reference']:.2f} CPU-h each); one reference run's time buys "
+                      f"{ens['small_runs_per_reference_run']:.1f} small runs. Expected error = sqrt(bias² + sd²/k).", "",
+                      "| quantity | small-cell bias | sd per run, small / reference | error: small ensemble / one "
+                      "reference run | better |", "|---|---|---|---|---|"]
+            for name, q in ens["quantities"].items():
+                lines.append(f"| {name} | {q['bias']:+.3g} ± {q['bias_se']:.2g} | {q['sd_small']:.3g} / "
+                             f"{q['sd_reference']:.3g} | {q['error_small_ensemble']:.3g} / {q['error_reference_run']:.3g} "
+                             f"| {q['better']} |")
+            lines.append("")
     return "\n".join(lines) + "\n"
