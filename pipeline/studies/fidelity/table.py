@@ -178,15 +178,15 @@ def markdown(table: dict) -> str:
                                   for n, p in prec.items()), ""]
         ens = table.get("ensembles", {}).get(theta)
         if ens:
-            lines += [f"Small cells against the reference cell at equal CPU time: {ens['small_runs']} seeds of the small "
-                      f"cell ({ens['cpu_hours_small']:.2f} CPU-h each) against {ens['reference_runs']} of the reference "
-                      f"({ens['cpu_hours_reference']:.2f} CPU-h each); one reference run's time buys "
-                      f"{ens['small_runs_per_reference_run']:.1f} small runs. Expected error = sqrt(bias² + sd²/k).", "",
-                      "| quantity | small-cell bias | sd per run, small / reference | error: small ensemble / one "
-                      "reference run | better |", "|---|---|---|---|---|"]
+            lines += [f"Small cells against the reference cell at equal CPU time: {ens['small_runs']} seeds of "
+                      f"the small cell ({ens['cpu_hours_small']:.2f} CPU-h each) against {ens['reference_runs']} of "
+                      f"the reference ({ens['cpu_hours_reference']:.2f} CPU-h each); one reference run's time buys "
+                      f"{ens['small_runs_per_reference_run']:.1f} small runs. Expected error = sqrt(bias² + sd²/k).",
+                      "", "| quantity | small-cell bias | sd per run, small / reference | error: small ensemble / "
+                      "one reference run | better |", "|---|---|---|---|---|"]
             for name, q in ens["quantities"].items():
                 lines.append(f"| {name} | {q['bias']:+.3g} ± {q['bias_se']:.2g} | {q['sd_small']:.3g} / "
-                             f"{q['sd_reference']:.3g} | {q['error_small_ensemble']:.3g} / {q['error_reference_run']:.3g} "
-                             f"| {q['better']} |")
+                             f"{q['sd_reference']:.3g} | {q['error_small_ensemble']:.3g} / "
+                             f"{q['error_reference_run']:.3g} | {q['better']} |")
             lines.append("")
     return "\n".join(lines) + "\n"
