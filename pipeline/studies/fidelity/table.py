@@ -2,7 +2,8 @@
 
 The reference at each angle is the ensemble of the ``seed`` axis (mean over seeds, standard error =
 standard deviation / sqrt(seeds)); with one seed, that run (its windows' standard error). A rung's
-*shift* is its value minus the reference's, with both errors combined; ``error`` is the relative shift
+*shift* is its value minus the reference's, with both errors combined (a run's error is the larger of its
+windows' standard error and the seeds' scatter per run); ``error`` is the relative shift
 of the steady shear stress ratio, the quantity every preset must get right. For the seed axis each
 seed's shift is its scatter about the ensemble: the statistical error of one run. ``precision`` says how
 many runs of the reference setting a target error on a fitted parameter costs, from the seeds' scatter.
@@ -24,9 +25,9 @@ def reference(summaries: list[dict]) -> dict:
     out = {"runs": len(summaries), "steady": {}, "fit": {}, "fit_sd": {}}
     for name in STEADY:
         values = np.array([s["steady"][name]["mean"] for s in summaries])
-        se = (np.std(values, ddof=1) / np.sqrt(len(values)) if len(values) > 1
-              else summaries[0]["steady"][name]["standard_error"])
-        out["steady"][name] = {"mean": float(values.mean()), "standard_error": float(se)}
+        sd = float(np.std(values, ddof=1)) if len(values) > 1 else None
+        se = sd / np.sqrt(len(values)) if sd is not None else summaries[0]["steady"][name]["standard_error"]
+        out["steady"][name] = {"mean": float(values.mean()), "standard_error": float(se), "sd_per_run": sd}
     fits = [s["fit"]["values"] for s in summaries if s.get("fit") and "values" in s["fit"]]
     for name in FITTED if fits else ():
         values = np.array([f[name] for f in fits if name in f])
@@ -54,7 +55,10 @@ def row(summary: dict, rung_axis: str, rung_label: str, ref: dict) -> dict:
     steady, out = summary["steady"], {}
     for name in STEADY:
         shift = steady[name]["mean"] - ref["steady"][name]["mean"]
-        se = float(np.hypot(steady[name]["standard_error"], ref["steady"][name]["standard_error"]))
+        # one run's error: its windows' standard error, or the seeds' scatter per run where that is larger
+        # (seeds differ by more than the noise within a run shows)
+        own = max(steady[name]["standard_error"], ref["steady"][name].get("sd_per_run") or 0.0)
+        se = float(np.hypot(own, ref["steady"][name]["standard_error"]))
         out[name] = {**steady[name], "shift": shift, "shift_se": se}
     mu = ref["steady"]["mu"]["mean"]
     fit = summary.get("fit") or {}
@@ -147,7 +151,8 @@ def markdown(table: dict) -> str:
     lines = ["# The fidelity ladder", "",
              "Each row: one setting (an axis of `config/fidelity.toml` moved from the `reduced` preset). μ is the "
              "steady τ:D'/(p|D'|) (τ12/p along the shear), over the last 0.3 strain before each change of direction; "
-             "*shift* is the row minus the reference (the seeds' ensemble at that angle), ± both errors combined. "
+             "*shift* is the row minus the reference (the seeds' ensemble at that angle), ± both errors combined, a "
+             "run's error being the larger of its windows' standard error and the seeds' scatter per run. "
              "The fit is the global fit on that run alone (± from its own noise). CPU-hours of the DEM loop, "
              "one thread.", ""]
     for theta, ref in table["references"].items():
