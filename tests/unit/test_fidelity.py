@@ -116,3 +116,27 @@ def test_small_cells_against_the_reference_cell_recover_the_bias_and_scatter_and
     # no bias: 4 small runs of sd 0.6 give 0.3, a tie with one reference run: decided by the sampled noise
     assert c["error_small_ensemble"] == pytest.approx(np.sqrt(c["bias"] ** 2 + c["sd_small"] ** 2 / 4))
     assert table.ensemble_against_larger(ref[:5], 180.0) == {}  # no small cells: no answer
+
+
+def test_the_extrapolation_recovers_a_bias_linear_in_one_over_h_at_the_papers_gap():
+    rng = np.random.default_rng(2)
+    entries = []
+    for gap, seeds in ((6.8, 4), (8.5, 9), (11.9, 3), (13.6, 2)):
+        for k in range(seeds):
+            s = _summary(f"h{gap}s{k}", 0.45 - 0.5 / gap + rng.normal(0, 0.01), C=-5.0 - 4.0 / gap + rng.normal(0, 0.2))
+            over = {"seed": float(k + 1)} if gap == 8.5 else {"width_d": gap / 0.85, "gap_d": gap, "seed": float(k + 1)}
+            s["overrides"], s["spec"] = over, {"gap_d": gap, "width_d": gap / 0.85}
+            entries.append(("seed" if gap == 8.5 else "cell", "", s))
+    entries.append(("inertial_number", "", {**_summary("other", 0.30), "overrides": {"inertial_number": 3e-3},
+                                            "spec": {"gap_d": 8.5}}))  # another axis: left out of the line
+    result = table.build(entries, extrapolations={"cell": {"keys": ["gap_d", "width_d"], "transform": "inverse",
+                                                           "paper": 17.0}})
+    line = result["extrapolations"]["180"]["cell"]["quantities"]
+    mu, c = line["mu"], line["C"]
+    assert [p["runs"] for p in mu["points"]] == [4, 9, 3, 2]
+    assert abs(mu["at_target"] - (0.45 - 0.5 / 17)) < 3 * mu["at_target_se"] and mu["at_target_se"] < 0.02
+    assert abs(mu["slope"] + 0.5) < 3 * 0.2 and mu["chi2_per_dof"] < 4
+    assert abs(c["at_target"] - (-5.0 - 4.0 / 17)) < 3 * c["at_target_se"]
+    two = table.build(entries[:13], extrapolations={"cell": {"keys": ["gap_d", "width_d"], "transform": "inverse",
+                                                             "paper": 17.0}})
+    assert two["extrapolations"]["180"]["cell"]["quantities"]["mu"]["chi2_per_dof"] is None  # two values: untested

@@ -91,7 +91,8 @@ def main(argv=None) -> int:
             return 0
         sweeps.run_local(sweep, args.jobs)
     entries = summaries(rungs)
-    result = table.build(entries)
+    result = table.build(entries, extrapolations={axis: entry["extrapolate"] for axis, entry in spec["axes"].items()
+                                                  if "extrapolate" in entry})
     io.write_json(out / "table.json", result)
     io.write_text(out / "table.csv", csv_text(result["rows"]))
     io.write_text(out / "table.md", table.markdown(result))

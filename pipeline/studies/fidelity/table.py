@@ -113,6 +113,60 @@ def ensemble_against_larger(entries: list[tuple], theta: float, small_axis: str 
     return out
 
 
+TRANSFORMS = {"linear": lambda x: x, "inverse": lambda x: 1.0 / x}
+
+
+def extrapolate(entries: list[tuple], theta: float, keys: list[str], transform: str, target: float,
+                ref_sd: dict) -> dict:
+    """A weighted straight line through the runs that differ from the preset only in ``keys`` (and the seed),
+    in f(x) of the first key (``transform``: linear or inverse, e.g. a bias linear in 1/H), evaluated at
+    the paper's value ``target``: for μ and each fitted parameter, the points (runs at one x pooled: their
+    mean, ± SD/sqrt(n), or one run's error taken as the seeds' scatter per run ``ref_sd``), intercept,
+    slope, the value at the target with its standard error from the line's covariance, and χ²/dof when
+    three or more x values leave the line testable. Empty when fewer than two x values exist."""
+    f = TRANSFORMS[transform]
+    allowed = set(keys) | {"seed"}
+    runs = [s for _, _, s in entries if s["theta_deg"] == theta and set(s.get("overrides", {})) <= allowed]
+    by_x = {}
+    for s in {(s["folder"], s["name"]): s for s in runs}.values():
+        by_x.setdefault(float(s["spec"][keys[0]]), []).append(s)
+    if len(by_x) < 2:
+        return {}
+    out = {"keys": keys, "transform": transform, "target": target, "quantities": {}}
+    for name in ("mu", *FITTED):
+        xs, ys, ses, ns = [], [], [], []
+        for x, group in sorted(by_x.items()):
+            if name == "mu":
+                vals = [g["steady"]["mu"]["mean"] for g in group]
+                own = max(g["steady"]["mu"]["standard_error"] for g in group)
+            else:
+                vals = [g["fit"]["values"][name] for g in group if g.get("fit") and name in g["fit"].get("values", {})]
+                own = 0.0
+            if not vals:
+                continue
+            sd = ref_sd.get(name)
+            se = (np.std(vals, ddof=1) / np.sqrt(len(vals)) if len(vals) > 2
+                  else max(own, sd or 0.0) / np.sqrt(len(vals)))
+            if not np.isfinite(se) or se <= 0:
+                continue
+            xs.append(x), ys.append(float(np.mean(vals))), ses.append(float(se)), ns.append(len(vals))
+        if len(xs) < 2:
+            continue
+        design = np.column_stack([np.ones(len(xs)), [f(x) for x in xs]])
+        w = 1 / np.asarray(ses) ** 2
+        cov = np.linalg.inv(design.T @ (design * w[:, None]))
+        coef = cov @ design.T @ (w * np.asarray(ys))
+        at = np.array([1.0, f(target)])
+        chi2 = float(np.sum(w * (np.asarray(ys) - design @ coef) ** 2))
+        dof = len(xs) - 2
+        out["quantities"][name] = {
+            "points": [{"x": x, "mean": y, "standard_error": e, "runs": n} for x, y, e, n in zip(xs, ys, ses, ns,
+                                                                                                  strict=True)],
+            "intercept": float(coef[0]), "slope": float(coef[1]), "at_target": float(at @ coef),
+            "at_target_se": float(np.sqrt(at @ cov @ at)), "chi2_per_dof": chi2 / dof if dof else None}
+    return out
+
+
 def pareto(rows: list[dict], seed_axis: str = "seed") -> list[int]:
     """Indices of the settings no other beats in both CPU time and error (the Pareto front), cheapest first;
     the seeds are replicates of one setting, not settings, and stay out."""
@@ -126,11 +180,12 @@ def pareto(rows: list[dict], seed_axis: str = "seed") -> list[int]:
     return front
 
 
-def build(entries: list[tuple], seed_axis: str = "seed") -> dict:
+def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | None = None) -> dict:
     """``entries``: (axis, setting label, summary) for every rung with a summary. Rows per angle, the
-    references, the ensemble's precision and the Pareto front of each angle."""
+    references, the ensemble's precision, the Pareto front of each angle, the small cells against the
+    reference cell and the ``extrapolations`` ({axis: {keys, transform, paper}}) to the paper's values."""
     thetas = sorted({s["theta_deg"] for _, _, s in entries}, reverse=True)
-    out = {"references": {}, "precision": {}, "rows": [], "pareto": {}, "ensembles": {}}
+    out = {"references": {}, "precision": {}, "rows": [], "pareto": {}, "ensembles": {}, "extrapolations": {}}
     for theta in thetas:
         at = [(a, label, s) for a, label, s in entries if s["theta_deg"] == theta]
         seeds = {s["folder"]: s for a, _, s in at if a == seed_axis}
@@ -144,6 +199,10 @@ def build(entries: list[tuple], seed_axis: str = "seed") -> dict:
         out["rows"] += rows
         if ensemble := ensemble_against_larger(entries, theta):
             out["ensembles"][f"{theta:g}"] = ensemble
+        ref_sd = {"mu": ref["steady"]["mu"].get("sd_per_run"), **ref["fit_sd"]}
+        for axis, how in (extrapolations or {}).items():
+            if line := extrapolate(entries, theta, how["keys"], how["transform"], how["paper"], ref_sd):
+                out["extrapolations"].setdefault(f"{theta:g}", {})[axis] = line
     return out
 
 
@@ -181,6 +240,20 @@ def markdown(table: dict) -> str:
             lines += ["", "Ensemble cost of a target precision at the reference setting (from the seeds' scatter): "
                       + "; ".join(f"{n} ±{p['target']:.0%}: {p['runs']} run(s), {p['cpu_hours']:.1f} CPU-h"
                                   for n, p in prec.items()), ""]
+        for axis, line in table.get("extrapolations", {}).get(theta, {}).items():
+            lines += [f"Extrapolation along `{axis}` to the paper's {line['keys'][0]} = {line['target']:g} "
+                      f"(a weighted line in {'1/' if line['transform'] == 'inverse' else ''}{line['keys'][0]}; "
+                      "runs at one value pooled):", "",
+                      "| quantity | points (value: mean ± se, runs) | slope | at the paper's value | χ²/dof | "
+                      "Table 2 |", "|---|---|---|---|---|---|"]
+            for name, q in line["quantities"].items():
+                pts = "; ".join(f"{p['x']:g}: {p['mean']:.3g} ± {p['standard_error']:.2g} ({p['runs']})"
+                                for p in q["points"])
+                chi = f"{q['chi2_per_dof']:.2f}" if q["chi2_per_dof"] is not None else "— (two values: untested)"
+                paper = f"{getattr(model.PAPER, name):.3g}" if hasattr(model.PAPER, name) else ""
+                lines.append(f"| {name} | {pts} | {q['slope']:+.3g} | {q['at_target']:.3g} ± {q['at_target_se']:.2g} "
+                             f"| {chi} | {paper} |")
+            lines.append("")
         ens = table.get("ensembles", {}).get(theta)
         if ens:
             lines += [f"Small cells against the reference cell at equal CPU time: {ens['small_runs']} seeds of "
