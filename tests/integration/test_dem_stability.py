@@ -19,9 +19,18 @@ def test_a_time_step_past_the_limit_stops_with_the_diagnostic_and_exit_status_3(
         run_spec.resolve(180, "tiny", overrides={"dt_safety": 2.0})
 
 
-def test_a_case_within_the_bounds_runs_and_passes_its_checks(tmp_path):
+def test_a_case_within_the_bounds_runs_and_passes_its_checks_the_energy_balance_included(tmp_path):
     row = stability.run_case(next(c for c in stability.CASES if c.label == "baseline"), tmp_path)
     assert row["outcome"] == "passed" and row["finite"] and row["max_wall_stress_error"] < 0.5
+    energy = row["energy"]
+    assert energy["steps"] > 1000 and energy["wall_work"] > 0 and energy["dissipated"]["friction"] > 0
+    assert abs(energy["relative_residual"]) < stability.ENERGY_TOLERANCE
+
+
+def test_the_energy_balance_fails_past_the_accurate_time_step():
+    case = next(c for c in stability.CASES if c.label == "dt0.5")
+    energy = stability.energy_balance(stability.spec_of(case))
+    assert abs(energy["relative_residual"]) > 5 * stability.ENERGY_TOLERANCE
 
 
 def test_the_profile_splits_the_loop_time_by_engine_and_caches_the_compaction(tmp_path):
