@@ -8,10 +8,11 @@ one step at a time, and accounts, per step of length dt, for (Yade's energy trac
 
 - the walls' work on the grains, -F_wall . v_wall dt for each wall (F_wall: the grains' force on its clump);
 - the dissipation of every real contact (``dem/contact.py``'s law, relative velocity v = v1 - v2 at the
-  contact point, v_n = v . n): the normal dashpot c_n v_n^2 dt while the normal force is positive; the
-  tangential dashpot c_t |v_t|^2 dt while the contact sticks, or friction |F_t| |v_t| dt while it slides
-  (|F_t| = tan(phi) F_n); and the elastic energy a contact held when it opened or its normal force was
-  clipped to zero (released without work);
+  contact point, v_n = v . n; leapfrog: the law's force uses the velocity at the start of the step, v,
+  and the step moves the contact with the velocity at its end, v'): the normal dashpot c_n v_n v_n' dt
+  while the normal force is positive; the tangential dashpot c_t v_t . v_t' dt while the contact sticks,
+  or friction F_t . v_t' dt while it slides (|F_t| = tan(phi) F_n); and the elastic energy a contact held
+  when it opened or its normal force was clipped to zero (released without work);
 - the kinetic energy of the grains (translation and rotation) and the elastic energy of the contacts,
   (1/2) F_n^2 / k_n + (1/2) |F_t|^2 / k_t, at the start and the end.
 
@@ -27,7 +28,7 @@ from dem.profile import (
     control,  # noqa: F401 - the PyRunner's command runs in this namespace
     prepare,
 )
-from dem.yade_lib import O
+from dem.yade_lib import O, Vector3
 
 
 def kinetic(grains):
@@ -40,34 +41,55 @@ def kinetic(grains):
 
 
 def contact_energies():
-    """{(id1, id2): elastic energy} of the real contacts whose normal force is positive."""
+    """{(id1, id2): (normal, tangential) elastic energy} of the real contacts whose normal force is positive."""
     out = {}
     for i in O.interactions:
         ph = i.phys
-        fn2, fs2 = ph.normalForce.squaredNorm(), ph.shearForce.squaredNorm()
+        fn2 = ph.normalForce.squaredNorm()
         if fn2 > 0:
-            out[(i.id1, i.id2)] = 0.5 * fn2 / ph.kn + (0.5 * fs2 / ph.ks if ph.ks > 0 else 0.0)
+            out[(i.id1, i.id2)] = (0.5 * fn2 / ph.kn, 0.5 * ph.shearForce.squaredNorm() / ph.ks if ph.ks > 0 else 0.0)
     return out
 
 
-def dissipation_rates():
-    """(normal dashpot, tangential dashpot, friction) power of the contacts in the step just made."""
+def body_motion():
+    """{id: (position, velocity, angular velocity)} of every body (the walls' spheres included)."""
+    return {b.id: (Vector3(b.state.pos), Vector3(b.state.vel), Vector3(b.state.angVel)) for b in O.bodies
+            if not b.isClump}
+
+
+def contact_velocity(i, motion, cell):
+    """v1 - v2 at the contact point of interaction ``i`` from the bodies' ``motion``."""
+    (x1, v1, w1), (x2, v2, w2) = motion[i.id1], motion[i.id2]
+    shift = cell.hSize * Vector3(*i.cellDist) if O.periodic else Vector3(0, 0, 0)
+    c = i.geom.contactPoint
+    return (v1 + w1.cross(c - x1)) - (v2 + w2.cross(c - x2 - shift))
+
+
+def dissipation_rates(before, after, held, now):
+    """(normal dashpot, tangential dashpot, friction) power of the contacts in the step just made: each
+    dashpot force c v (v: the velocity the law used, the half step before) times the mean of the half-step
+    velocities around the step; friction, the capped tangential force's work over the step less the change
+    of its spring's energy (``held`` before, ``now`` after). With the mean, leapfrog's work telescopes
+    exactly into the half-step kinetic energies."""
     normal = tangential = friction = 0.0
+    cell = O.cell
     for i in O.interactions:
         g, ph = i.geom, i.phys
         fn2 = ph.normalForce.squaredNorm()
-        if fn2 == 0:
+        if fn2 == 0 or i.id1 not in before:
             continue
         n = g.normal
-        v = -g.incidentVel(i, False)  # Yade's incident velocity is v2 - v1
-        vn = v.dot(n)
-        vt = v - vn * n
-        normal += ph.cn * vn * vn
-        sliding = ph.shearForce.squaredNorm() >= fn2 * ph.tangensOfFrictionAngle ** 2 * (1 - 1e-9)
-        if sliding:
-            friction += ph.shearForce.norm() * vt.norm()
+        v0, v1 = contact_velocity(i, before, cell), contact_velocity(i, after, cell)
+        vm = 0.5 * (v0 + v1)
+        vn0, vnm = v0.dot(n), vm.dot(n)
+        vt0, vtm = v0 - vn0 * n, vm - vnm * n
+        normal += ph.cn * vn0 * vnm
+        if ph.shearForce.squaredNorm() >= fn2 * ph.tangensOfFrictionAngle ** 2 * (1 - 1e-9):  # sliding
+            key = (i.id1, i.id2)
+            stored = now[key][1] - held[key][1] if key in held and key in now else 0.0
+            friction += ph.shearForce.dot(vtm) - stored / O.dt
         else:
-            tangential += ph.cs * vt.dot(vt)
+            tangential += ph.cs * vt0.dot(vtm)
     return normal, tangential, friction
 
 
@@ -80,24 +102,28 @@ def main():
     run.state["next_checkpoint"] = 1 << 62
     walls = (run.top_clump, run.bottom_clump)
     e_kin0, held = kinetic(run.grains), contact_energies()
-    e_el0 = sum(held.values())
+    e_el0 = sum(map(sum, held.values()))
     work = normal = tangential = friction = released = 0.0
     made = 0
+    previous = [Vector3(w.state.vel) for w in walls]  # the walls' velocities the half step before
     while made < steps and run.state["phase"] == "shear":
         made += 1
-        velocities = [w.state.vel for w in walls]  # the velocity each wall moves with during the step
+        moved = [Vector3(w.state.vel) for w in walls]  # the velocity each wall moves with in this step
+        before = body_motion()
         O.step()
         dt = O.dt
-        work -= sum(O.forces.f(w.id).dot(v) for w, v in zip(walls, velocities, strict=True)) * dt
-        n, t, f = dissipation_rates()
-        normal, tangential, friction = normal + n * dt, tangential + t * dt, friction + f * dt
+        work -= dt * sum(O.forces.f(w.id).dot(0.5 * (v0 + v1)) for w, v0, v1 in zip(walls, previous, moved,
+                                                                                      strict=True))
+        previous = moved
         now = contact_energies()
-        released += sum(e for key, e in held.items() if key not in now)
+        n, t, f = dissipation_rates(before, body_motion(), held, now)
+        normal, tangential, friction = normal + n * dt, tangential + t * dt, friction + f * dt
+        released += sum(sum(e) for key, e in held.items() if key not in now)
         held = now
     if run.state["phase"] == "failed":
         sys.stderr.write(f"error: {run.failure}\n")
         sys.exit(3)
-    e_kin1, e_el1 = kinetic(run.grains), sum(held.values())
+    e_kin1, e_el1 = kinetic(run.grains), sum(map(sum, held.values()))
     dissipated = normal + tangential + friction + released
     residual = work - dissipated - (e_kin1 - e_kin0) - (e_el1 - e_el0)
     result = {"steps": made, "strain": made * run.gamma_dot * O.dt, "dt": O.dt, "wall_work": work,

@@ -36,7 +36,7 @@ from ..runs import spec as run_spec
 
 RUNS_DIR = RESULTS_DIR / "stability"
 ENERGY_STRAIN = 0.1
-ENERGY_TOLERANCE = 0.02  # of the energy passing through: the accounting closes within 1 % at the preset's step
+ENERGY_TOLERANCE = 0.02  # of the energy passing through: the accounting closes within 0.5 % on the tiny cell
 
 
 @dataclass(frozen=True)
@@ -61,8 +61,7 @@ CASES = (
     Case("frictional", "very frictional grains (45 deg)", overrides={"friction_deg": 45.0}),
     Case("restitution0.1", "restitution 0.1", overrides={"restitution": 0.1}),
     Case("restitution0.9", "restitution 0.9", overrides={"restitution": 0.9}),
-    Case("dt0.4", "time step at the spec's bound, dt_safety = 0.4", overrides={"dt_safety": 0.4}),
-    Case("dt0.5", "dt_safety = 0.5 (past the bound)", unchecked={"dt_safety": 0.5}),
+    Case("dt0.5", "time step at the spec's bound, dt_safety = 0.5", overrides={"dt_safety": 0.5}),
     Case("dt0.8", "dt_safety = 0.8 (past the bound)", unchecked={"dt_safety": 0.8}),
     Case("dt1.2", "dt_safety = 1.2 (past the bound)", unchecked={"dt_safety": 1.2}),
     Case("dt2.0", "dt_safety = 2.0 (past the bound; a lone contact's limit)", unchecked={"dt_safety": 2.0}),
