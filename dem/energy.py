@@ -96,7 +96,7 @@ def dissipation_rates(before, after, held, now):
 def main():
     strain, out = float(sys.argv[2]), sys.argv[3]
     couette.configure(sys.argv[1])
-    prepare(None)
+    prepare(None, shear_steps=200, chunk=500)  # into the shear, with all of the protocol left
     run = couette.RUN
     steps = int(strain / (run.gamma_dot * O.dt))
     run.state["next_checkpoint"] = 1 << 62

@@ -26,7 +26,7 @@ def control():
     couette.control()
 
 
-def prepare(cache, shear_steps=2000):
+def prepare(cache, shear_steps=2000, chunk=20000):
     """The compacted scene, sheared ``shear_steps`` steps, in memory (from ``cache`` when it exists, which
     is written otherwise); the module's RUN restored, its checkpoints off."""
     if cache and os.path.exists(cache):
@@ -38,7 +38,7 @@ def prepare(cache, shear_steps=2000):
     state = couette.RUN.state
     state["next_checkpoint"] = 1 << 62
     while state["phase"] == "compaction":
-        O.run(20000, True)
+        O.run(chunk, True)  # the shear starts within the last chunk
     O.run(shear_steps, True)  # into shear
     O.tags["state"] = json.dumps(state)
     if cache:
