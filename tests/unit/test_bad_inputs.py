@@ -45,6 +45,7 @@ DEM_CASES = [
     (["--theta", "90", "--set", "seed=2.5"], "seed=2.5 must be an integer"),
     (["--theta", "90", "--set", "inertial_number=5"], "inertial_number=5.0 is past the quasi-static regime"),
     (["--theta", "90", "--set", "dt_safety=100"], "dt_safety=100.0 is past the stability limit"),
+    (["--theta", "90", "--set", "restitution=0.1"], "restitution=0.1 with dt_safety=0.2 damps the lightest pair"),
     (["--theta", "90", "--set", "fill_packing_fraction=5"], "fill_packing_fraction=5.0 is above random close"),
     (["--theta", "90", "--set", "fill_packing_fraction=0.001"], "fill_packing_fraction=0.001 gives 1 grains"),
     (["--theta", "90", "--set", "overlap_ratio=0.9"], "overlap_ratio=0.9 is not a small overlap"),
