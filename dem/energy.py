@@ -106,20 +106,21 @@ def main():
     work = normal = tangential = friction = released = 0.0
     made = 0
     previous = [Vector3(w.state.vel) for w in walls]  # the walls' velocities the half step before
+    before = body_motion()
     while made < steps and run.state["phase"] == "shear":
         made += 1
         moved = [Vector3(w.state.vel) for w in walls]  # the velocity each wall moves with in this step
-        before = body_motion()
         O.step()
         dt = O.dt
         work -= dt * sum(O.forces.f(w.id).dot(0.5 * (v0 + v1)) for w, v0, v1 in zip(walls, previous, moved,
                                                                                       strict=True))
         previous = moved
         now = contact_energies()
-        n, t, f = dissipation_rates(before, body_motion(), held, now)
+        after = body_motion()  # the next step's "before"
+        n, t, f = dissipation_rates(before, after, held, now)
         normal, tangential, friction = normal + n * dt, tangential + t * dt, friction + f * dt
         released += sum(sum(e) for key, e in held.items() if key not in now)
-        held = now
+        held, before = now, after
     if run.state["phase"] == "failed":
         sys.stderr.write(f"error: {run.failure}\n")
         sys.exit(3)

@@ -34,6 +34,15 @@ POSITIVE_KEYS = {
 }
 
 
+def check_presets(names: list[str]) -> list[str]:
+    """``names`` if every one is a preset; a one-line error naming the unknown ones otherwise."""
+    known = load_presets()
+    bad = [p for p in names if p not in known]
+    if bad:
+        raise SpecError(f"unknown preset(s) {', '.join(bad)} (known: {', '.join(known)})")
+    return names
+
+
 def load_presets(path: Path = PRESETS_FILE) -> dict[str, dict]:
     """All presets of ``path``, each merged onto ``[defaults]``."""
     try:

@@ -6,9 +6,14 @@ consoles never start. The interpreter is the one Debian's ``yade`` launcher name
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
+import subprocess
+import tempfile
+from pathlib import Path
 
+from ..errors import PipelineError
 from ..paths import ROOT
 
 
@@ -36,3 +41,23 @@ def environment(threads: int = 1) -> dict[str, str]:
     """Environment of a Yade script: the project on the path, ``threads`` OpenMP threads, unbuffered output."""
     path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
     return {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": str(threads), "PYTHONUNBUFFERED": "1"}
+
+
+#: stands for the output file's path in ``run_script``'s arguments
+OUT = object()
+
+
+def run_script(module: str, spec: dict, args: tuple, threads: int = 1, what: str = "") -> dict:
+    """Run ``dem.<module>`` on ``spec`` in a scratch folder (its ``spec.json``) with ``args`` after the folder,
+    ``OUT`` among them standing for the JSON file the script writes; that file's content, or a one-line
+    error with the script's last line on stderr."""
+    with tempfile.TemporaryDirectory() as tmp:
+        Path(tmp, "spec.json").write_text(json.dumps(spec))
+        out = Path(tmp, "out.json")
+        argv = [out if a is OUT else a for a in args]
+        proc = subprocess.run(command(module, tmp, *argv), capture_output=True, text=True, cwd=tmp,
+                              env=environment(threads))
+        if proc.returncode != 0 or not out.exists():
+            last = (proc.stderr.strip().splitlines() or [f"exit status {proc.returncode}"])[-1]
+            raise PipelineError(f"{what or module} failed: {last}")
+        return json.loads(out.read_text())

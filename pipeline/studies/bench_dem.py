@@ -12,10 +12,7 @@ Python in the production loop) and ``dem_throughput.md``.
 
 from __future__ import annotations
 
-import json
-import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 from .. import io
@@ -34,15 +31,8 @@ def bench(preset: str, repeats: int, cache: Path) -> dict:
     spec = run_spec.resolve(180, preset)
     cache = cache.resolve()  # the scene runs in a scratch folder
     cache.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, "spec.json").write_text(json.dumps(spec))
-        out = Path(tmp, "out.json")
-        command = yade.command("bench", tmp, STEPS.get(preset, 30000), repeats, out, cache)
-        proc = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=yade.environment(1))
-        if proc.returncode != 0 or not out.exists():
-            raise PipelineError(f"benchmark of preset {preset} failed: "
-                                f"{(proc.stderr.strip().splitlines() or ['?'])[-1]}")
-        return json.loads(out.read_text())
+    return yade.run_script("bench", spec, (STEPS.get(preset, 30000), repeats, yade.OUT, cache),
+                           what=f"benchmark of preset {preset}")
 
 
 def throughput_record(r: dict) -> dict:
@@ -102,11 +92,7 @@ def main(argv=None) -> int:
     parser.add_argument("--repeats", type=int, default=REPEATS)
     parser.add_argument("--out", type=Path, default=RESULTS_DIR / "bench")
     args = parser.parse_args(argv)
-    presets = [p.strip() for p in args.presets.split(",")]
-    known = run_spec.load_presets()
-    bad = [p for p in presets if p not in known]
-    if bad:
-        raise PipelineError(f"unknown preset(s) {', '.join(bad)} (known: {', '.join(known)})")
+    presets = run_spec.check_presets([p.strip() for p in args.presets.split(",")])
     if args.repeats < 1:
         raise PipelineError(f"--repeats {args.repeats} must be at least 1")
     try:

@@ -9,10 +9,7 @@ real interactions per grain, and the cost of a checkpoint save and reload.
 
 from __future__ import annotations
 
-import json
-import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 from .. import io
@@ -30,14 +27,7 @@ def profile(preset: str, threads: int, steps: int, cache: Path) -> dict:
     spec = run_spec.resolve(180, preset)
     cache = cache.resolve()  # the scene runs in a scratch folder
     cache.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, "spec.json").write_text(json.dumps(spec))
-        out = Path(tmp, "out.json")
-        command = yade.command("profile", tmp, steps, out, cache)
-        proc = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=yade.environment(threads))
-        if proc.returncode != 0 or not out.exists():
-            raise PipelineError(f"profile of {preset} failed: {(proc.stderr.strip().splitlines() or ['?'])[-1]}")
-        return json.loads(out.read_text())
+    return yade.run_script("profile", spec, (steps, yade.OUT, cache), threads, what=f"profile of {preset}")
 
 
 def order_experiment(preset: str, steps: int, repeats: int, cache: Path) -> dict:
@@ -47,15 +37,7 @@ def order_experiment(preset: str, steps: int, repeats: int, cache: Path) -> dict
     if not cache.exists():
         raise PipelineError(f"no cached compaction {cache}: profile {preset} first")
     spec = run_spec.resolve(180, preset)
-    with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, "spec.json").write_text(json.dumps(spec))
-        out = Path(tmp, "out.json")
-        proc = subprocess.run(yade.command("order", tmp, steps, repeats, out, cache), capture_output=True, text=True,
-                              cwd=tmp, env=yade.environment(1))
-        if proc.returncode != 0 or not out.exists():
-            raise PipelineError(f"order experiment on {preset} failed: "
-                                f"{(proc.stderr.strip().splitlines() or ['?'])[-1]}")
-        return json.loads(out.read_text())
+    return yade.run_script("order", spec, (steps, repeats, yade.OUT, cache), what=f"order experiment on {preset}")
 
 
 def markdown(rows: list[dict], orders: list[dict] = ()) -> str:
@@ -93,11 +75,7 @@ def main(argv=None) -> int:
     parser.add_argument("--order", action="store_true", help="also time the grains sorted in space against as created")
     parser.add_argument("--out", type=Path, default=OUT_DIR)
     args = parser.parse_args(argv)
-    presets = args.presets.split(",")
-    known = run_spec.load_presets()
-    bad = [p for p in presets if p not in known]
-    if bad:
-        raise PipelineError(f"unknown preset(s) {', '.join(bad)} (known: {', '.join(known)})")
+    presets = run_spec.check_presets(args.presets.split(","))
     try:
         threads = [int(t) for t in args.threads.split(",")]
     except ValueError:

@@ -18,9 +18,7 @@ walls, a gap that runs away and a wall stress off target (``dem/checks.py``), wi
 from __future__ import annotations
 
 import json
-import subprocess
 import sys
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -98,14 +96,10 @@ def checks(path: Path) -> dict:
 
 def energy_balance(spec: dict, strain: float = ENERGY_STRAIN) -> dict:
     """``dem/energy.py`` on ``spec`` in a scratch folder: every term of the balance, or the scene's diagnostic."""
-    with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, "spec.json").write_text(json.dumps(spec))
-        out = Path(tmp, "out.json")
-        proc = subprocess.run(yade.command("energy", tmp, strain, out), capture_output=True, text=True, cwd=tmp,
-                              env=yade.environment(1))
-        if proc.returncode != 0 or not out.exists():
-            return {"error": (proc.stderr.strip().splitlines() or [f"exit status {proc.returncode}"])[-1]}
-        return json.loads(out.read_text())
+    try:
+        return yade.run_script("energy", spec, (strain, yade.OUT))
+    except PipelineError as exc:
+        return {"error": str(exc)}
 
 
 def run_case(case: Case, results: Path = RUNS_DIR) -> dict:
