@@ -81,8 +81,9 @@ def test_the_table_recovers_a_known_bias_against_the_seeds_noise_and_prices_a_pr
     # one run is as uncertain as the seeds scatter (0.01), not as its own windows say (0.005)
     assert row["steady"]["mu"]["shift_se"] >= ref["steady"]["mu"]["sd_per_run"] > 0.006
     assert row["error"] == pytest.approx(0.04 / 0.38, rel=0.15)
-    runs = result["precision"]["180"]["C"]["runs"]  # (0.3 / (0.05 * 5.6))^2 = 1.1 -> about 1-3 runs
-    assert 1 <= runs <= 4
+    preset = result["recommendation"]["180"]["quantities"]["C"]["candidates"][0]
+    assert preset["setting"] == "preset"  # (0.3 / (0.05 * 5.6))^2 = 1.1 -> about 1-3 runs
+    assert 1 <= preset["levels"]["0.05"]["runs"] <= 4
     assert [result["rows"][i]["axis"] for i in result["pareto"]["180"]] == ["inertial_number"]
 
 
@@ -140,3 +141,36 @@ def test_the_extrapolation_recovers_a_bias_linear_in_one_over_h_at_the_papers_ga
     two = table.build(entries[:13], extrapolations={"cell": {"keys": ["gap_d", "width_d"], "transform": "inverse",
                                                              "paper": 17.0}})
     assert two["extrapolations"]["180"]["cell"]["quantities"]["mu"]["chi2_per_dof"] is None  # two values: untested
+
+
+def test_the_recommendation_prices_a_target_error_and_an_ensemble_of_that_size_meets_it():
+    from pipeline.studies.fidelity import recommend
+
+    rng = np.random.default_rng(3)
+    truth, sd = 0.38, 0.02  # one preset run: 5.3 % of the truth
+    seeds = [("seed", "", _summary(f"r{k}", truth + rng.normal(0, sd), se=0.002, cpu=0.6)) for k in range(40)]
+
+    def setting(axis, bias, cpu, runs):
+        out = []
+        for k in range(runs):
+            s = _summary(f"{axis}{k}", truth + bias + rng.normal(0, sd), se=0.002, cpu=cpu)
+            s["overrides"] = {axis: 1.0, "seed": float(k + 1)}
+            out.append((axis, "", s))
+        return out
+
+    cheap_biased = setting("cheap", 0.06, 0.1, 6)  # 16 % off: meets neither target, however many runs
+    cheap_fair = setting("fair", 0.0, 0.3, 6)  # half the preset's cost, no bias
+    rec = table.build([*seeds, *cheap_biased, *cheap_fair])["recommendation"]["180"]["quantities"]["mu"]
+    by = {c["setting"]: c for c in rec["candidates"]}
+    assert by["cheap=1"]["levels"]["0.1"]["runs"] is None and "bias" in by["cheap=1"]["levels"]["0.1"]["why"]
+    assert rec["cheapest"]["0.1"]["setting"] == rec["cheapest"]["0.05"]["setting"] == "fair=1"
+    # the preset's runs: the fewest k with sd/sqrt(k) <= target
+    sd_seen = by["preset"]["sd_per_run"]
+    for level in (0.1, 0.05):
+        k = by["preset"]["levels"][f"{level:g}"]["runs"]
+        assert sd_seen / np.sqrt(k) <= level * rec["reference"] < sd_seen / np.sqrt(max(k - 1, 1)) + 1e-12 or k == 1
+        # what it promises holds: the RMS error of many k-run means from the true distribution meets the target
+        means = truth + rng.normal(0, sd, size=(4000, k)).mean(axis=1)
+        assert np.sqrt(np.mean((means - truth) ** 2)) <= 1.15 * level * truth
+    assert recommend.runs_for(0.0, 1.0, 0.01) is None  # 10 000 runs: beyond MAX_RUNS
+    assert recommend.runs_for(0.02**2, 0.01, 0.01) is None  # a bias above the target

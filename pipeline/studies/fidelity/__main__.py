@@ -92,7 +92,8 @@ def main(argv=None) -> int:
         sweeps.run_local(sweep, args.jobs)
     entries = summaries(rungs)
     result = table.build(entries, extrapolations={axis: entry["extrapolate"] for axis, entry in spec["axes"].items()
-                                                  if "extrapolate" in entry})
+                                                  if "extrapolate" in entry},
+                         node_cores=int(spec.get("node_cores", 32)))
     io.write_json(out / "table.json", result)
     io.write_text(out / "table.csv", csv_text(result["rows"]))
     io.write_text(out / "table.md", table.markdown(result))

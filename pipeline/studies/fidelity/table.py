@@ -5,8 +5,8 @@ standard deviation / sqrt(seeds)); with one seed, that run (its windows' standar
 *shift* is its value minus the reference's, with both errors combined (a run's error is the larger of its
 windows' standard error and the seeds' scatter per run); ``error`` is the relative shift
 of the steady shear stress ratio, the quantity every preset must get right. For the seed axis each
-seed's shift is its scatter about the ensemble: the statistical error of one run. ``precision`` says how
-many runs of the reference setting a target error on a fitted parameter costs, from the seeds' scatter.
+seed's shift is its scatter about the ensemble: the statistical error of one run. ``recommend`` prices a
+target error on each quantity, setting by setting, and names the cheapest.
 """
 
 from __future__ import annotations
@@ -15,9 +15,10 @@ import numpy as np
 
 import model
 
+from .recommend import MAX_RUNS, recommend
+
 STEADY = ("mu", "A_norm", "A_aligned", "phi_central", "phi_gap")
 FITTED = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
-TARGETS = {"C": 0.05, "n": 0.05, "m": 0.10, "b1": 0.10, "b2": 0.10}  # relative precision asked of an ensemble
 
 
 def reference(summaries: list[dict]) -> dict:
@@ -36,18 +37,6 @@ def reference(summaries: list[dict]) -> dict:
         sd = float(np.std(values, ddof=1)) if len(values) > 1 else float("nan")
         out["fit"][name] = {"mean": float(values.mean()), "standard_error": sd / np.sqrt(len(values))}
         out["fit_sd"][name] = sd
-    return out
-
-
-def precision(ref: dict, cpu_hours: float) -> dict:
-    """Runs (and CPU-hours) of the reference setting for the relative precision ``TARGETS`` on each parameter."""
-    out = {}
-    for name, target in TARGETS.items():
-        sd, mean = ref["fit_sd"].get(name), ref["fit"].get(name, {}).get("mean")
-        if sd is None or not np.isfinite(sd) or not mean:
-            continue
-        runs = int(np.ceil((sd / (target * abs(mean))) ** 2))
-        out[name] = {"target": target, "runs": max(runs, 1), "cpu_hours": max(runs, 1) * cpu_hours}
     return out
 
 
@@ -180,20 +169,21 @@ def pareto(rows: list[dict], seed_axis: str = "seed") -> list[int]:
     return front
 
 
-def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | None = None) -> dict:
+def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | None = None,
+          node_cores: int = 32) -> dict:
     """``entries``: (axis, setting label, summary) for every rung with a summary. Rows per angle, the
-    references, the ensemble's precision, the Pareto front of each angle, the small cells against the
-    reference cell and the ``extrapolations`` ({axis: {keys, transform, paper}}) to the paper's values."""
+    references, the cheapest setting for each target error (``recommend``; cluster nodes of
+    ``node_cores``), the Pareto front of each angle, the small cells against the reference cell and the
+    ``extrapolations`` ({axis: {keys, transform, paper}}) to the paper's values."""
     thetas = sorted({s["theta_deg"] for _, _, s in entries}, reverse=True)
-    out = {"references": {}, "precision": {}, "rows": [], "pareto": {}, "ensembles": {}, "extrapolations": {}}
+    out = {"references": {}, "recommendation": {}, "rows": [], "pareto": {}, "ensembles": {}, "extrapolations": {}}
     for theta in thetas:
         at = [(a, label, s) for a, label, s in entries if s["theta_deg"] == theta]
         seeds = {s["folder"]: s for a, _, s in at if a == seed_axis}
         base = list(seeds.values()) or [s for _, _, s in at if not s["overrides"]][:1] or [at[0][2]]
         ref = reference(base)
         out["references"][f"{theta:g}"] = ref
-        cpu = float(np.mean([s["cost"]["cpu_hours"] for s in base]))
-        out["precision"][f"{theta:g}"] = precision(ref, cpu)
+        out["recommendation"][f"{theta:g}"] = recommend(entries, theta, ref, node_cores=node_cores)
         rows = [row(s, a, label, ref) for a, label, s in at]
         out["pareto"][f"{theta:g}"] = [len(out["rows"]) + i for i in pareto(rows)]
         out["rows"] += rows
@@ -235,11 +225,8 @@ def markdown(table: dict) -> str:
                 f"{s['mu']['shift_se']:.4f} | {s['A_norm']['mean']:.4f} | {s['phi_central']['mean']:.3f} | "
                 f"{s['phi_gap']['mean']:.3f} | {r['bulk_over_nominal']:.2f} | {params} | "
                 + (f"{rmse.get('own fit', np.nan):.3f} / {rmse.get('Table 2', np.nan):.3f}" if rmse else "") + " |")
-        prec = table["precision"].get(theta) or {}
-        if prec:
-            lines += ["", "Ensemble cost of a target precision at the reference setting (from the seeds' scatter): "
-                      + "; ".join(f"{n} ±{p['target']:.0%}: {p['runs']} run(s), {p['cpu_hours']:.1f} CPU-h"
-                                  for n, p in prec.items()), ""]
+        if rec := table.get("recommendation", {}).get(theta):
+            lines += recommendation_lines(rec, table.get("extrapolations", {}).get(theta, {}))
         for axis, line in table.get("extrapolations", {}).get(theta, {}).items():
             lines += [f"Extrapolation along `{axis}` to the paper's {line['keys'][0]} = {line['target']:g} "
                       f"(a weighted line in {'1/' if line['transform'] == 'inverse' else ''}{line['keys'][0]}; "
@@ -268,3 +255,41 @@ def markdown(table: dict) -> str:
                              f"{q['error_reference_run']:.3g} | {q['better']} |")
             lines.append("")
     return "\n".join(lines) + "\n"
+
+
+def _cost(c: dict, cores: int) -> str:
+    if not c["runs"]:
+        return f"not met: {c['why']}"
+    return (f"{c['runs']} run(s), {c['cpu_hours']:.1f} CPU-h (wall {c['wall_hours_here']:.1f} h here, "
+            f"{c['wall_hours_node']:.1f} h on {cores} cores)")
+
+
+def recommendation_lines(rec: dict, extrapolations: dict) -> list[str]:
+    """The recommendation as Markdown: per quantity and target, the cheapest setting and the preset's own
+    cost, and how far the reference sits from the paper's setting along each extrapolated axis."""
+    if not rec["quantities"]:
+        return []
+    levels, cores = [f"{x:g}" for x in rec["levels"]], rec["node_cores"]
+    lines = ["", f"**The cheapest setting for a target error** against the reference (expected error "
+             f"sqrt(bias² + its variance + SD²/k) of the mean of k runs, at most {MAX_RUNS}; wall time here "
+             f"with {rec['jobs_here']} runs side by side and on a node of {cores} cores, one run per core at "
+             "this machine's rate). The last column is the reference's distance from the paper's setting where "
+             "the ladder extrapolates: it is not in the errors, and no setting here removes it.", "",
+             "| quantity | reference (SD per run) | " + " | ".join(
+                 f"±{float(x):.0%}: cheapest | ±{float(x):.0%}: the preset" for x in levels)
+             + " | paper's setting − reference |", "|" + "---|" * (3 + 2 * len(levels))]
+    for name, q in rec["quantities"].items():
+        preset = next((c for c in q["candidates"] if c["setting"] == "preset"), None)
+        cells = []
+        for x in levels:
+            best = q["cheapest"][x]
+            cells += [f"`{best['setting']}`: {_cost(best, cores)}" if best else "none",
+                      _cost(preset["levels"][x], cores) if preset else ""]
+        away = "; ".join(
+            f"{axis}: {e['quantities'][name]['at_target'] - q['reference']:+.3g} ± "
+            f"{np.hypot(e['quantities'][name]['at_target_se'], q['reference_se']):.2g}"
+            + (" (untested)" if e["quantities"][name]["chi2_per_dof"] is None else "")
+            for axis, e in extrapolations.items() if name in e["quantities"])
+        lines.append(f"| {name} | {q['reference']:.3g} ± {q['reference_se']:.2g} ({q['sd_per_run']:.2g}) | "
+                     + " | ".join(cells) + f" | {away} |")
+    return [*lines, ""]
