@@ -41,13 +41,16 @@ def kinetic(grains):
 
 
 def contact_energies():
-    """{(id1, id2): (normal, tangential) elastic energy} of the real contacts whose normal force is positive."""
+    """{(id1, id2): (normal, tangential) elastic energy} of the engaged contacts (normal force positive): the
+    springs' own energies, (1/2) k_n u^2 from the elastic part k_n u of the normal force (``phys.Fn``; the
+    force the law applies adds the dashpot's c_n v_n) and (1/2) |F_t|^2 / k_t of the stored, elastic,
+    tangential force."""
     out = {}
     for i in O.interactions:
         ph = i.phys
-        fn2 = ph.normalForce.squaredNorm()
-        if fn2 > 0:
-            out[(i.id1, i.id2)] = (0.5 * fn2 / ph.kn, 0.5 * ph.shearForce.squaredNorm() / ph.ks if ph.ks > 0 else 0.0)
+        if ph.normalForce.squaredNorm() > 0:
+            shear = 0.5 * ph.shearForce.squaredNorm() / ph.ks if ph.ks > 0 else 0.0
+            out[(i.id1, i.id2)] = (0.5 * ph.Fn**2 / ph.kn, shear)
     return out
 
 
@@ -119,7 +122,11 @@ def main():
         after = body_motion()  # the next step's "before"
         n, t, f = dissipation_rates(before, after, held, now)
         normal, tangential, friction = normal + n * dt, tangential + t * dt, friction + f * dt
-        released += sum(sum(e) for key, e in held.items() if key not in now)
+        # a spring gives back only what it took while engaged: the energy it holds when it lets go (opens, or its
+        # force is clipped to zero) is dissipated, less what it held when it engaged (re-engaging after a clip,
+        # a spring holds energy no work put in)
+        released += (sum(sum(e) for key, e in held.items() if key not in now)
+                     - sum(sum(e) for key, e in now.items() if key not in held))
         held, before = now, after
     if run.state["phase"] == "failed":
         sys.stderr.write(f"error: {run.failure}\n")

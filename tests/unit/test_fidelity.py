@@ -14,8 +14,8 @@ from pipeline.studies.fidelity.summary import change_strains, summarize
 def test_the_ladder_is_validated_and_its_preset_run_is_one_run_on_every_axis(tmp_path):
     rungs = ladder.rungs(ladder.load())
     base = [r for r in rungs if not r.spec["overrides"] and r.theta_deg == 180.0]
-    # every axis but the small cells' seeds passes through the preset, always as the same run
-    assert {r.axis for r in base} == set(ladder.load()["axes"]) - {"small_cell_seed"}
+    # every axis but the seeds of other settings passes through the preset, always as the same run
+    assert {r.axis for r in base} == set(ladder.load()["axes"]) - {"small_cell_seed", "dt_safety_seed"}
     assert len({r.relative for r in base}) == 1
     bad = tmp_path / "bad.toml"
     bad.write_text('preset = "reduced"\nthetas = [180.0]\n[axes.x]\nvalues = [{ dt_safety = 0.9 }]\n')
