@@ -2,9 +2,9 @@
 
 ``python -m pipeline.figures.fidelity [--table results/fidelity/table.json]`` writes beside the table
 ``error_vs_cpu.png`` (per angle, the relative shift of the steady shear stress ratio against CPU-hours,
-log-log, one point per setting, error bars from the combined standard errors, the Pareto front joined)
-and ``params_vs_fidelity.png`` (each fitted parameter of the reversal against the inertial number and
-the cell size, with the seeds' ensemble as a band and Table 2 as a line).
+log-log, one point per setting, error bars from the seeds' scatter, the Pareto front joined) and
+``params_vs_fidelity.png`` (the steady stress ratio and each fitted parameter of the reversal against the
+inertial number and the cell size, the table's line carried to the paper's value, and Table 2).
 """
 
 from __future__ import annotations
@@ -17,6 +17,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker  # noqa: E402
+import numpy as np  # noqa: E402
 
 import model  # noqa: E402
 
@@ -24,61 +26,87 @@ from ..cli import Parser, one_line_errors  # noqa: E402
 from ..errors import PipelineError  # noqa: E402
 from .output import save  # noqa: E402
 
-PARAMETERS = ("C", "n", "m", "a1", "b1", "a2", "b2")
-AXES = {"inertial_number": ("inertial_number", "inertial number I", True),
-        "cell": ("width_d", "cell width W / d", False)}
+PARAMETERS = ("mu", "C", "n", "m", "a1", "b1", "a2", "b2")
+AXES = {"inertial_number": ("inertial number I", True), "cell": ("gap H / d", False)}
+TITLES = {"mu": "steady τ12/p"}
 
 
 def error_vs_cpu(table: dict, out: Path) -> Path:
-    thetas = list(table["references"])
-    fig, axes = plt.subplots(1, len(thetas), figsize=(5 * len(thetas), 4), squeeze=False)
+    """Per angle: each setting's |shift| of the steady τ12/p from the reference (its runs' mean; error bars
+    the shift's standard error from the seeds' scatter) against its CPU-hours per run, the Pareto front
+    joined, and one run's scatter at the preset as a line."""
+    thetas = [t for t in table["references"] if "mu" in table["recommendation"][t]["quantities"]]
+    fig, axes = plt.subplots(1, len(thetas), figsize=(6 * len(thetas), 4.5), squeeze=False)
     for ax, theta in zip(axes[0], thetas, strict=True):
-        rows, seen = [], set()
-        for r in table["rows"]:  # each run once: the preset's own run sits on every axis
-            if f"{r['theta_deg']:g}" == theta and (r["folder"], r["name"]) not in seen:
-                seen.add((r["folder"], r["name"]))
-                rows.append(r)
-        for k, axis in enumerate(dict.fromkeys(r["axis"] for r in rows)):
-            mine = [r for r in rows if r["axis"] == axis]
-            x = [r["cost"]["cpu_hours"] for r in mine]
-            y = [max(r["error"], 1e-4) for r in mine]
-            ax.errorbar(x, y, yerr=[r["error_se"] for r in mine], fmt="o", ms=4, color=f"C{k}", label=axis,
-                        capsize=2, lw=0.8)
-        front = [table["rows"][i] for i in table["pareto"][theta]]
-        ax.plot([r["cost"]["cpu_hours"] for r in front], [max(r["error"], 1e-4) for r in front], "k--", lw=0.8,
-                label="Pareto front")
+        mu = table["recommendation"][theta]["quantities"]["mu"]
+        ref = abs(mu["reference"])
+        settings = [c for c in mu["candidates"] if c["setting"] != "preset"]
+        front = table["pareto"][theta]
+        for c in settings:
+            y = max(abs(c["bias"]) / ref, 1e-3)
+            low = min(c["bias_se"] / ref, y - 1e-3)
+            on = c["setting"] in front
+            ax.errorbar(c["cpu_hours_per_run"], y, yerr=[[low], [c["bias_se"] / ref]], fmt="o", ms=4, capsize=2,
+                        lw=0.8, color="C3" if on else "C0")
+            ax.annotate(f"{c['setting']} ({c['runs_measured']})", (c["cpu_hours_per_run"], y), fontsize=5,
+                        xytext=(3, 2), textcoords="offset points")
+        line = sorted((c["cpu_hours_per_run"], max(abs(c["bias"]) / ref, 1e-3)) for c in settings
+                      if c["setting"] in front)
+        if line:
+            ax.plot([x for x, _ in line], [y for _, y in line], "--", color="C3", lw=0.8, label="Pareto front")
+        preset = next(c for c in mu["candidates"] if c["setting"] == "preset")
+        ax.axhline(preset["sd_per_run"] / ref, color="k", ls=":", lw=0.8,
+                   label=f"one preset run's scatter ({preset['cpu_hours_per_run']:.2f} CPU-h)")
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("CPU-hours (one thread)")
+        ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+        ax.xaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.set_xlabel("CPU-hours per run (one thread)")
         ax.set_ylabel("|shift of steady τ12/p| / reference")
-        ax.set_title(f"θ = {theta}°", fontsize=9)
-        ax.legend(fontsize=6)
+        ax.set_title(f"θ = {theta}°: settings (runs), against the preset's seeds", fontsize=9)
+        ax.legend(fontsize=6, loc="lower right")
     return save(fig, out)
 
 
 def params_vs_fidelity(table: dict, out: Path) -> Path:
-    rows = [r for r in table["rows"] if r["theta_deg"] == 180.0 and r["fit"]]
-    ref = table["references"].get("180", {}).get("fit", {})
-    fig, axes = plt.subplots(len(AXES), len(PARAMETERS), figsize=(2.3 * len(PARAMETERS), 2.4 * len(AXES)),
+    """Per extrapolated axis at θ = 180°: each quantity's values (runs at one setting pooled, errors from the
+    seeds' scatter), the fitted line carried to the paper's value with its extrapolation, and Table 2."""
+    lines = table.get("extrapolations", {}).get("180", {})
+    axes_shown = [a for a in AXES if a in lines]
+    if not axes_shown:
+        raise PipelineError("no axis with two or more values at θ = 180° yet: nothing to draw")
+    fig, axes = plt.subplots(len(axes_shown), len(PARAMETERS), figsize=(2.3 * len(PARAMETERS), 2.5 * len(axes_shown)),
                              squeeze=False)
-    for row_axes, (axis, (key, label, log)) in zip(axes, AXES.items(), strict=True):
-        mine = [r for r in rows if r["axis"] == axis]
+    for row_axes, axis in zip(axes, axes_shown, strict=True):
+        label, log = AXES[axis]
+        line = lines[axis]
+        f = (lambda x: 1.0 / x) if line["transform"] == "inverse" else (lambda x: x)
         for ax, name in zip(row_axes, PARAMETERS, strict=True):
-            x = [float(r["setting"].split(f"{key}=")[1].split()[0]) for r in mine]
-            y = [r["fit"][name] for r in mine]
-            err = [(r["fit_se"] or {}).get(name) or 0.0 for r in mine]
-            ax.errorbar(x, y, yerr=err, fmt="o", ms=4, capsize=2, lw=0.8)
-            if name in ref:
-                mean, se = ref[name]["mean"], ref[name]["standard_error"]
-                ax.axhspan(mean - se, mean + se, color="C1", alpha=0.3, lw=0, label="seeds ± s.e.")
-            ax.axhline(getattr(model.PAPER, name), color="k", ls="--", lw=0.8, label="Table 2")
+            q = line["quantities"].get(name)
+            if q:
+                x = [p["x"] for p in q["points"]]
+                ax.errorbar(x, [p["mean"] for p in q["points"]], yerr=[p["standard_error"] for p in q["points"]],
+                            fmt="o", ms=4, capsize=2, lw=0.8, label="runs (pooled per value)")
+                grid = np.geomspace(min(*x, line["target"]), max(*x, line["target"]), 50)
+                ax.plot(grid, q["intercept"] + q["slope"] * f(grid), "-", color="C0", lw=0.6)
+                untested = q["chi2_per_dof"] is None
+                ax.errorbar([line["target"]], [q["at_target"]], yerr=[q["at_target_se"]], fmt="s", ms=4, capsize=2,
+                            lw=0.8, color="C3", mfc="none" if untested else "C3",
+                            label="at the paper's value" + (" (two values: untested)" if untested else ""))
+            if hasattr(model.PAPER, name):
+                ax.axhline(getattr(model.PAPER, name), color="k", ls="--", lw=0.8, label="Table 2")
             if log:
                 ax.set_xscale("log")
+                ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+                ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+                ax.set_xticks(sorted({*(p["x"] for p in (q or {"points": []})["points"]), line["target"]}))
             ax.set_xlabel(label, fontsize=7)
-            ax.set_title(name, fontsize=8)
+            ax.set_title(TITLES.get(name, name), fontsize=8)
             ax.tick_params(labelsize=6)
-    axes[0, 0].legend(fontsize=6)
-    fig.suptitle("Reversal: each run's own global fit against the DEM setting", fontsize=9)
+        row_axes[0].legend(fontsize=5)
+    fig.suptitle("Reversal: each quantity against the DEM setting, its line carried to the paper's value",
+                 fontsize=9)
     return save(fig, out)
 
 

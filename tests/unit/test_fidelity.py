@@ -73,6 +73,7 @@ def test_the_table_recovers_a_known_bias_against_the_seeds_noise_and_prices_a_pr
     seeds = [("seed", f"seed={k}", _summary(f"s{k}", 0.38 + rng.normal(0, 0.01), C=-5.6 + rng.normal(0, 0.3)))
              for k in range(12)]
     biased = ("inertial_number", "inertial_number=0.003", _summary("hi", 0.42, cpu=0.2))
+    biased[2]["overrides"] = {"inertial_number": 3e-3}
     result = table.build([*seeds, biased])
     ref = result["references"]["180"]
     assert ref["runs"] == 12 and ref["steady"]["mu"]["standard_error"] == pytest.approx(0.01 / np.sqrt(12), rel=0.4)
@@ -84,7 +85,10 @@ def test_the_table_recovers_a_known_bias_against_the_seeds_noise_and_prices_a_pr
     preset = result["recommendation"]["180"]["quantities"]["C"]["candidates"][0]
     assert preset["setting"] == "preset"  # (0.3 / (0.05 * 5.6))^2 = 1.1 -> about 1-3 runs
     assert 1 <= preset["levels"]["0.05"]["runs"] <= 4
-    assert [result["rows"][i]["axis"] for i in result["pareto"]["180"]] == ["inertial_number"]
+    assert result["pareto"]["180"] == ["inertial_number=0.003"]  # alone, it is on the front
+    cheaper = ("inertial_number", "", {**_summary("lo", 0.39, cpu=0.1), "overrides": {"inertial_number": 5e-4}})
+    front = table.build([*seeds, biased, cheaper])["pareto"]["180"]
+    assert front == ["inertial_number=0.0005"]  # cheaper and nearer: it alone is on the front
 
 
 def test_stability_cases_are_distinct_runs_and_only_the_unchecked_ones_pass_the_bounds():

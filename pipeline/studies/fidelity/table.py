@@ -156,16 +156,17 @@ def extrapolate(entries: list[tuple], theta: float, keys: list[str], transform: 
     return out
 
 
-def pareto(rows: list[dict], seed_axis: str = "seed") -> list[int]:
-    """Indices of the settings no other beats in both CPU time and error (the Pareto front), cheapest first;
-    the seeds are replicates of one setting, not settings, and stay out."""
-    order = sorted((i for i, r in enumerate(rows) if r["axis"] != seed_axis),
-                   key=lambda i: (rows[i]["cost"]["cpu_hours"], rows[i]["error"]))
+def pareto(candidates: list[dict]) -> list[str]:
+    """The settings no other beats in both CPU time per run and |bias| of the steady τ12/p (the Pareto
+    front), cheapest first; ``candidates`` are ``recommend``'s for μ, the preset (no bias by definition)
+    left out."""
+    order = sorted((c for c in candidates if c["setting"] != "preset"),
+                   key=lambda c: (c["cpu_hours_per_run"], abs(c["bias"])))
     front, best = [], np.inf
-    for i in order:
-        if rows[i]["error"] < best:
-            front.append(i)
-            best = rows[i]["error"]
+    for c in order:
+        if abs(c["bias"]) < best:
+            front.append(c["setting"])
+            best = abs(c["bias"])
     return front
 
 
@@ -173,7 +174,7 @@ def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | 
           node_cores: int = 32) -> dict:
     """``entries``: (axis, setting label, summary) for every rung with a summary. Rows per angle, the
     references, the cheapest setting for each target error (``recommend``; cluster nodes of
-    ``node_cores``), the Pareto front of each angle, the small cells against the reference cell and the
+    ``node_cores``), the Pareto front of the settings at each angle, the small cells against the reference cell and the
     ``extrapolations`` ({axis: {keys, transform, paper}}) to the paper's values."""
     thetas = sorted({s["theta_deg"] for _, _, s in entries}, reverse=True)
     out = {"references": {}, "recommendation": {}, "rows": [], "pareto": {}, "ensembles": {}, "extrapolations": {}}
@@ -184,9 +185,9 @@ def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | 
         ref = reference(base)
         out["references"][f"{theta:g}"] = ref
         out["recommendation"][f"{theta:g}"] = recommend(entries, theta, ref, node_cores=node_cores)
-        rows = [row(s, a, label, ref) for a, label, s in at]
-        out["pareto"][f"{theta:g}"] = [len(out["rows"]) + i for i in pareto(rows)]
-        out["rows"] += rows
+        out["rows"] += [row(s, a, label, ref) for a, label, s in at]
+        mu = out["recommendation"][f"{theta:g}"]["quantities"].get("mu")
+        out["pareto"][f"{theta:g}"] = pareto(mu["candidates"]) if mu else []
         if ensemble := ensemble_against_larger(entries, theta):
             out["ensembles"][f"{theta:g}"] = ensemble
         ref_sd = {"mu": ref["steady"]["mu"].get("sd_per_run"), **ref["fit_sd"]}
