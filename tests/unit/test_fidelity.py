@@ -178,3 +178,32 @@ def test_the_recommendation_prices_a_target_error_and_an_ensemble_of_that_size_m
         assert np.sqrt(np.mean((means - truth) ** 2)) <= 1.15 * level * truth
     assert recommend.runs_for(0.0, 1.0, 0.01) is None  # 10 000 runs: beyond MAX_RUNS
     assert recommend.runs_for(0.02**2, 0.01, 0.01) is None  # a bias above the target
+
+
+def test_the_combinations_a_reversal_fixes_are_found_and_compared_with_table_2():
+    from pipeline.studies.fidelity import combinations
+
+    rng = np.random.default_rng(4)
+    seeds = []
+    for k in range(12):  # a1 and a2 scale together by up to 2x (a loose product); their ratio is fixed to 1 %
+        s = _summary(f"r{k}", 0.38)
+        loose, tight = rng.normal(0, 0.5), rng.normal(0, 0.01)
+        values = s["fit"]["values"]
+        values["a1"] *= np.exp(loose - tight)
+        values["a2"] *= 1.1 * np.exp(loose + tight)  # our ratio a2/a1: 10 % above Table 2's
+        for n in ("C", "n", "b1", "b2", "m"):
+            values[n] *= np.exp(rng.normal(0, 0.1))
+        seeds.append(("seed", "", s))
+    found = combinations.find([s for *_, s in seeds], ("C", "n", "a1", "b1", "a2", "b2", "m"))
+    assert "m" in found["names"]  # one sign over the seeds (about Table 2's -0.6 in every made-up fit)
+    assert combinations.find([s for *_, s in seeds], ("a1", "a2", "phi_c"))["names"] == ["a1", "a2"]  # held
+    best = found["combinations"][0]
+    v = best["direction"]
+    assert abs(v["a2"]) == pytest.approx(abs(v["a1"]), rel=0.1) and v["a2"] * v["a1"] < 0 and abs(v["a2"]) > 0.6
+    assert best["in_sample_sd"] <= best["sd_per_run"] < 0.05  # out of sample: never tighter than in sample
+    # the product's ratio to Table 2: (a2 / a1)^0.707 of 1.1, against the seeds' error
+    assert np.exp(best["mean"] - best["table2"]) == pytest.approx(1.1 ** abs(v["a2"]), abs=3 * best["standard_error"])
+    assert found["combinations"][-1]["sd_per_run"] > 0.3  # the loose product comes last
+    table_ = table.build(seeds)
+    assert table_["combinations"]["180"]["seeds"] == 12
+    assert combinations.find([s for *_, s in seeds][:4], ("a1", "a2")) == {}  # too few seeds to say

@@ -15,6 +15,8 @@ import numpy as np
 
 import model
 
+from ...calibration.identifiability import combination
+from . import combinations
 from .recommend import MAX_RUNS, recommend
 
 STEADY = ("mu", "A_norm", "A_aligned", "phi_central", "phi_gap")
@@ -106,7 +108,7 @@ TRANSFORMS = {"linear": lambda x: x, "inverse": lambda x: 1.0 / x}
 
 
 def extrapolate(entries: list[tuple], theta: float, keys: list[str], transform: str, target: float,
-                ref_sd: dict) -> dict:
+                ref_sd: dict, names: tuple[str, ...] = ("mu", *FITTED)) -> dict:
     """A weighted straight line through the runs that differ from the preset only in ``keys`` (and the seed),
     in f(x) of the first key (``transform``: linear or inverse, e.g. a bias linear in 1/H), evaluated at
     the paper's value ``target``: for μ and each fitted parameter, the points (runs at one x pooled: their
@@ -122,7 +124,7 @@ def extrapolate(entries: list[tuple], theta: float, keys: list[str], transform: 
     if len(by_x) < 2:
         return {}
     out = {"keys": keys, "transform": transform, "target": target, "quantities": {}}
-    for name in ("mu", *FITTED):
+    for name in names:
         xs, ys, ses, ns = [], [], [], []
         for x, group in sorted(by_x.items()):
             if name == "mu":
@@ -170,6 +172,24 @@ def pareto(candidates: list[dict]) -> list[str]:
     return front
 
 
+def combo_name(k: int) -> str:
+    return f"K{k + 1}"
+
+
+def with_combinations(entries: list[tuple], found: dict) -> list[tuple]:
+    """``entries`` with each run's fit extended by the ln of each combination (``K1``, ``K2``, ...)."""
+    if not found:
+        return entries
+    out = []
+    for axis, label, s in entries:
+        fit = s.get("fit") or {}
+        if fit.get("values"):
+            extra = {combo_name(k): combinations.value(s, c) for k, c in enumerate(found["combinations"])}
+            fit = {**fit, "values": {**fit["values"], **{k: v for k, v in extra.items() if v is not None}}}
+        out.append((axis, label, {**s, "fit": fit}))
+    return out
+
+
 def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | None = None,
           node_cores: int = 32) -> dict:
     """``entries``: (axis, setting label, summary) for every rung with a summary. Rows per angle, the
@@ -177,7 +197,8 @@ def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | 
     ``node_cores``), the Pareto front of the settings at each angle, the small cells against the reference cell and the
     ``extrapolations`` ({axis: {keys, transform, paper}}) to the paper's values."""
     thetas = sorted({s["theta_deg"] for _, _, s in entries}, reverse=True)
-    out = {"references": {}, "recommendation": {}, "rows": [], "pareto": {}, "ensembles": {}, "extrapolations": {}}
+    out = {"references": {}, "recommendation": {}, "rows": [], "pareto": {}, "ensembles": {}, "extrapolations": {},
+           "combinations": {}}
     for theta in thetas:
         at = [(a, label, s) for a, label, s in entries if s["theta_deg"] == theta]
         seeds = {s["folder"]: s for a, _, s in at if a == seed_axis}
@@ -191,8 +212,14 @@ def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | 
         if ensemble := ensemble_against_larger(entries, theta):
             out["ensembles"][f"{theta:g}"] = ensemble
         ref_sd = {"mu": ref["steady"]["mu"].get("sd_per_run"), **ref["fit_sd"]}
+        found = combinations.find(base, FITTED)
+        tagged = with_combinations(entries, found)
+        names = ("mu", *FITTED, *(combo_name(k) for k in range(len(found.get("combinations", [])))))
+        if found:
+            out["combinations"][f"{theta:g}"] = found
+            ref_sd.update({combo_name(k): c["sd_per_run"] for k, c in enumerate(found["combinations"])})
         for axis, how in (extrapolations or {}).items():
-            if line := extrapolate(entries, theta, how["keys"], how["transform"], how["paper"], ref_sd):
+            if line := extrapolate(tagged, theta, how["keys"], how["transform"], how["paper"], ref_sd, names):
                 out["extrapolations"].setdefault(f"{theta:g}", {})[axis] = line
     return out
 
@@ -235,6 +262,8 @@ def markdown(table: dict) -> str:
                       "| quantity | points (value: mean ± se, runs) | slope | at the paper's value | χ²/dof | "
                       "Table 2 |", "|---|---|---|---|---|---|"]
             for name, q in line["quantities"].items():
+                if name not in ("mu", *FITTED):
+                    continue  # the combinations have a table of their own
                 pts = "; ".join(f"{p['x']:g}: {p['mean']:.3g} ± {p['standard_error']:.2g} ({p['runs']})"
                                 for p in q["points"])
                 chi = f"{q['chi2_per_dof']:.2f}" if q["chi2_per_dof"] is not None else "— (two values: untested)"
@@ -242,6 +271,8 @@ def markdown(table: dict) -> str:
                 lines.append(f"| {name} | {pts} | {q['slope']:+.3g} | {q['at_target']:.3g} ± {q['at_target_se']:.2g} "
                              f"| {chi} | {paper} |")
             lines.append("")
+        if found := table.get("combinations", {}).get(theta):
+            lines += combination_lines(found, table.get("extrapolations", {}).get(theta, {}))
         ens = table.get("ensembles", {}).get(theta)
         if ens:
             lines += [f"Small cells against the reference cell at equal CPU time: {ens['small_runs']} seeds of "
@@ -293,4 +324,28 @@ def recommendation_lines(rec: dict, extrapolations: dict) -> list[str]:
             for axis, e in extrapolations.items() if name in e["quantities"])
         lines.append(f"| {name} | {q['reference']:.3g} ± {q['reference_se']:.2g} ({q['sd_per_run']:.2g}) | "
                      + " | ".join(cells) + f" | {away} |")
+    return [*lines, ""]
+
+
+def combination_lines(found: dict, extrapolations: dict) -> list[str]:
+    """What one reversal fixes, as Markdown: each combination's scatter per run, the reference's value and
+    where each extrapolation carries it, as ratios to Table 2's value of the same product."""
+    def ratio(log_value: float, log_se: float, paper: float) -> str:
+        return f"{np.exp(log_value - paper) - 1:+.0%} ± {log_se:.0%}"
+
+    lines = [f"**What one reversal fixes**: products ∏|θ|^v of the fitted parameters of one sign, the "
+             f"eigen-directions of the {found['seeds']} seeds' scatter in ln|θ|, best fixed first (scatter per run "
+             "measured out of sample, leaving each seed out; in-sample beside it). Each value is a ratio to "
+             "Table 2's value of the same product, − 1.", "",
+             "| combination | scatter per run (in sample) | reference / Table 2 − 1 | " + " | ".join(
+                 f"along {axis}, at {e['keys'][0]} = {e['target']:g}" for axis, e in extrapolations.items()) + " |",
+             "|" + "---|" * (3 + len(extrapolations))]
+    for k, c in enumerate(found["combinations"]):
+        cells = []
+        for e in extrapolations.values():
+            q = e["quantities"].get(combo_name(k))
+            cells.append("" if not q else ratio(q["at_target"], q["at_target_se"], c["table2"])
+                         + (" (untested)" if q["chi2_per_dof"] is None else ""))
+        lines.append(f"| {combination(c['direction'])} | {c['sd_per_run']:.1%} ({c['in_sample_sd']:.1%}) | "
+                     f"{ratio(c['mean'], c['standard_error'], c['table2'])} | " + " | ".join(cells) + " |")
     return [*lines, ""]
