@@ -204,6 +204,37 @@ def test_the_combinations_a_reversal_fixes_are_found_and_compared_with_table_2()
     # the product's ratio to Table 2: (a2 / a1)^0.707 of 1.1, against the seeds' error
     assert np.exp(best["mean"] - best["table2"]) == pytest.approx(1.1 ** abs(v["a2"]), abs=3 * best["standard_error"])
     assert found["combinations"][-1]["sd_per_run"] > 0.3  # the loose product comes last
+    for *_, s in seeds[:8]:  # refitted in the paper's definitions: a2 another 10 % up there
+        paper_fit = {**s["fit"]["values"], "a2": 1.1 * s["fit"]["values"]["a2"]}
+        s["fit_paper_definitions"] = {**s["fit"], "values": paper_fit}
     table_ = table.build(seeds)
     assert table_["combinations"]["180"]["seeds"] == 12
+    paper = table_["paper_definitions"]["180"]
+    assert paper["seeds"] == 8 and paper["reference"]["fit"]["a2"]["mean"] == pytest.approx(
+        1.1 * np.mean([s["fit"]["values"]["a2"] for *_, s in seeds[:8]]))
+    assert "In the paper's definitions" in table.markdown(table_)
     assert combinations.find([s for *_, s in seeds][:4], ("a1", "a2")) == {}  # too few seeds to say
+
+
+def test_an_older_summary_is_redone_where_its_run_is_at_hand_and_kept_where_it_is_not(tmp_path):
+    import shutil
+
+    from helpers import synthetic_file
+
+    from pipeline.studies.fidelity.__main__ import summaries
+    from pipeline.studies.fidelity.summary import VERSION
+
+    rungs = ladder.rungs(ladder.load())
+    here, gone = rungs[0], next(r for r in rungs if r.relative != rungs[0].relative)
+    summary_dir, root = tmp_path / "summaries", tmp_path / "runs"
+    for rung in (here, gone):
+        path = ladder.summary_path(rung, summary_dir)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps({**_summary("old", 0.4), "schema_version": VERSION - 1, "marker": 1}))
+    (root / here.relative).parent.mkdir(parents=True)
+    shutil.copy(synthetic_file(tmp_path, n_cycles=2, noise=0.002, seed=5), root / here.relative)
+    entries = summaries([here, gone], summary_dir, roots=(root,))
+    redone, kept = entries[0][2], entries[1][2]
+    assert redone["schema_version"] == VERSION and "marker" not in redone and redone["fit_paper_definitions"]
+    assert json.loads(ladder.summary_path(here, summary_dir).read_text())["schema_version"] == VERSION
+    assert kept["marker"] == 1  # its run is not here: the older summary still counts

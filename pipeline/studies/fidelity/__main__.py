@@ -24,28 +24,37 @@ from ...dataset.dem_file import load
 from ...paths import RESULTS_DIR
 from ...runs import sweep as sweeps
 from . import ladder, table
-from .summary import summarize
+from .summary import VERSION, summarize
 
 OUT_DIR = RESULTS_DIR / "fidelity"
 
 
-def summaries(rungs: list, summary_dir: Path = ladder.SUMMARY_DIR) -> list[tuple]:
-    """(axis, setting, summary) for every rung that has a summary or a DEM file; new summaries are written."""
+def _current(path: Path) -> dict | None:
+    """The summary at ``path`` if there is one of this version (an older one is redone where its run is)."""
+    if not path.exists():
+        return None
+    found = json.loads(path.read_text())
+    return found if found.get("schema_version") == VERSION else None
+
+
+def summaries(rungs: list, summary_dir: Path = ladder.SUMMARY_DIR, roots: tuple = ladder.DATA_ROOTS) -> list[tuple]:
+    """(axis, setting, summary) for every rung that has a summary or a DEM file; new summaries are written,
+    and a summary of an older version is written anew where the run's DEM file is at hand (else kept)."""
     cache, entries, tic = {}, [], time.time()
-    todo = [r for r in rungs if not ladder.summary_path(r, summary_dir).exists() and ladder.dem_file(r)]
+    todo = {r.relative for r in rungs
+            if _current(ladder.summary_path(r, summary_dir)) is None and ladder.dem_file(r, roots)}
     done = 0
     for r in rungs:
         path = ladder.summary_path(r, summary_dir)
         if r.relative not in cache:
-            if path.exists():
+            if r.relative not in todo and path.exists():
                 cache[r.relative] = json.loads(path.read_text())
-            elif (dem := ladder.dem_file(r)) is not None:
+            elif (dem := ladder.dem_file(r, roots)) is not None:
                 cache[r.relative] = summarize(load(dem))
                 io.write_json(path, cache[r.relative])
                 done += 1
                 rate = done / (time.time() - tic)
-                print(f"summarised {r.relative} ({done}/{len({t.relative for t in todo})}, {rate:.2f} runs/s)",
-                      flush=True)
+                print(f"summarised {r.relative} ({done}/{len(todo)}, {rate:.2f} runs/s)", flush=True)
             else:
                 continue
         entries.append((r.axis, r.label, cache[r.relative]))

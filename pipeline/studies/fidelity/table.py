@@ -198,7 +198,7 @@ def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | 
     ``extrapolations`` ({axis: {keys, transform, paper}}) to the paper's values."""
     thetas = sorted({s["theta_deg"] for _, _, s in entries}, reverse=True)
     out = {"references": {}, "recommendation": {}, "rows": [], "pareto": {}, "ensembles": {}, "extrapolations": {},
-           "combinations": {}}
+           "combinations": {}, "paper_definitions": {}}
     for theta in thetas:
         at = [(a, label, s) for a, label, s in entries if s["theta_deg"] == theta]
         seeds = {s["folder"]: s for a, _, s in at if a == seed_axis}
@@ -212,6 +212,9 @@ def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | 
         if ensemble := ensemble_against_larger(entries, theta):
             out["ensembles"][f"{theta:g}"] = ensemble
         ref_sd = {"mu": ref["steady"]["mu"].get("sd_per_run"), **ref["fit_sd"]}
+        in_paper_terms = [{**s, "fit": s["fit_paper_definitions"]} for s in base if s.get("fit_paper_definitions")]
+        if found_paper := combinations.find(in_paper_terms, FITTED):
+            out["paper_definitions"][f"{theta:g}"] = {"reference": reference(in_paper_terms), **found_paper}
         found = combinations.find(base, FITTED)
         tagged = with_combinations(entries, found)
         names = ("mu", *FITTED, *(combo_name(k) for k in range(len(found.get("combinations", [])))))
@@ -273,6 +276,8 @@ def markdown(table: dict) -> str:
             lines.append("")
         if found := table.get("combinations", {}).get(theta):
             lines += combination_lines(found, table.get("extrapolations", {}).get(theta, {}))
+        if paper := table.get("paper_definitions", {}).get(theta):
+            lines += paper_definition_lines(paper)
         ens = table.get("ensembles", {}).get(theta)
         if ens:
             lines += [f"Small cells against the reference cell at equal CPU time: {ens['small_runs']} seeds of "
@@ -331,14 +336,14 @@ def combination_lines(found: dict, extrapolations: dict) -> list[str]:
     """What one reversal fixes, as Markdown: each combination's scatter per run, the reference's value and
     where each extrapolation carries it, as ratios to Table 2's value of the same product."""
     def ratio(log_value: float, log_se: float, paper: float) -> str:
-        return f"{np.exp(log_value - paper) - 1:+.0%} ± {log_se:.0%}"
+        return f"×{np.exp(log_value - paper):.2f} ± {log_se:.0%}"
 
     lines = [f"**What one reversal fixes**: products ∏|θ|^v of the fitted parameters of one sign, the "
              f"eigen-directions of the {found['seeds']} seeds' scatter in ln|θ|, best fixed first (scatter per run "
-             "measured out of sample, leaving each seed out; in-sample beside it). Each value is a ratio to "
-             "Table 2's value of the same product, − 1.", "",
-             "| combination | scatter per run (in sample) | reference / Table 2 − 1 | " + " | ".join(
-                 f"along {axis}, at {e['keys'][0]} = {e['target']:g}" for axis, e in extrapolations.items()) + " |",
+             "measured out of sample, leaving each seed out; in-sample beside it). Each value is our product "
+             "over Table 2's value of it (± the relative standard error).", "",
+             "| combination | scatter per run (in sample) | reference / Table 2 |" + "".join(
+                 f" along {axis}, at {e['keys'][0]} = {e['target']:g} |" for axis, e in extrapolations.items()),
              "|" + "---|" * (3 + len(extrapolations))]
     for k, c in enumerate(found["combinations"]):
         cells = []
@@ -347,5 +352,22 @@ def combination_lines(found: dict, extrapolations: dict) -> list[str]:
             cells.append("" if not q else ratio(q["at_target"], q["at_target_se"], c["table2"])
                          + (" (untested)" if q["chi2_per_dof"] is None else ""))
         lines.append(f"| {combination(c['direction'])} | {c['sd_per_run']:.1%} ({c['in_sample_sd']:.1%}) | "
-                     f"{ratio(c['mean'], c['standard_error'], c['table2'])} | " + " | ".join(cells) + " |")
+                     f"{ratio(c['mean'], c['standard_error'], c['table2'])} |" + "".join(f" {x} |" for x in cells))
     return [*lines, ""]
+
+
+def paper_definition_lines(paper: dict) -> list[str]:
+    """The reference seeds' fits in the definitions the paper's numbers match, against Table 2: each
+    parameter, then the combinations."""
+    fit = paper["reference"]["fit"]
+    lines = [f"**In the paper's definitions** (nominal strain, Φ of the gap; the same {paper['seeds']} seeds "
+             "refitted): each parameter's ensemble mean against Table 2, in the seeds' standard errors, then "
+             "the products the seeds' fits fix in these terms.", "",
+             "| | " + " | ".join(fit) + " |", "|" + "---|" * (len(fit) + 1),
+             "| seeds' mean ± se | " + " | ".join(f"{q['mean']:.3g} ± {q['standard_error']:.2g}"
+                                                    for q in fit.values()) + " |",
+             "| Table 2 | " + " | ".join(f"{getattr(model.PAPER, n):.3g}" for n in fit) + " |",
+             "| (mean − Table 2) / se | " + " | ".join(
+                 f"{(q['mean'] - getattr(model.PAPER, n)) / q['standard_error']:+.1f}" if q["standard_error"] > 0
+                 else "" for n, q in fit.items()) + " |", ""]
+    return lines + combination_lines(paper, {})[2:]
