@@ -40,15 +40,15 @@ def _current(path: Path) -> dict | None:
 def summaries(rungs: list, summary_dir: Path = ladder.SUMMARY_DIR, roots: tuple = ladder.DATA_ROOTS) -> list[tuple]:
     """(axis, setting, summary) for every rung that has a summary or a DEM file; new summaries are written,
     and a summary of an older version is written anew where the run's DEM file is at hand (else kept)."""
-    cache, entries, tic = {}, [], time.time()
-    todo = {r.relative for r in rungs
-            if _current(ladder.summary_path(r, summary_dir)) is None and ladder.dem_file(r, roots)}
+    entries, tic = [], time.time()
+    cache = {r.relative: found for r in rungs if (found := _current(ladder.summary_path(r, summary_dir)))}
+    todo = {r.relative for r in rungs if r.relative not in cache and ladder.dem_file(r, roots)}
     done = 0
     for r in rungs:
         path = ladder.summary_path(r, summary_dir)
         if r.relative not in cache:
             if r.relative not in todo and path.exists():
-                cache[r.relative] = json.loads(path.read_text())
+                cache[r.relative] = json.loads(path.read_text())  # an older version, its run not at hand
             elif (dem := ladder.dem_file(r, roots)) is not None:
                 cache[r.relative] = summarize(load(dem))
                 io.write_json(path, cache[r.relative])

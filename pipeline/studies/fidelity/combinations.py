@@ -38,12 +38,12 @@ def find(seeds: list[dict], candidates: tuple[str, ...]) -> dict:
     if len(seeds) < MIN_SEEDS or not names:
         return {}
     values = _fits(seeds, names)
-    names = [n for k, n in enumerate(names)  # of one sign, and moved by the seeds (a held parameter is not)
-             if (np.all(values[:, k] > 0) or np.all(values[:, k] < 0)) and np.ptp(values[:, k]) > 0]
-    if len(names) < 2:
+    keep = [k for k in range(len(names))  # of one sign, and moved by the seeds (a held parameter is not)
+            if (np.all(values[:, k] > 0) or np.all(values[:, k] < 0)) and np.ptp(values[:, k]) > 0]
+    if len(keep) < 2:
         return {}
-    values = _fits(seeds, names)
-    logs = np.log(np.abs(values))
+    names = [names[k] for k in keep]
+    logs = np.log(np.abs(values[:, keep]))
     full = _directions(logs)
     out_of_sample = np.zeros((len(seeds), len(names)))
     for i in range(len(seeds)):

@@ -37,7 +37,8 @@ def settings(entries: list[tuple], theta: float) -> dict[str, list[dict]]:
     return {k: list(v.values()) for k, v in groups.items()}
 
 
-def _values(runs: list[dict], name: str) -> np.ndarray:
+def values_of(runs: list[dict], name: str) -> np.ndarray:
+    """The steady τ12/p (``mu``) or a fitted parameter of each run that has it."""
     if name == "mu":
         return np.array([s["steady"]["mu"]["mean"] for s in runs])
     return np.array([s["fit"]["values"][name] for s in runs if (s.get("fit") or {}).get("values", {}).get(name)
@@ -70,7 +71,7 @@ def recommend(entries: list[tuple], theta: float, ref: dict, jobs_here: int = 2,
         truth, truth_se = ref_q["mean"], ref_q["standard_error"]
         candidates = []
         for key, runs in groups.items():
-            vals = _values(runs, name)
+            vals = values_of(runs, name)
             if len(vals) == 0:
                 continue
             sd = float(np.std(vals, ddof=1)) if len(vals) >= 3 and key != "preset" else ref_sd

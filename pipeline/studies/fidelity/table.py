@@ -17,7 +17,7 @@ import model
 
 from ...calibration.identifiability import combination
 from . import combinations
-from .recommend import MAX_RUNS, recommend
+from .recommend import MAX_RUNS, recommend, values_of
 
 STEADY = ("mu", "A_norm", "A_aligned", "phi_central", "phi_gap")
 FITTED = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
@@ -83,15 +83,10 @@ def ensemble_against_larger(entries: list[tuple], theta: float, small_axis: str 
     cpu_ref = float(np.mean([s["cost"]["cpu_hours"] for s in ref]))
     k = cpu_ref / cpu_small
 
-    def values(runs, name):
-        if name == "mu":
-            return np.array([s["steady"]["mu"]["mean"] for s in runs])
-        return np.array([s["fit"]["values"][name] for s in runs if s.get("fit") and name in s["fit"].get("values", {})])
-
     out = {"small_runs": len(small), "reference_runs": len(ref), "cpu_hours_small": cpu_small,
            "cpu_hours_reference": cpu_ref, "small_runs_per_reference_run": k, "quantities": {}}
     for name in ("mu", *FITTED):
-        a, b = values(small, name), values(ref, name)
+        a, b = values_of(small, name), values_of(ref, name)
         if len(a) < 2 or len(b) < 2:
             continue
         sd_a, sd_b = float(np.std(a, ddof=1)), float(np.std(b, ddof=1))
