@@ -24,17 +24,18 @@ def sample_problem(row, grain_ids, grain_pos, grain_vel, walls, gap0):
     return None
 
 
-def stress_alarm(error_mean, samples_off, spec):
-    """``(samples_off, problem)``: count the consecutive samples whose mean wall-stress error exceeds
-    ``stress_alarm``; a problem once they span ``stress_alarm_strain``, or at once when one sample's
-    mean is off by more than twice ``stress_alarm`` (a wall that the grains no longer hold)."""
+def stress_alarm(error_mean, strain_off, interval, spec):
+    """``(strain_off, problem)``: add up the strain of consecutive samples (each ``interval`` since the one
+    before) whose mean wall-stress error exceeds ``stress_alarm``; a problem once they span
+    ``stress_alarm_strain``, or at once when one sample's mean is off by more than twice ``stress_alarm``
+    (a wall that the grains no longer hold)."""
     if abs(error_mean) <= spec["stress_alarm"]:
-        return 0, None
-    samples_off += 1
+        return 0.0, None
+    strain_off += interval
     if abs(error_mean) > 2 * spec["stress_alarm"]:
-        return samples_off, (f"wall normal stress off target by {error_mean:+.0%} over one sample (more than twice "
-                             f"the alarm level, {spec['stress_alarm']:.0%})")
-    if samples_off * spec["sample_strain"] >= spec["stress_alarm_strain"]:
-        return samples_off, (f"wall normal stress off target by {error_mean:+.0%} for {spec['stress_alarm_strain']} "
-                             "strain")
-    return samples_off, None
+        return strain_off, (f"wall normal stress off target by {error_mean:+.0%} over one sample (more than twice "
+                            f"the alarm level, {spec['stress_alarm']:.0%})")
+    if strain_off >= spec["stress_alarm_strain"] - 1e-9:
+        return strain_off, (f"wall normal stress off target by {error_mean:+.0%} for {spec['stress_alarm_strain']} "
+                            "strain")
+    return strain_off, None

@@ -102,7 +102,7 @@ def build(spec):
         "bottom_inner_offset": y_rough_bottom - O.bodies[bottom[0]].state.pos[1],
         "top_inner_offset": y_rough_top - O.bodies[top[0]].state.pos[1],
         "kn": kn, "kt": kt, "cn": cn, "ct": ct, "hold_since": None, "t_shear0": None, "gap0": None,
-        "wall_speed": None, "next_sample": 0, "alarm_samples": 0, "samples_file": None,
+        "wall_speed": None, "next_sample": 0, "alarm_strain": 0.0, "samples_file": None,
         "next_checkpoint": int(spec["checkpoint_steps"]), "err_sum": 0.0, "err_n": 0, "err_max": 0.0,
         "callback_seconds": 0.0, "loop_seconds": 0.0,
     })
@@ -124,6 +124,7 @@ class Run:
         self.gain = SPEC["gap_d"] * SPEC["overlap_ratio"] / SPEC["control_time"]
         self.gamma_dot = SPEC["inertial_number"]  # I = d gamma_dot / sqrt(p/rho) with d = p = rho = 1
         self.samples = load_samples(st["samples_file"])
+        self.sample_strains = protocol.sample_strains(SPEC)
         self.failure = None
         self.last_print = (time.time(), O.iter)
         self.next_percent = 0.0
@@ -156,7 +157,7 @@ class Run:
             u = st["wall_speed"] * Vector3(math.cos(phi), 0, math.sin(phi))
             self.top_clump.state.vel = u + Vector3(0, vy, 0)
             self.bottom_clump.state.vel = -u
-            if strain >= protocol.sample_strain(st["next_sample"], SPEC) - protocol.EPS:
+            if strain >= self.sample_strains[st["next_sample"]] - protocol.EPS:
                 self.sample(strain)
         st["callback_seconds"] += time.perf_counter() - tic
 
@@ -233,7 +234,7 @@ class Run:
         st["next_sample"] += 1
         self.check(row, grains, y_bottom, y_top)
         self.progress(strain, row)
-        if strain >= protocol.end_strain(SPEC) - 1e-9 and self.failure is None:
+        if st["next_sample"] >= len(self.sample_strains) and self.failure is None:
             st["phase"] = "done"
             stop_after_this_step()
 
@@ -243,8 +244,9 @@ class Run:
         problem = checks.sample_problem(row, grains["id"], grains["pos"], grains["vel"], (y_bottom, y_top),
                                         st["gap0"])
         if problem is None:
-            st["alarm_samples"], problem = checks.stress_alarm(row["wall_stress_error_mean"], st["alarm_samples"],
-                                                               SPEC)
+            interval = row["strain"] - self.samples[-2]["strain"] if len(self.samples) > 1 else SPEC["sample_strain"]
+            st["alarm_strain"], problem = checks.stress_alarm(row["wall_stress_error_mean"], st["alarm_strain"],
+                                                              interval, SPEC)
         if problem is not None:
             self.fail(problem)
 

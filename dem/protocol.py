@@ -30,14 +30,45 @@ def end_strain(spec):
     return spec["n_cycles"] * spec["period_strain"]
 
 
-def sample_strain(index, spec):
-    """Strain of sample ``index`` (0 at the start of the preceding half period)."""
-    return index * spec["sample_strain"] - spec["pre_strain"]
+def direction_changes(spec):
+    """Strains at which the wall direction changes: theta -> 0 at the start of each period, 0 -> theta at
+    ``rotate_at`` within it (a change by 0 degrees is none)."""
+    if abs(spec["theta_deg"]) < EPS:
+        return []
+    period = spec["period_strain"]
+    return [k * period + at for k in range(spec["n_cycles"]) for at in (0.0, spec["rotate_at_strain"])]
 
 
-def total_samples(spec):
-    """Samples in a complete run, both ends included."""
-    return int(round((spec["pre_strain"] + end_strain(spec)) / spec["sample_strain"])) + 1
+def sample_strains(spec):
+    """Strains of every sample, sorted: the regular grid every ``sample_strain`` from ``-pre_strain`` to the
+    end (both included), plus every ``dense_sample_strain`` within ``dense_window_strain`` after each change
+    of direction (the reversal jump). A dense sample within 1e-9 of a grid sample is that grid sample."""
+    step = spec["sample_strain"]
+    n_grid = int(round((spec["pre_strain"] + end_strain(spec)) / step)) + 1
+    grid = [i * step - spec["pre_strain"] for i in range(n_grid)]
+    dense = []
+    window, fine = spec.get("dense_window_strain", 0.0), spec.get("dense_sample_strain", 0.0)
+    if window > 0 and fine > 0:
+        for change in direction_changes(spec):
+            n_fine = int(math.floor(window / fine + 1e-9))
+            dense += [change + j * fine for j in range(1, n_fine + 1)]
+    strains = sorted(grid + [s for s in dense if s < end_strain(spec) - 1e-9])
+    out = []
+    for s in strains:
+        if out and s - out[-1] < 1e-9:
+            continue
+        out.append(s)
+    return out
+
+
+def on_grid(strain, spec):
+    """True where a sample taken at ``strain`` is one of the regular grid's (a multiple of ``sample_strain``
+    from the start): nearer to a grid point than half the dense spacing. A sample lands up to one
+    controller interval past its target, far less than that."""
+    k = (strain + spec["pre_strain"]) / spec["sample_strain"]
+    fine = spec.get("dense_sample_strain", 0.0) if spec.get("dense_window_strain", 0.0) > 0 else 0.0
+    tol = 0.5 * min(fine / spec["sample_strain"], 1.0) if fine > 0 else 0.5
+    return abs(k - round(k)) < tol
 
 
 def grain_count(spec):

@@ -27,6 +27,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from dem.protocol import on_grid
 from dem.schema import sample_fields
 
 from ..errors import DemFileError
@@ -69,7 +70,8 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
     missing = sorted(set(fields) - set(raw))
     if missing:
         raise DemFileError(f"{raw_path} lacks the raw field(s) {', '.join(missing)}")
-    derived.cycle_indices(raw["strain"], spec["period_strain"], spec["sample_strain"], spec["n_cycles"])  # complete?
+    grid = grid_samples(raw["strain"], spec)
+    derived.cycle_indices(raw["strain"][grid], spec["period_strain"], spec["sample_strain"], spec["n_cycles"])  # complete?
     with atomic_path(out) as tmp, h5py.File(tmp, "w") as f:
         f.attrs.update(schema=SCHEMA, schema_version=SCHEMA_VERSION, creator="granular-backstress",
                        created=dt.datetime.now().isoformat(timespec="seconds"), conventions=CONVENTIONS)
@@ -95,10 +97,19 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
             _dataset(g_raw, key, raw[key], info["unit"])
 
 
+def grid_samples(strain, spec) -> np.ndarray:
+    """Mask of the samples on the regular grid (every ``sample_strain``); the others are the dense samples
+    after each change of direction (``dense_sample_strain``, ``dem.protocol.sample_strains``)."""
+    return np.array([on_grid(float(s), spec) for s in strain], dtype=bool)
+
+
 @dataclass(frozen=True)
 class DemRun:
     """One DEM run: its raw samples, spec, parameters and provenance; series and cycle derived on demand,
     with ``definitions`` (:class:`pipeline.dataset.derived.Definitions`; ``with_definitions`` for others).
+
+    ``raw`` holds the samples on the regular grid (every ``sample_strain``: what the cycle averages and
+    the fits read); ``raw_all`` every sample, the dense ones after each change of direction included.
     """
 
     path: Path
@@ -109,6 +120,7 @@ class DemRun:
     units: dict
     grain_diameter: np.ndarray = field(repr=False, default=None)
     definitions: derived.Definitions = derived.DEFAULT
+    raw_all: dict = field(repr=False, default=None)
 
     @property
     def theta_deg(self) -> float:
@@ -137,6 +149,11 @@ class DemRun:
         return derived.model_series(self.raw, self.parameters, self.definitions, self.grain_diameter)
 
     @cached_property
+    def series_all(self) -> dict:
+        """:attr:`series` over every sample, the dense ones after each change of direction included."""
+        return derived.model_series(self.raw_all, self.parameters, self.definitions, self.grain_diameter)
+
+    @cached_property
     def cycle(self) -> dict:
         return derived.run_cycle(self)
 
@@ -156,7 +173,8 @@ def _check_raw(path: Path, raw: dict, spec: dict) -> None:
         if not np.all(np.isfinite(raw[key])):
             raise DemFileError(f"{path}: /raw/{key} has non-finite values")
     try:
-        derived.cycle_indices(raw["strain"], spec["period_strain"], spec["sample_strain"], spec["n_cycles"])
+        derived.cycle_indices(raw["strain"][grid_samples(raw["strain"], spec)], spec["period_strain"],
+                              spec["sample_strain"], spec["n_cycles"])
     except ValueError as exc:
         raise DemFileError(f"{path}: {exc}") from None
 
@@ -187,4 +205,5 @@ def load(path) -> DemRun:
     if missing or "gamma_dot_nominal" not in params:
         raise DemFileError(f"{path}: the spec lacks {', '.join(missing or ['gamma_dot_nominal'])}")
     _check_raw(path, raw, spec)
-    return DemRun(path, spec, params, prov, raw, units, diameters)
+    grid = grid_samples(raw["strain"], spec)
+    return DemRun(path, spec, params, prov, {k: v[grid] for k, v in raw.items()}, units, diameters, raw_all=raw)

@@ -110,6 +110,12 @@ def _check_values(values: dict) -> None:
             problems.append(f"friction_deg={values['friction_deg']!r} must be < 90")
         if values["sample_strain"] >= values["period_strain"] / 2:
             problems.append(f"sample_strain={values['sample_strain']!r} must be < period_strain/2")
+        ratio = values["sample_strain"] / values["dense_sample_strain"] if values["dense_sample_strain"] else 0
+        if values["dense_window_strain"] > 0 and not (ratio >= 2 and abs(ratio - round(ratio)) < 1e-6):
+            problems.append(f"dense_sample_strain={values['dense_sample_strain']!r} must divide sample_strain="
+                            f"{values['sample_strain']!r} at least twice when dense_window_strain > 0")
+        if values["dense_window_strain"] >= values["period_strain"] / 2:
+            problems.append(f"dense_window_strain={values['dense_window_strain']!r} must be < period_strain/2")
         problems += _physical_problems(values)
     if problems:
         raise SpecError("; ".join(problems))
