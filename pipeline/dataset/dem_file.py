@@ -70,8 +70,9 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
     missing = sorted(set(fields) - set(raw))
     if missing:
         raise DemFileError(f"{raw_path} lacks the raw field(s) {', '.join(missing)}")
+    # every cycle complete on the grid?
     grid = grid_samples(raw["strain"], spec)
-    derived.cycle_indices(raw["strain"][grid], spec["period_strain"], spec["sample_strain"], spec["n_cycles"])  # complete?
+    derived.cycle_indices(raw["strain"][grid], spec["period_strain"], spec["sample_strain"], spec["n_cycles"])
     with atomic_path(out) as tmp, h5py.File(tmp, "w") as f:
         f.attrs.update(schema=SCHEMA, schema_version=SCHEMA_VERSION, creator="granular-backstress",
                        created=dt.datetime.now().isoformat(timespec="seconds"), conventions=CONVENTIONS)
