@@ -71,8 +71,7 @@ endif
 
 # `make dem` defaults to the small `quick` preset; fit, compare and figures default to the most faithful
 # preset with a reversal run in results/ or the committed data (paper, then reduced, then quick)
-has_reversal = $(wildcard $(foreach r,results data/reference,$(r)/$(1)/dem/theta180.h5 $(r)/$(1)-*/dem/theta180.h5))
-AUTO_PRESET := $(firstword $(foreach p,paper reduced quick,$(if $(call has_reversal,$(p)),$(p))) quick)
+AUTO_PRESET := $(shell $(PYTHON) -m pipeline.paths)
 DATA_PRESET := $(if $(filter undefined,$(origin PRESET)),$(AUTO_PRESET),$(PRESET))
 SAY_PRESET := @echo "preset $(DATA_PRESET)$(if $(filter undefined,$(origin PRESET)), (the most faithful one with a reversal run; PRESET=... to choose))"
 PRESET ?= quick

@@ -34,6 +34,7 @@ import numpy as np
 
 from dem import checks, measure, protocol, schema
 from dem.contact import contact_constants, contact_engines, contact_material
+from dem.rawfile import save_npz, stack, write_raw
 from dem.yade_lib import VERSION, O, PyRunner, Vector3, pack, utils
 
 RUN_DIR = SPEC = CHECKPOINT = RAW = None  # set by configure(run_dir)
@@ -291,11 +292,6 @@ def format_seconds(seconds):
 
 
 # ---------------------------------------------------------------- persistence (atomic: temp file, then rename)
-def stack(samples):
-    keys = samples[0].keys() if samples else []
-    return {key: np.array([row[key] for row in samples]) for key in keys}
-
-
 def load_samples(name):
     if not name:
         return []
@@ -303,12 +299,6 @@ def load_samples(name):
         columns = {key: data[key] for key in data.files}
     n = len(next(iter(columns.values()))) if columns else 0
     return [{key: columns[key][i] for key in columns} for i in range(n)]
-
-
-def save_npz(path, arrays):
-    tmp = path + ".tmp.npz"
-    np.savez(tmp, **arrays)
-    os.replace(tmp, path)
 
 
 def checkpoint(run):
@@ -325,7 +315,7 @@ def checkpoint(run):
         os.remove(os.path.join(RUN_DIR, previous))
 
 
-def write_raw(run):
+def write_run_raw(run):
     st = run.state
     meta = {
         "spec": SPEC, "yade_version": VERSION,
@@ -335,9 +325,7 @@ def write_raw(run):
         "callback_seconds": st["callback_seconds"], "loop_seconds": st["loop_seconds"],
         "grain_radius": run.radius.tolist(),
     }
-    arrays = stack(run.samples)
-    arrays["meta_json"] = np.array(json.dumps(meta))
-    save_npz(RAW, arrays)
+    write_raw(RAW, stack(run.samples), meta)
 
 
 # ---------------------------------------------------------------- main loop
@@ -427,7 +415,7 @@ def main(run_dir):
         if phase == "done":
             for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1):  # the work is complete: no stop now
                 signal.signal(signum, signal.SIG_IGN)
-            write_raw(RUN)
+            write_run_raw(RUN)
             for name in os.listdir(RUN_DIR):
                 if name.startswith(("checkpoint", "samples_")):
                     os.remove(os.path.join(RUN_DIR, name))

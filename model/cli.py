@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from .kinematics import HistoryError
+from .kinematics import ROTATE_AT_STRAIN, HistoryError
 from .params import ParameterError, Params
 from .solver import SolverError, predict
 
@@ -62,12 +63,38 @@ def check_output(path: Path) -> None:
         raise ParameterError(f"--out {path}: {existing} is a file, not a folder")
 
 
-def write_csv(path: Path, table: np.ndarray) -> None:
-    """Write atomically: a temporary file beside the target, then rename."""
+def atomic_write(path: Path, write) -> None:
+    """``write(tmp)`` on a temporary file beside ``path``, then rename it onto ``path``: the file appears
+    complete or not at all. The model stands alone (it imports nothing of ``pipeline``, whose ``io`` does the
+    same for the pipeline's outputs), so its command line keeps this one writer of its own."""
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    np.savetxt(tmp, table, delimiter=",", header=",".join(CSV_COLUMNS), comments="", fmt="%.12g")
-    tmp.replace(path)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        write(tmp)
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def load_params(path: str | Path) -> Params:
+    """Parameters from a JSON file (``python -m model params``'s format); a one-line ``ParameterError``."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot read parameters ({exc.strerror})") from None
+    return Params.from_json(text, str(path))
+
+
+def save_params(params: Params, path: str | Path, metadata: dict | None = None) -> None:
+    """Write ``params`` (with ``metadata``, see ``Params.to_json``) atomically."""
+    atomic_write(Path(path), lambda tmp: tmp.write_text(params.to_json(metadata)))
+
+
+def write_csv(path: Path, table: np.ndarray) -> None:
+    atomic_write(path, lambda tmp: np.savetxt(tmp, table, delimiter=",", header=",".join(CSV_COLUMNS),
+                                              comments="", fmt="%.12g"))
 
 
 class _Parser(argparse.ArgumentParser):
@@ -95,7 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     pred.add_argument("--theta", type=_finite_float, required=True, metavar="DEG",
                       help="rotation angle of the shear direction in degrees (paper: 30 ... 180)")
-    pred.add_argument("--rotate-at", type=_positive_float, default=0.7, metavar="STRAIN",
+    pred.add_argument("--rotate-at", type=_positive_float, default=ROTATE_AT_STRAIN, metavar="STRAIN",
                       help="strain t*gamma_dot within the period at which the direction turns to theta "
                            "(default 0.7; Fig. 7 uses 0.1 and 0.2)")
     pred.add_argument("--params", type=Path, metavar="FILE.json",
@@ -118,11 +145,11 @@ def main(argv=None) -> int:
             check_output(args.out)
         if args.command == "params":
             if args.out:
-                Params().save(args.out)
+                save_params(Params(), args.out)
             else:
                 sys.stdout.write(Params().to_json())
             return 0
-        params = Params.load(args.params) if args.params else Params()
+        params = load_params(args.params) if args.params else Params()
         result = predict(args.theta, rotate_at=args.rotate_at, params=params, times=args.times)
         write_csv(args.out, result_table(result))
         print(f"theta={args.theta:g} deg: cycle converged in {result.periods} periods "

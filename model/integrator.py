@@ -34,7 +34,6 @@ T_INDEX, G_INDEX, V_INDEX = 5, 6, 7
 N_STAGES = _dop.N_STAGES
 RK_A = np.ascontiguousarray(_dop.A)
 RK_B = np.ascontiguousarray(_dop.B)
-RK_C = np.ascontiguousarray(_dop.C)
 RK_E3 = np.ascontiguousarray(_dop.E3)
 RK_E5 = np.ascontiguousarray(_dop.E5)
 RK_D = np.ascontiguousarray(_dop.D)

@@ -15,7 +15,6 @@ import dataclasses
 import json
 import math
 from dataclasses import dataclass, fields
-from pathlib import Path
 
 import numpy as np
 
@@ -120,22 +119,6 @@ class Params:
         if isinstance(values, dict):
             values.pop("metadata", None)
         return cls.from_dict(values, source)
-
-    @classmethod
-    def load(cls, path: str | Path) -> Params:
-        path = Path(path)
-        try:
-            text = path.read_text()
-        except OSError as exc:
-            raise ParameterError(f"{path}: cannot read parameters ({exc.strerror})") from None
-        return cls.from_json(text, str(path))
-
-    def save(self, path: str | Path, metadata: dict | None = None) -> None:
-        """Write atomically (temporary file, then rename), with ``metadata`` if given (see ``to_json``)."""
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(self.to_json(metadata))
-        tmp.replace(path)
 
 
 PAPER = Params()

@@ -14,7 +14,7 @@ import numpy as np
 
 from . import integrator
 from .equations import fabric_rates
-from .kinematics import History, Segment, deviator, modulus, periodic_cycle, stretching
+from .kinematics import ROTATE_AT_STRAIN, History, Segment, deviator, modulus, periodic_cycle, stretching
 from .params import PAPER, Params
 
 DEFAULT_RTOL = 1e-10
@@ -22,6 +22,8 @@ DEFAULT_ATOL = 1e-12
 DEFAULT_S_REF = 1e-2  # regularisation scale of the s variable; changes cost, not the solution
 DEFAULT_CYCLE_TOL = 1e-10
 OUTPUT_STRAIN_STEP = 0.005
+#: where the persistence exponent k of Eq. 12 sits in ``Params.as_array()``
+PERSISTENCE_INDEX = Params.names().index("persistence_exponent")
 MIN_RTOL = 1e-13
 FABRIC_BOUNDS = (-1.0 / 3.0, 2.0 / 3.0)  # eigenvalues of A = <n n> - I/3 (Eq. 8)
 
@@ -154,7 +156,7 @@ def _run(history, y0, p, strains, method, rtol, atol, s_ref, strain_step, max_st
     packed = history.packed
     t_out = strains / history.shear_rate
     if method == "dop853":
-        lam_ref = s_ref ** p[7]
+        lam_ref = s_ref ** p[PERSISTENCE_INDEX]
         y_out, y_end, stats = integrator.dop853(
             y0, packed.end, packed.D_unit, packed.W_unit, packed.rate, p, t_out,
             rtol, atol, lam_ref, max_steps,
@@ -352,7 +354,7 @@ def _periodic(history, params, strains, rtol, atol, cycle_tol, max_periods, s_re
 def predict(
     theta_deg: float,
     *,
-    rotate_at: float = 0.7,
+    rotate_at: float = ROTATE_AT_STRAIN,
     params: Params | None = None,
     times=None,
     rtol: float = DEFAULT_RTOL,

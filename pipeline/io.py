@@ -33,6 +33,23 @@ def write_json(path: Path, data) -> Path:
     return write_text(path, json.dumps(data, indent=1, sort_keys=True) + "\n")
 
 
+def write_params(path: Path, params, metadata: dict | None = None) -> Path:
+    """A ``model.Params`` as JSON (``Params.to_json``, with ``metadata``), atomically."""
+    return write_text(path, params.to_json(metadata))
+
+
+def read_params(path: Path):
+    """A ``model.Params`` from a JSON file; a missing or unreadable file is a one-line ``PipelineError``."""
+    import model
+
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise PipelineError(f"{path}: cannot read parameters ({exc.strerror})") from None
+    return model.Params.from_json(text, str(path))
+
+
 def check_writable_dir(folder: Path) -> Path:
     """Check, before any long work and without creating anything, that ``folder`` can be made and written."""
     folder = Path(folder)

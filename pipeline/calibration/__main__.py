@@ -26,16 +26,15 @@ import h5py
 import model
 
 from .. import io
-from ..cli import Parser, add_definition_arguments, definitions_from, one_line_errors
+from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import load
 from ..dataset.derived import DEFAULT, Definitions
 from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
+from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError
-from ..paths import check_folder_name, preset_output
+from ..paths import check_folder_name, most_faithful_preset, preset_output
 from . import design, global_fit, identifiability
 from .stepwise import calibrate_run, combine, cross_check_run, fitted_params, sensitivity, stepwise_bootstrap
-
-PRESETS_BY_FIDELITY = ("paper", "reduced", "quick")
 
 
 def write_arrays(path: Path, arrays: dict, per_run: list[dict], cross: list[dict]) -> None:
@@ -156,8 +155,8 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
     write_arrays(out_dir / "fit.h5", arrays, per_run, cross)
     (out_dir / "params_stepwise.json").unlink(missing_ok=True)
     if stepwise is not None:
-        stepwise.save(out_dir / "params_stepwise.json")
-    params.save(out_dir / "params.json", None if identifiable is None else {
+        io.write_params(out_dir / "params_stepwise.json", stepwise)
+    io.write_params(out_dir / "params.json", params, None if identifiable is None else {
         "fit": "global (pipeline.calibration.global_fit)", "definitions": dataclasses.asdict(definitions),
         "held": hold, "intervals_68": identifiable["intervals_68"],
         "not_determined": identifiable["not_determined"], "misfit": refined.misfit})
@@ -167,10 +166,10 @@ def fit(reversals: list, out_dir: Path, window: float = 0.05, cross_runs: tuple 
 
 def default_preset() -> str:
     """The most faithful preset with a reversal run, in results/ or the committed data."""
-    for preset in PRESETS_BY_FIDELITY:
-        if reversal_seeds(preset):
-            return preset
-    raise CalibrationError("no reversal run of any preset: run `make dem THETA=180` first")
+    preset = most_faithful_preset()
+    if not reversal_seeds(preset):
+        raise CalibrationError("no reversal run of any preset: run `make dem THETA=180` first")
+    return preset
 
 
 def print_global(report: dict) -> None:

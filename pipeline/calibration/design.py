@@ -18,6 +18,7 @@ import numpy as np
 
 import model
 
+from ..dataset.cycle import Cycle
 from ..dataset.derived import bulk_over_nominal
 from . import global_fit
 from .noise import COMPONENTS, NoiseModel
@@ -53,16 +54,16 @@ def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel,
     """A pseudo-run of ``c``: the model's cycle as data (the values do not matter, only the Jacobian) with the
     noise scales of an ``n_cycles`` mean."""
     strain = np.arange(round(period / c.sample_strain)) * c.sample_strain
-    probe = global_fit.CycleData(c.theta_deg, c.rotate_at, period, ratio, c.n_cycles, strain,
-                                 np.zeros((len(strain), 3, 3)), np.zeros((len(strain), 3, 3)),
-                                 np.ones((len(strain), 3, 3)), np.ones((len(strain), 3, 3)), np.zeros(len(strain)))
-    pred = global_fit.predict_cycle(probe, params)
+    probe = Cycle(c.theta_deg, c.rotate_at, period, ratio, c.n_cycles, strain, np.zeros((len(strain), 3, 3)),
+                  np.zeros((len(strain), 3, 3)), np.ones((len(strain), 3, 3)), np.ones((len(strain), 3, 3)),
+                  np.zeros(len(strain)))
+    pred = probe.prediction(params)
     scales = global_fit.noise_scales(len(strain), noise, c.n_cycles)
     return dataclasses.replace(probe, A=pred.A, tau=pred.tau, A_scale=scales[0], tau_scale=scales[1],
                                phi=pred.packing_fraction)
 
 
-def information(data: global_fit.CycleData, noise: NoiseModel, fit: global_fit.GlobalFit) -> np.ndarray:
+def information(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit) -> np.ndarray:
     """J^T Sigma^-1 J of one (pseudo-)run at the best fit, Sigma the noise's correlation at its sampling."""
     base = fit.params
     f0 = global_fit.residuals(fit.values, [data], base, fit.names)

@@ -21,7 +21,7 @@ from scipy.optimize import least_squares
 
 import model
 
-from ..dataset.derived import bulk_over_nominal
+from ..dataset.cycle import Cycle
 from ..errors import CalibrationError
 from . import noise as noise_model
 from .noise import COMPONENTS, QUANTITIES
@@ -43,40 +43,16 @@ def noise_scales(samples: int, noise: noise_model.NoiseModel | None, n_cycles: i
     return scales
 
 
-@dataclass(frozen=True)
-class CycleData:
-    """One run's cycle, as the global fit needs it (strain on the nominal grid; the per-sample noise
-    scale of each component, 1 where no noise model is given)."""
-
-    theta_deg: float
-    rotate_at: float
-    period: float
-    bulk_over_nominal: float
-    n_cycles: int
-    strain: np.ndarray
-    A: np.ndarray
-    tau: np.ndarray
-    A_scale: np.ndarray
-    tau_scale: np.ndarray
-    phi: np.ndarray
-
-    @classmethod
-    def from_run(cls, run, noise: noise_model.NoiseModel | None = None) -> CycleData:
-        c = run.cycle
-        n = run.spec["n_cycles"]
-        # the last sample closes the period: the DEM has turned back to e1 there, the model's output
-        # at the period's end has not, so it is left out
-        keep = slice(0, -1)
-        scales = noise_scales(len(c["strain"][keep]), noise, n)
-        return cls(run.spec["theta_deg"], run.spec["rotate_at_strain"], run.spec["period_strain"],
-                   bulk_over_nominal(run), n, c["strain"][keep], c["A"][keep], c["tau_over_p"][keep], *scales,
-                   c["packing_fraction"][keep])
-
-
-def prepare(runs: list) -> tuple[list[CycleData], noise_model.NoiseModel]:
+def prepare(runs: list) -> tuple[list[Cycle], noise_model.NoiseModel]:
     """The noise model measured on ``runs`` and every run's cycle scaled by it."""
     noise = noise_model.estimate(runs)
-    return [CycleData.from_run(r, noise) for r in runs], noise
+    return [scaled_cycle(r, noise) for r in runs], noise
+
+
+def scaled_cycle(run, noise: noise_model.NoiseModel | None) -> Cycle:
+    """The run's :class:`Cycle` with each component's noise per sample as its scale."""
+    cycle = Cycle.from_run(run)
+    return cycle.with_scales(*noise_scales(len(cycle.strain), noise, cycle.n_cycles))
 
 
 @dataclass(frozen=True)
@@ -123,20 +99,13 @@ def directions(covariance: np.ndarray, values: np.ndarray, names) -> tuple[dict,
     return tuple(sorted(out, key=lambda d: -d["relative_step"]))
 
 
-def predict_cycle(data: CycleData, params: model.Params) -> model.Result:
-    """The model's periodic cycle for ``data``'s protocol, in its strain measure, at its samples."""
-    r = data.bulk_over_nominal
-    history = model.periodic_cycle(data.theta_deg, rotate_at=r * data.rotate_at, period=r * data.period)
-    return model.periodic(history, params=params, times=r * data.strain)
-
-
-def residuals(values: np.ndarray, data: list[CycleData], base: model.Params, names=FREE) -> np.ndarray:
+def residuals(values: np.ndarray, data: list[Cycle], base: model.Params, names=FREE) -> np.ndarray:
     """Model minus DEM over the noise scale: per run, per component, the A block then the tau block."""
     params = base.replace(**dict(zip(names, map(float, values), strict=True)))
     out = []
     for d in data:
         try:
-            pred = predict_cycle(d, params)
+            pred = d.prediction(params)
         except (model.SolverError, model.ParameterError):
             return np.full(sum(2 * len(x.strain) * len(COMPONENTS) for x in data), 1e3)
         for i, j in COMPONENTS:
@@ -145,7 +114,7 @@ def residuals(values: np.ndarray, data: list[CycleData], base: model.Params, nam
     return np.concatenate(out)
 
 
-def covariances(jac: np.ndarray, data: list[CycleData], noise: noise_model.NoiseModel | None) -> tuple:
+def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None) -> tuple:
     """(sandwich, white) covariance of the estimates: ``H^-1 J^T Sigma J H^-1`` with the noise's correlation
     ``Sigma``, and ``H^-1`` (the noise taken as white). Parameters the data do not fix (a null direction of
     H) get infinite variance."""
@@ -170,7 +139,7 @@ def covariances(jac: np.ndarray, data: list[CycleData], noise: noise_model.Noise
     return sandwich, white
 
 
-def refine(data: list[CycleData], start: model.Params, names=FREE, max_nfev: int = 200,
+def refine(data: list[Cycle], start: model.Params, names=FREE, max_nfev: int = 200,
            noise: noise_model.NoiseModel | None = None) -> GlobalFit:
     """Least squares from ``start``, its covariance with ``noise``'s correlation (white without one);
     a fit that fails raises CalibrationError."""
@@ -195,18 +164,18 @@ def refine(data: list[CycleData], start: model.Params, names=FREE, max_nfev: int
 DILATANCY = ("c2_coef", "phi_c")
 
 
-def _dilatancy_residuals(values, data: list[CycleData], base: model.Params) -> np.ndarray:
+def _dilatancy_residuals(values, data: list[Cycle], base: model.Params) -> np.ndarray:
     params = base.replace(**dict(zip(DILATANCY, map(float, values), strict=True)))
     out = []
     for d in data:
         try:
-            out.append(predict_cycle(d, params).packing_fraction - d.phi)
+            out.append(d.prediction(params).packing_fraction - d.phi)
         except (model.SolverError, model.ParameterError):
             return np.full(sum(len(x.phi) for x in data), 1.0)
     return np.concatenate(out)
 
 
-def refine_dilatancy(data: list[CycleData], params: model.Params) -> GlobalFit:
+def refine_dilatancy(data: list[Cycle], params: model.Params) -> GlobalFit:
     """c2_coef and Phi_c of Eq. 18 fitted to the DEM's Phi over every cycle, with c1 = -C (Eq. 19)
     and c3, the c2 exponent and the flow rule and fabric law of ``params`` held fixed."""
     base = params.replace(c1=-params.C)
@@ -229,7 +198,7 @@ def refine_dilatancy(data: list[CycleData], params: model.Params) -> GlobalFit:
     return GlobalFit(fitted, DILATANCY, sol.x, se, cov / np.outer(se, se), chi2, int(sol.nfev), True, sol.message)
 
 
-def with_noise(data: CycleData, noise: noise_model.NoiseModel, block: int, rng: np.random.Generator) -> CycleData:
+def with_noise(data: Cycle, noise: noise_model.NoiseModel, block: int, rng: np.random.Generator) -> Cycle:
     """``data`` plus a draw of the measured noise: blocks of ``block`` samples of the DEM's own deviations
     (every component of A and tau at once, from a random series and start), scaled to the noise of
     ``data``'s cycle mean."""
@@ -250,7 +219,7 @@ def with_noise(data: CycleData, noise: noise_model.NoiseModel, block: int, rng: 
     return dataclasses.replace(data, **fields)
 
 
-def bootstrap(data: list[CycleData], noise: noise_model.NoiseModel, best: GlobalFit, replicates: int,
+def bootstrap(data: list[Cycle], noise: noise_model.NoiseModel, best: GlobalFit, replicates: int,
               block_strain: float = 0.2, seed: int = 0, progress=None) -> dict:
     """Refit ``best``'s parameters on ``replicates`` copies of the data, each with a fresh draw of the
     DEM's own noise added in blocks of ``block_strain`` (``with_noise``). The spread of the refits about
@@ -272,7 +241,7 @@ def bootstrap(data: list[CycleData], noise: noise_model.NoiseModel, best: Global
     return out
 
 
-def jackknife(data: list[CycleData], seeds: list[int], best: GlobalFit, progress=None) -> dict:
+def jackknife(data: list[Cycle], seeds: list[int], best: GlobalFit, progress=None) -> dict:
     """Refit ``best``'s parameters leaving out one seed at a time (``seeds``: the indices in ``data`` of
     the runs that are seeds of one protocol, at least three). The jackknife standard error
     sqrt((N-1)/N sum (theta_i - mean)^2) carries everything that differs between seeds (the packing, the

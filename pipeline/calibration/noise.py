@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dataset.derived import cycle_D_dev, cycle_indices
+from ..dataset.smoothing import smooth_segments
 from ..errors import CalibrationError
-from .estimators import smooth_segments
 
 #: the tensor components the global fit compares (12, 32, 11, 22, 13)
 COMPONENTS = ((0, 1), (2, 1), (0, 0), (1, 1), (0, 2))

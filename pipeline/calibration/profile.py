@@ -23,9 +23,10 @@ import numpy as np
 import model
 
 from .. import io
-from ..cli import Parser, add_definition_arguments, definitions_from, one_line_errors
+from ..cli import Parser, one_line_errors
 from ..dataset.derived import DEFAULT
 from ..dataset.lookup import fit_runs
+from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError, PipelineError
 from ..paths import check_folder_name, preset_output
 from . import global_fit

@@ -24,6 +24,7 @@ import numpy as np
 import model
 
 from ..dataset.derived import bulk_over_nominal, cycle_D_dev, resampled_cycle
+from ..dataset.smoothing import relaxation_strain, smooth_segments
 from ..errors import CalibrationError
 from . import estimators as cal
 
@@ -68,7 +69,7 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
 
     # smoothed A and tau: a regression on noisy A12 would bias the slope of Eq. 15 towards zero
     A_s, rate = cal.jaumann_rate(strain, A, D, window_strain=window)
-    tau_s, _ = cal.smooth_segments(strain, tau, D, window_strain=window)
+    tau_s, _ = smooth_segments(strain, tau, D, window_strain=window)
     fits_C = [cal.backstress_constant(strain, tau_s, A_s, reversal_at=r, window=c_window) for r in (0.0, rotate_at)]
     C = float(np.mean([f.slope for f in fits_C]))
     Y = cal.yield_values(tau_s, A_s, D, C)
@@ -80,7 +81,7 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
     # fits use the transients, ``transient_efolds`` times the strain over which A12 relaxes by 1/e
     # after the reversal, from each change of direction
     after = strain >= rotate_at - 1e-9
-    transient = transient_efolds * cal.relaxation_strain(strain[after], A_s[after, 0, 1], fraction=math.exp(-1))
+    transient = transient_efolds * relaxation_strain(strain[after], A_s[after, 0, 1], fraction=math.exp(-1))
     if not math.isfinite(transient):
         raise CalibrationError(f"{run.path}: A12 shows no resolvable relaxation after the reversal")
     moving = np.where(strain < rotate_at - 1e-9, strain, strain - rotate_at) < transient
@@ -93,7 +94,7 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
         except CalibrationError:
             exponents.append(float("nan"))
 
-    phi_s, dphi = cal.smooth_segments(strain, phi, D, window_strain=window)
+    phi_s, dphi = smooth_segments(strain, phi, D, window_strain=window)
     c2_coef, phi_c = dilatancy_estimate(strain, phi_s, dphi, A_s, D, S, -C, ratio, rotate_at)
     return {
         "path": str(run.path), "seed": run.spec.get("seed"), "bulk_over_nominal": float(ratio),
@@ -117,8 +118,8 @@ def cross_check_run(run, window: float = 0.05, min_sine: float = 0.1) -> dict:
     c = run.cycle
     strain = c["strain"]
     D = cycle_D_dev(run)
-    A_s, _ = cal.smooth_segments(strain, c["A"], D, window_strain=window)
-    tau_s, _ = cal.smooth_segments(strain, c["tau_over_p"], D, window_strain=window)
+    A_s, _ = smooth_segments(strain, c["A"], D, window_strain=window)
+    tau_s, _ = smooth_segments(strain, c["tau_over_p"], D, window_strain=window)
     C, Y = cal.backstress_and_yield(tau_s, A_s, D, min_sine=min_sine)
     S = model.hardening_variable_stack(A_s, D)
     ok = np.isfinite(C) & np.isfinite(S)

@@ -111,7 +111,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     preset = check_folder_name(args.preset)
     params_file = args.params or preset_output(preset, "fit", "params.json")
-    fitted = model.Params.load(params_file)
+    fitted = io.read_params(params_file)
     fit_json = params_file.with_name("fit.json")
     definitions = Definitions(**json.loads(fit_json.read_text()).get("definitions", {})) \
         if fit_json.exists() else DEFAULT

@@ -1,6 +1,6 @@
 """Model against DEM, on arrays: the model's cycle for a run's protocol and the measures that compare them.
 
-The model runs in bulk strain (the DEM's measured central shear rate; ``global_fit.predict_cycle``),
+The model runs in bulk strain (the DEM's measured central shear rate; ``Cycle.prediction``),
 so its cycle is compared sample by sample with the DEM's cycle average. The error of a component is
 the RMSE over the cycle divided by the steady value of that component's family (the largest |A12|
 or |tau12/p| of the cycle).
@@ -12,19 +12,19 @@ import numpy as np
 
 import model
 
-from ..calibration.estimators import relaxation_strain
-from ..calibration.global_fit import CycleData, predict_cycle
+from ..dataset.cycle import Cycle
+from ..dataset.smoothing import relaxation_strain
 
 COMPONENTS = {"A12": ("A", 0, 1), "A32": ("A", 2, 1), "tau12": ("tau", 0, 1), "tau32": ("tau", 2, 1)}
 
 
-def model_for(run, sets: dict) -> dict[str, tuple[CycleData, model.Result]]:
+def model_for(run, sets: dict) -> dict[str, tuple[Cycle, model.Result]]:
     """The run's cycle as the fit sees it (built once), and each parameter set's prediction at its samples."""
-    data = CycleData.from_run(run)
-    return {label: (data, predict_cycle(data, params)) for label, params in sets.items()}
+    data = Cycle.from_run(run)
+    return {label: (data, data.prediction(params)) for label, params in sets.items()}
 
 
-def errors(data: CycleData, pred: model.Result) -> dict[str, float]:
+def errors(data: Cycle, pred: model.Result) -> dict[str, float]:
     """RMSE over the cycle of A12, A32, tau12/p, tau32/p, normalised by the steady |A12| or |tau12/p|."""
     steady = {"A": np.max(np.abs(data.A[:, 0, 1])), "tau": np.max(np.abs(data.tau[:, 0, 1]))}
     out = {}

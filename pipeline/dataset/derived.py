@@ -19,15 +19,6 @@ from model import deviator, hardening_variable_stack, shear_direction, stretchin
 #: the series averaged into the periodic cycle
 CYCLE_KEYS = ("strain_bulk", "A", "tau_over_p", "mean_stress_over_p", "S", "packing_fraction", "w_shear", "w_vol",
               "shear_rate_bulk")
-RATE = "sqrt(p/rho)/d"
-#: units of the derived series
-SERIES_UNITS = {
-    "strain_nominal": "1", "strain_bulk": "1", "shear_rate_bulk": RATE, "D_dev_nominal": "gamma_dot",
-    "D_dev_measured": RATE, "A": "1", "tau_over_p": "1", "mean_stress_over_p": "1", "S": "1",
-    "packing_fraction": "1", "w_shear": "p*gamma_dot", "w_vol": "p*gamma_dot",
-}
-
-
 @dataclass(frozen=True)
 class Definitions:
     """The choices the paper leaves open, applied when a run is read (README, "Definitions").

@@ -9,10 +9,9 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import h5py
-
-import model
 
 from .. import io
 from ..cli import Parser, one_line_errors
@@ -35,7 +34,7 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     metrics = read_json(compare_dir / "metrics.json")
     io.check_writable_dir(out)
     fit_json = read_json(fit_dir / "fit.json") if (fit_dir / "fit.json").exists() else None
-    sets = {label: model.Params.from_dict(values) for label, values in metrics["param_sets"].items()}
+    sets = {label: SimpleNamespace(**values) for label, values in metrics["param_sets"].items()}
     fitted, paper = sets["our fit"], sets["Table 2"]
     preset = metrics["preset"]
     figures = out / "figures"

@@ -5,13 +5,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from .output import save  # noqa: E402
+from .output import save
 
 COMPONENTS = {"A12": ("A", 0, 1), "A32": ("A", 2, 1), "tau12": ("tau_over_p", 0, 1), "tau32": ("tau_over_p", 2, 1)}
 LABELS = {"A12": "$A_{12}$", "A32": "$A_{32}$", "tau12": r"$\tau_{12}/p$", "tau32": r"$\tau_{32}/p$"}

@@ -13,18 +13,13 @@ import json
 import sys
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import matplotlib.ticker
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import matplotlib.ticker  # noqa: E402
-import numpy as np  # noqa: E402
-
-import model  # noqa: E402
-
-from ..cli import Parser, one_line_errors  # noqa: E402
-from ..errors import PipelineError  # noqa: E402
-from .output import save  # noqa: E402
+from ..cli import Parser, one_line_errors
+from ..errors import PipelineError
+from .output import save
 
 PARAMETERS = ("mu", "C", "n", "m", "a1", "b1", "a2", "b2")
 AXES = {"inertial_number": ("inertial number I", True), "cell": ("gap H / d", False)}
@@ -94,8 +89,8 @@ def params_vs_fidelity(table: dict, out: Path) -> Path:
                 ax.errorbar([line["target"]], [q["at_target"]], yerr=[q["at_target_se"]], fmt="s", ms=4, capsize=2,
                             lw=0.8, color="C3", mfc="none" if untested else "C3",
                             label="at the paper's value" + (" (two values: untested)" if untested else ""))
-            if hasattr(model.PAPER, name):
-                ax.axhline(getattr(model.PAPER, name), color="k", ls="--", lw=0.8, label="Table 2")
+            if name in table.get("table2", {}):
+                ax.axhline(table["table2"][name], color="k", ls="--", lw=0.8, label="Table 2")
             if log:
                 ax.set_xscale("log")
                 ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))

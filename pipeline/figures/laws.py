@@ -7,13 +7,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import h5py
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from .output import save  # noqa: E402
+from .output import save
 
 
 def fabric_law(fit_h5: Path, params, paper, out: Path) -> Path:

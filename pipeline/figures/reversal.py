@@ -6,12 +6,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from .output import save  # noqa: E402
+from .output import save
 
 
 def backstress_figure(parts: list, C: float, out: Path) -> Path:

@@ -12,16 +12,15 @@ import hashlib
 import json
 import math
 import re
-import tomllib
 from pathlib import Path
 
 from dem.contact import tangential_damping_number
 from dem.protocol import grain_count
 
+from ..config import PRESETS_FILE, load_presets
 from ..errors import SpecError
-from ..paths import CONFIG_DIR, RESULTS_DIR
+from ..paths import RESULTS_DIR
 
-PRESETS_FILE = CONFIG_DIR / "dem.toml"
 SPEC_VERSION = 1
 
 INTEGER_KEYS = {"n_cycles", "control_every_steps", "checkpoint_steps", "seed"}
@@ -32,41 +31,6 @@ POSITIVE_KEYS = {
     "dt_safety", "control_time", "control_every_steps", "compaction_tolerance", "compaction_hold_time",
     "compaction_max_time", "stress_alarm", "stress_alarm_strain", "checkpoint_steps", "n_cycles",
 }
-
-
-def check_presets(names: list[str]) -> list[str]:
-    """``names`` if every one is a preset; a one-line error naming the unknown ones otherwise."""
-    known = load_presets()
-    bad = [p for p in names if p not in known]
-    if bad:
-        raise SpecError(f"unknown preset(s) {', '.join(bad)} (known: {', '.join(known)})")
-    return names
-
-
-def load_presets(path: Path = PRESETS_FILE) -> dict[str, dict]:
-    """All presets of ``path``, each merged onto ``[defaults]``."""
-    try:
-        with open(path, "rb") as fh:
-            table = tomllib.load(fh)
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise SpecError(f"cannot read presets {path}: {exc}") from None
-    defaults = table.pop("defaults", None)
-    if not isinstance(defaults, dict):
-        raise SpecError(f"{path}: no [defaults] table")
-    presets = {}
-    for name, values in table.items():
-        unknown = sorted(set(values) - set(defaults))
-        if unknown:
-            raise SpecError(f"{path}: preset [{name}] has unknown key(s) {', '.join(unknown)}")
-        presets[name] = {**defaults, **values}
-    return presets
-
-
-def protocol_defaults(path: Path = PRESETS_FILE) -> dict:
-    """The protocol of Fig. 1 as ``[defaults]`` declares it: period, pre-strain, sampling (strain units)."""
-    with open(path, "rb") as fh:
-        defaults = tomllib.load(fh)["defaults"]
-    return {k: defaults[k] for k in ("period_strain", "pre_strain", "sample_strain")}
 
 
 def parse_overrides(items: list[str] | tuple[str, ...]) -> dict[str, float]:

@@ -36,6 +36,7 @@ from pathlib import Path
 
 from .. import io
 from ..cli import Parser, one_line_errors
+from ..config import load_presets
 from ..errors import PipelineError, SpecError
 from ..paths import CONFIG_DIR, RESULTS_DIR, ROOT
 from . import spec as run_spec
@@ -145,7 +146,7 @@ def plan(preset: str, thetas: str, rotate_ats: str | None = None, seeds: str | N
     theta_list = _words(thetas)
     if not theta_list:
         raise SpecError("THETAS is empty: give the angles to run, e.g. THETAS=\"30 60 90\"")
-    defaults = run_spec.load_presets().get(preset, {})
+    defaults = load_presets().get(preset, {})
     tasks = {}
     for theta in theta_list:
         for rotate_at in _words(rotate_ats) or [None]:

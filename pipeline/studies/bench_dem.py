@@ -17,6 +17,7 @@ from pathlib import Path
 
 from .. import io
 from ..cli import Parser, one_line_errors
+from ..config import check_presets
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs import spec as run_spec
@@ -92,7 +93,7 @@ def main(argv=None) -> int:
     parser.add_argument("--repeats", type=int, default=REPEATS)
     parser.add_argument("--out", type=Path, default=RESULTS_DIR / "bench")
     args = parser.parse_args(argv)
-    presets = run_spec.check_presets([p.strip() for p in args.presets.split(",")])
+    presets = check_presets([p.strip() for p in args.presets.split(",")])
     if args.repeats < 1:
         raise PipelineError(f"--repeats {args.repeats} must be at least 1")
     try:

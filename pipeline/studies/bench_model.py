@@ -14,25 +14,22 @@ import platform
 import time
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from model import (  # noqa: E402
+from model import (
     PAPER,
     Params,
     SolverError,
     integrate,
     periodic_cycle,
     predict,
-    reference,  # noqa: E402
+    reference,
 )
-from model.equations import observables  # noqa: E402
+from model.equations import observables
 
-from ..figures.output import save  # noqa: E402
+from ..figures.output import save
 
 CASES = {
     "theta=180": (180.0, PAPER),

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from .. import io
 from ..cli import Parser, one_line_errors
+from ..config import check_presets
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs import spec as run_spec
@@ -75,7 +76,7 @@ def main(argv=None) -> int:
     parser.add_argument("--order", action="store_true", help="also time the grains sorted in space against as created")
     parser.add_argument("--out", type=Path, default=OUT_DIR)
     args = parser.parse_args(argv)
-    presets = run_spec.check_presets(args.presets.split(","))
+    presets = check_presets(args.presets.split(","))
     try:
         threads = [int(t) for t in args.threads.split(",")]
     except ValueError:

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import model
+from model.cli import save_params
 from pipeline.paths import ROOT
 from tests.helpers import synthetic_file
 
@@ -164,7 +165,7 @@ def test_make_compare_and_figures_refuse(tmp_path, args, fragment):
 # ---------------------------------------------------------------- python -m model
 def params_file(folder, **changes):
     path = folder / "p.json"
-    model.Params().replace(**changes).save(path)
+    save_params(model.Params().replace(**changes), path)
     return path
 
 

@@ -10,8 +10,10 @@ from pipeline.calibration import __main__ as fit
 from pipeline.calibration import global_fit
 from pipeline.calibration.stepwise import dilatancy_estimate
 from pipeline.dataset import lookup
+from pipeline.dataset.cycle import Cycle
 from pipeline.dataset.derived import cycle_D_dev
 from pipeline.errors import CalibrationError
+from pipeline.io import read_params
 from tests.helpers import synthetic_file, synthetic_run
 
 TRUE = model.Params()
@@ -27,10 +29,10 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
     assert est["a1"] == pytest.approx(TRUE.a1, rel=0.05) and est["a2"] == pytest.approx(TRUE.a2, rel=0.15)
     # Eq. 15 measures C - 2m near steady state after a reversal (smoothing moves it by < 0.1)
     assert est["C_eq15"] == pytest.approx(TRUE.C - 2 * TRUE.m, abs=0.1)
-    stepwise = model.Params.load(tmp_path / "fit" / "params_stepwise.json")
+    stepwise = read_params(tmp_path / "fit" / "params_stepwise.json")
     assert stepwise.C == pytest.approx(est["C_eq15"]) and stepwise.c1 == -stepwise.C  # Eq. 19
     # the global refinement of the same run recovers the flow rule that Eq. 15 misses
-    refined = model.Params.load(tmp_path / "fit" / "params.json")
+    refined = read_params(tmp_path / "fit" / "params.json")
     for name in ("C", "n", "m", "b1", "b2"):
         assert getattr(refined, name) == pytest.approx(getattr(TRUE, name), rel=0.02), name
     assert refined.c1 == -refined.C
@@ -80,7 +82,7 @@ def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(
     values = dict(zip(d["free"], d["values"], strict=True))
     assert values["phi_c"] == pytest.approx(TRUE.phi_c, abs=0.005)
     assert values["c2_coef"] == pytest.approx(TRUE.c2_coef, rel=0.15)
-    assert model.Params.load(tmp_path / "fit" / "params.json").phi_c == pytest.approx(values["phi_c"])
+    assert read_params(tmp_path / "fit" / "params.json").phi_c == pytest.approx(values["phi_c"])
     corr = np.array(g["correlation"])
     np.testing.assert_allclose(np.diag(corr), 1.0) and np.testing.assert_allclose(corr, corr.T)
 
@@ -125,7 +127,7 @@ def test_bootstrap_needs_more_than_one_cycle(tmp_path, capsys):
 def test_dilatancy_fit_at_a_bound_is_an_error(tmp_path):
     import dataclasses
 
-    data = global_fit.CycleData.from_run(synthetic_run(tmp_path, n_cycles=1))
+    data = Cycle.from_run(synthetic_run(tmp_path, n_cycles=1))
     too_dense = dataclasses.replace(data, phi=np.full_like(data.phi, 0.97))  # denser than any Phi_c in bounds
     with pytest.raises(CalibrationError, match=r"sits at a bound: (c2_coef|phi_c) = "):
         global_fit.refine_dilatancy([too_dense], TRUE)
@@ -151,7 +153,7 @@ def test_the_strain_measure_option_recovers_the_truth_of_each_measure(tmp_path):
             for t in (180.0, 90.0)]
     fits = {}
     for strain in ("bulk", "nominal"):
-        data = [global_fit.CycleData.from_run(r.with_definitions(Definitions(strain=strain))) for r in runs]
+        data = [Cycle.from_run(r.with_definitions(Definitions(strain=strain))) for r in runs]
         fits[strain] = global_fit.refine(data, TRUE).params
     ratio = 1.3 * (1 - 2 * 0.005 / 1.4)  # the band's strain per nominal strain over a cycle with two reversals
     for name in ("b1", "b2"):

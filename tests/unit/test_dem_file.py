@@ -6,14 +6,15 @@ import numpy as np
 import pytest
 
 import model
+from dem.rawfile import write_raw
 from pipeline.dataset.dem_file import load, write_h5
-from pipeline.dataset.synthetic import synthetic_raw, write_raw_npz
 from pipeline.errors import DemFileError
+from tests.helpers.synthetic import synthetic_raw
 
 
 def make_file(tmp_path, theta, **kw):
     raw, meta = synthetic_raw(theta, **kw)
-    write_raw_npz(tmp_path / "raw.npz", raw, meta)
+    write_raw(tmp_path / "raw.npz", raw, meta)
     out = tmp_path / "run.h5"
     write_h5(tmp_path / "raw.npz", out, {"git_commit": "test", "sessions": []})
     return load(out)

@@ -4,11 +4,11 @@ import json
 
 import numpy as np
 import pytest
-from helpers import synthetic_run
 
 import model
-from pipeline.studies.fidelity import ladder, table
+from pipeline.studies.fidelity import ladder, render, table
 from pipeline.studies.fidelity.summary import change_strains, summarize
+from tests.helpers import synthetic_run
 
 
 def test_the_ladder_is_validated_and_its_preset_run_is_one_run_on_every_axis(tmp_path):
@@ -212,17 +212,16 @@ def test_the_combinations_a_reversal_fixes_are_found_and_compared_with_table_2()
     paper = table_["paper_definitions"]["180"]
     assert paper["seeds"] == 8 and paper["reference"]["fit"]["a2"]["mean"] == pytest.approx(
         1.1 * np.mean([s["fit"]["values"]["a2"] for *_, s in seeds[:8]]))
-    assert "In the paper's definitions" in table.markdown(table_)
+    assert "In the paper's definitions" in render.markdown(table_)
     assert combinations.find([s for *_, s in seeds][:4], ("a1", "a2")) == {}  # too few seeds to say
 
 
 def test_an_older_summary_is_redone_where_its_run_is_at_hand_and_kept_where_it_is_not(tmp_path):
     import shutil
 
-    from helpers import synthetic_file
-
     from pipeline.studies.fidelity.__main__ import summaries
     from pipeline.studies.fidelity.summary import VERSION
+    from tests.helpers import synthetic_file
 
     rungs = ladder.rungs(ladder.load())
     here, gone = rungs[0], next(r for r in rungs if r.relative != rungs[0].relative)

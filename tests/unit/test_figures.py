@@ -8,9 +8,10 @@ import pytest
 
 import model
 from pipeline.calibration import __main__ as fit
-from pipeline.calibration.estimators import relaxation_strain
 from pipeline.comparison.__main__ import compare
+from pipeline.dataset.smoothing import relaxation_strain
 from pipeline.figures.__main__ import draw, main
+from pipeline.io import read_params
 from tests.helpers import synthetic_run
 
 
@@ -20,7 +21,7 @@ def compared(tmp_path_factory):
     rev = synthetic_run(tmp, name="theta180", n_cycles=2, noise=0.005, seed=1)
     other = synthetic_run(tmp, theta=60.0, name="theta060", n_cycles=2, noise=0.005, seed=2)
     fit.fit([rev], tmp / "fit", cross_runs=[other])
-    sets = {"Table 2": model.Params(), "our fit": model.Params.load(tmp / "fit" / "params.json")}
+    sets = {"Table 2": model.Params(), "our fit": read_params(tmp / "fit" / "params.json")}
     metrics = compare([rev, other], sets, tmp / "fit" / "fit.h5", tmp / "compare", "synthetic")
     return tmp, metrics
 

@@ -2,11 +2,12 @@
 
 import numpy as np
 import pytest
-from helpers import synthetic_run
 
 import model
 from pipeline.calibration import global_fit, identifiability, noise
 from pipeline.calibration.profile import profiles
+from pipeline.dataset.cycle import Cycle
+from tests.helpers import synthetic_run
 
 TRUE = model.Params()
 NOISE = {"noise": 0.01, "correlation_strain": 0.03, "a_tau_correlation": -0.5}
@@ -95,21 +96,22 @@ def test_the_jackknife_over_seeds_agrees_with_the_noise_model_where_seeds_differ
 def test_each_packing_fraction_definition_recovers_the_truth_of_data_built_with_it(tmp_path):
     """A run whose whole-gap Phi is the model's and whose central band is 0.05 looser: fitted with
     phi = gap, Eq. 18 returns Table 2's Phi_c; with phi = central, Phi_c 0.05 lower."""
+    from dem.rawfile import write_raw
     from pipeline.dataset.dem_file import load, write_h5
     from pipeline.dataset.derived import Definitions
-    from pipeline.dataset.synthetic import synthetic_raw, write_raw_npz
+    from tests.helpers.synthetic import synthetic_raw
 
     raw, meta = synthetic_raw(180.0, n_cycles=1)
     volume = np.pi / 6 * np.sum((2 * np.array(meta["grain_radius"])) ** 3)
     phi = raw["packing_fraction"]
     raw["gap"] = 1.0 + volume / (meta["spec"]["width_d"] ** 2 * phi)  # W^2 (H - d) Phi = grain volume
     raw["packing_fraction"] = phi - 0.05
-    write_raw_npz(tmp_path / "run.npz", raw, meta)
+    write_raw(tmp_path / "run.npz", raw, meta)
     write_h5(tmp_path / "run.npz", tmp_path / "run.h5", {"git_commit": "test", "sessions": []})
     run = load(tmp_path / "run.h5")
     found = {}
     for definition in ("gap", "central"):
-        data = [global_fit.CycleData.from_run(run.with_definitions(Definitions(phi=definition)))]
+        data = [Cycle.from_run(run.with_definitions(Definitions(phi=definition)))]
         found[definition] = global_fit.refine_dilatancy(data, TRUE).params.phi_c
     assert found["gap"] == pytest.approx(TRUE.phi_c, abs=0.006)  # Eq. 18's fit: within 0.005 on exact data
     assert found["gap"] - found["central"] == pytest.approx(0.05, abs=0.006)  # Eq. 18 is not linear in Phi

@@ -3,6 +3,7 @@ import json
 import pytest
 
 from model import PAPER, ParameterError, Params
+from model.cli import load_params, save_params
 
 
 def test_defaults_are_table_2_and_section_5():
@@ -16,8 +17,8 @@ def test_defaults_are_table_2_and_section_5():
 def test_json_round_trip(tmp_path):
     p = PAPER.replace(C=-4.0, b2=-350.0)
     path = tmp_path / "p.json"
-    p.save(path)
-    assert Params.load(path) == p
+    save_params(p, path)
+    assert load_params(path) == p
     assert json.loads(path.read_text())["b2"] == -350.0
 
 

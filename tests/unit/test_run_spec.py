@@ -4,13 +4,14 @@ import math
 
 import pytest
 
+from pipeline.config import load_presets
 from pipeline.errors import SpecError
 from pipeline.runs import spec as run_spec
 from pipeline.runs.spec import resolve
 
 
 def test_every_preset_resolves_and_the_paper_preset_is_section_2():
-    presets = run_spec.load_presets()
+    presets = load_presets()
     assert {"paper", "reduced", "quick", "tiny"} <= set(presets)
     for name in presets:
         resolve(90, name)

@@ -23,7 +23,7 @@ from ...cli import Parser, one_line_errors
 from ...dataset.dem_file import load
 from ...paths import RESULTS_DIR
 from ...runs import sweep as sweeps
-from . import ladder, table
+from . import ladder, render, table
 from .summary import VERSION, summarize
 
 OUT_DIR = RESULTS_DIR / "fidelity"
@@ -105,7 +105,7 @@ def main(argv=None) -> int:
                          node_cores=int(spec.get("node_cores", 32)))
     io.write_json(out / "table.json", result)
     io.write_text(out / "table.csv", csv_text(result["rows"]))
-    io.write_text(out / "table.md", table.markdown(result))
+    io.write_text(out / "table.md", render.markdown(result))
     left = len(ladder.missing(rungs))
     print(f"wrote {out / 'table.md'}, table.csv, table.json: {len({e[2]['folder'] + e[2]['name'] for e in entries})} "
           f"run(s) of the ladder; {left} not made yet" + (" (make fidelity runs them)" if left else ""))

@@ -15,6 +15,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...config import load_presets
 from ...errors import SpecError
 from ...paths import CONFIG_DIR, DATA_ROOTS, RESULTS_DIR, ROOT, first_existing
 from ...runs import spec as run_spec
@@ -55,7 +56,7 @@ def load(path: Path = LADDER_FILE) -> dict:
 def rungs(ladder: dict) -> list[Rung]:
     """Every rung, each validated as ``make dem`` would (a bad value is an error before anything runs)."""
     preset = ladder["preset"]
-    defaults = run_spec.load_presets()[preset]
+    defaults = load_presets()[preset]
     out = []
     for axis, entry in ladder["axes"].items():
         for value in entry["values"]:

@@ -14,14 +14,11 @@ model and to calibrate on data whose parameters are known.
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 
 import model
 from dem.schema import check_row
-
-from ..runs.spec import protocol_defaults
+from pipeline.config import protocol_defaults
 
 PERIOD, PRE, STEP = (protocol_defaults()[k] for k in ("period_strain", "pre_strain", "sample_strain"))
 
@@ -98,8 +95,3 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
             "gamma_dot_nominal": gamma_dot, "t_shear0": 0.0, "iterations": int(n * 1000), "callback_seconds": 0.0,
             "loop_seconds": 0.0, "grain_radius": [0.5] * 300}
     return raw, meta
-
-
-def write_raw_npz(path, raw: dict, meta: dict) -> None:
-    """Save in the scene's ``raw.npz`` format (``pipeline.dataset.dem_file.write_h5`` reads it)."""
-    np.savez(path, **raw, meta_json=np.array(json.dumps(meta)))
