@@ -98,8 +98,8 @@ demo: system venv model-cycles demo-dem ## set up everything, then run the pipel
 test: system system-slurm venv lint ## lint, then every test (the real Yade, a real one-node SLURM): what CI runs
 	$(PY) -m pytest -q
 
-test-unit: venv ## the unit tests alone (no Yade needed)
-	$(PY) -m pytest -q tests/unit
+test-unit: venv ## the fast unit tests (no Yade, no SLURM, nothing marked slow): under a minute of CPU
+	$(PY) -m pytest -q tests/unit -m "not slow and not yade and not slurm"
 
 test-yade: system venv ## the tests that run the real Yade
 	$(PY) -m pytest -q tests/integration

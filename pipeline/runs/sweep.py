@@ -117,7 +117,7 @@ def check_slurm(config: dict, sweep: Sweep, throughput: dict) -> None:
         raise SpecError(f"slurm threads_per_run={config['threads_per_run']} must be between 1 and 256")
     limit = time_limit_seconds(config["time_limit"])
     lead = config["signal_lead_seconds"]
-    spec = run_spec.resolve(*_resolve_args(sweep.tasks[0].args))
+    spec = task_spec(sweep.tasks[0].args)
     interval = spec["checkpoint_steps"] / throughput.get(sweep.preset, min(throughput.values()))
     if lead < interval:
         raise SpecError(f"slurm signal_lead_seconds={lead} is shorter than a checkpoint interval of preset "
@@ -134,10 +134,12 @@ def _words(text: str | None) -> list[str]:
     return [] if not text else text.replace(",", " ").split()
 
 
-def _resolve_args(args: tuple[str, ...]) -> tuple:
+def task_spec(args: tuple[str, ...]) -> dict:
+    """The run spec that the launcher's arguments ``args`` (``--theta``, ``--preset``, ``--rotate-at``, ``--set``)
+    resolve to: what ``make dem`` with them would run."""
     a = dict(zip(args[::2], args[1::2], strict=True))
     overrides = run_spec.parse_overrides([v for k, v in zip(args[::2], args[1::2], strict=True) if k == "--set"])
-    return a["--theta"], a["--preset"], a.get("--rotate-at"), overrides
+    return run_spec.resolve(a["--theta"], a["--preset"], a.get("--rotate-at"), overrides)
 
 
 def plan(preset: str, thetas: str, rotate_ats: str | None = None, seeds: str | None = None,
@@ -157,7 +159,7 @@ def plan(preset: str, thetas: str, rotate_ats: str | None = None, seeds: str | N
                 args = ("--theta", theta, "--preset", preset)
                 args += ("--rotate-at", rotate_at) if rotate_at is not None else ()
                 args += tuple(x for item in items for x in ("--set", item))
-                spec = run_spec.resolve(*_resolve_args(args))
+                spec = task_spec(args)
                 output = run_spec.output_path(spec, results)
                 tasks[output] = Task(args, output, f"{spec['folder']}/{spec['name']}")
     ordered = tuple(tasks.values())

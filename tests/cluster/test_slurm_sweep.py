@@ -21,7 +21,7 @@ from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
 from pipeline.runs import sweep
 
-pytestmark = pytest.mark.yade
+pytestmark = [pytest.mark.yade, pytest.mark.slurm]
 
 THETAS = "30 90 180"
 LONGER = ["--set", "n_cycles=4"]  # about 20 s a run here: time to warn one and kill another mid-run

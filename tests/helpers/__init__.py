@@ -1,4 +1,9 @@
-"""Synthetic DEM run files made by the model (known truth), for the unit tests."""
+"""Helpers of the tests: synthetic DEM run files made by the model (known truth), and a command line run
+in-process as if from a shell."""
+
+import contextlib
+import io
+import subprocess
 
 from dem.rawfile import write_raw
 from pipeline.dataset.dem_file import load, write_h5
@@ -17,3 +22,17 @@ def synthetic_file(folder, theta=180.0, name="run", **kw):
 def synthetic_run(folder, theta=180.0, name="run", **kw):
     """The loaded ``DemRun`` of :func:`synthetic_file`."""
     return load(synthetic_file(folder, theta, name, **kw))
+
+
+def run_main(main, argv) -> subprocess.CompletedProcess:
+    """``main(argv)`` of a command line, in this process, as a shell would see it: exit status, stdout, stderr.
+    An exception that escapes ``main`` escapes here too (where a shell would show a traceback)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main(list(argv))
+        except SystemExit as exc:
+            if isinstance(exc.code, str):
+                err.write(exc.code + "\n")
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    return subprocess.CompletedProcess(list(argv), code, out.getvalue(), err.getvalue())

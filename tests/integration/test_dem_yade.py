@@ -5,7 +5,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -114,12 +113,10 @@ def test_interrupted_and_resumed_run_is_bit_identical(tiny_run, tmp_path):
 
 
 def test_a_run_that_goes_wrong_stops_with_a_diagnostic(tmp_path):
-    tic = time.time()
     proc = run("--theta", "90", "--preset", "tiny", "--set", "compaction_max_time=5", results=tmp_path)
     assert proc.returncode == 3
     assert "error: compaction did not converge within t = 5.0" in proc.stdout
     assert not list(tmp_path.rglob("*.h5"))
-    assert time.time() - tic < 60
 
 
 @pytest.mark.parametrize("args, message", [

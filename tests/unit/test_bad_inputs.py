@@ -1,18 +1,25 @@
 """Bad input, tried as a hostile but honest user would: every case exits non-zero with one line that names
-the value, no traceback, and leaves nothing behind. (Damaged run folders need Yade: tests/integration.)"""
+the value, no traceback, and leaves nothing behind. (Damaged run folders need Yade: tests/integration.)
+
+The command lines run in-process (``run_main``: the same ``main`` a shell runs); Make itself runs as a
+process, in the ``slow`` tests."""
 
 import shutil
 import subprocess
-import sys
 
 import h5py
 import numpy as np
 import pytest
 
 import model
+from model.cli import main as model_main
 from model.cli import save_params
+from pipeline.calibration.__main__ import main as fit_main
+from pipeline.comparison.__main__ import main as compare_main
+from pipeline.figures.__main__ import main as figures_main
 from pipeline.paths import ROOT
-from tests.helpers import synthetic_file
+from pipeline.runs.launch import main as launch_main
+from tests.helpers import run_main, synthetic_file
 
 
 def run(args, cwd=ROOT):
@@ -66,7 +73,7 @@ DEM_CASES = [
 
 @pytest.mark.parametrize("args, fragment", DEM_CASES, ids=[" ".join(a) for a, _ in DEM_CASES])
 def test_make_dem_refuses(tmp_path, args, fragment):
-    proc = run([sys.executable, "-m", "pipeline.runs", "run", *args, "--results", str(tmp_path)])
+    proc = run_main(launch_main, ["run", *args, "--results", str(tmp_path)])
     assert_refused(proc, fragment)
     assert proc.returncode == 2 and listing(tmp_path) == []
 
@@ -86,6 +93,7 @@ MAKE_TARGETS = [("dem", a, f) for a, f in MAKE_CASES] + [(t, *MAKE_CASES[k]) for
                                                         ((0, "fit"), (1, "figures"), (5, "fit-bootstrap"))]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("target, assignment, fragment", MAKE_TARGETS, ids=[f"{t} {a}" for t, a, _ in MAKE_TARGETS])
 def test_make_variables_are_checked_before_any_command(tmp_path, target, assignment, fragment):
     makefile = tmp_path / "Makefile"
@@ -121,43 +129,42 @@ def inputs(tmp_path_factory):
     return folder
 
 
-def fit_cases(inp):
-    return [
-        (["--preset", "../../etc"], "preset '../../etc' is not a valid name"),
-        (["--preset", "nosuch"], "no reversal run found"),
-        (["--bootstrap", "1", "--runs", str(inp / "theta180.h5")], "bootstrap=1: a bootstrap needs at least 2"),
-        (["--bootstrap", "0", "--runs", str(inp / "theta180.h5")], "bootstrap=0: a bootstrap needs at least 2"),
-        (["--window", "-1", "--runs", str(inp / "theta180.h5")], "window=-1.0 must be a positive strain"),
-        (["--window", "5", "--runs", str(inp / "theta180.h5")], "window=5.0 must be a positive strain shorter"),
-        (["--runs", str(inp / "theta180.h5"), str(inp / "theta180.h5")], "is the same run as"),
-        (["--runs", str(inp / "junk.h5")], "cannot open"),
-        (["--runs", str(inp / "missing.h5")], "/raw lacks fabric"),
-        (["--runs", str(inp / "nan.h5")], "/raw/fabric has non-finite values"),
-        (["--runs", str(inp / "short.h5")], "samples do not cover every cycle"),
-        (["--runs", str(inp / "theta090.h5")], "not a reversal run"),
-        (["--runs", str(inp / "theta180.h5"), "--out", str(inp / "a_file" / "fit")], "a_file is a file"),
-        (["--runs", str(inp / "theta180.h5"), "--window", "nan"], "window=nan must be a positive strain"),
-    ]
+#: (arguments, with {inp} for the inputs folder; the fragment the one-line error must hold)
+FIT_CASES = [
+    (["--preset", "../../etc"], "preset '../../etc' is not a valid name"),
+    (["--preset", "nosuch"], "no reversal run found"),
+    (["--bootstrap", "1", "--runs", "{inp}/theta180.h5"], "bootstrap=1: a bootstrap needs at least 2"),
+    (["--bootstrap", "0", "--runs", "{inp}/theta180.h5"], "bootstrap=0: a bootstrap needs at least 2"),
+    (["--window", "-1", "--runs", "{inp}/theta180.h5"], "window=-1.0 must be a positive strain"),
+    (["--window", "5", "--runs", "{inp}/theta180.h5"], "window=5.0 must be a positive strain shorter"),
+    (["--runs", "{inp}/theta180.h5", "{inp}/theta180.h5"], "is the same run as"),
+    (["--runs", "{inp}/junk.h5"], "cannot open"),
+    (["--runs", "{inp}/missing.h5"], "/raw lacks fabric"),
+    (["--runs", "{inp}/nan.h5"], "/raw/fabric has non-finite values"),
+    (["--runs", "{inp}/short.h5"], "samples do not cover every cycle"),
+    (["--runs", "{inp}/theta090.h5"], "not a reversal run"),
+    (["--runs", "{inp}/theta180.h5", "--out", "{inp}/a_file/fit"], "a_file is a file"),
+    (["--runs", "{inp}/theta180.h5", "--window", "nan"], "window=nan must be a positive strain"),
+]
 
 
-@pytest.mark.parametrize("case", range(14))
-def test_make_fit_refuses(inputs, tmp_path, case):
-    args, fragment = fit_cases(inputs)[case]
+@pytest.mark.parametrize("template, fragment", FIT_CASES, ids=[" ".join(a) for a, _ in FIT_CASES])
+def test_make_fit_refuses(inputs, tmp_path, template, fragment):
+    args = [a.format(inp=inputs) for a in template]
     before = listing(inputs)
-    proc = run([sys.executable, "-m", "pipeline.calibration", *args, "--out", str(tmp_path / "fit")]
-               if "--out" not in args else [sys.executable, "-m", "pipeline.calibration", *args])
+    proc = run_main(fit_main, args if "--out" in args else [*args, "--out", str(tmp_path / "fit")])
     assert_refused(proc, fragment)
     assert listing(tmp_path) == [] and listing(inputs) == before
 
 
-@pytest.mark.parametrize("args, fragment", [
-    (["pipeline.figures", "--preset", "../x"], "preset '../x' is not a valid name"),
-    (["pipeline.figures", "--preset", "nosuch"], "metrics.json not found: run `make compare`"),
-    (["pipeline.comparison", "--preset", "nosuch"], "cannot read parameters"),
-    (["pipeline.comparison", "--preset", "a/b"], "preset 'a/b' is not a valid name"),
+@pytest.mark.parametrize("main, args, fragment", [
+    (figures_main, ["--preset", "../x"], "preset '../x' is not a valid name"),
+    (figures_main, ["--preset", "nosuch"], "metrics.json not found: run `make compare`"),
+    (compare_main, ["--preset", "nosuch"], "cannot read parameters"),
+    (compare_main, ["--preset", "a/b"], "preset 'a/b' is not a valid name"),
 ])
-def test_make_compare_and_figures_refuse(tmp_path, args, fragment):
-    proc = run([sys.executable, "-m", *args, "--out", str(tmp_path / "out")])
+def test_make_compare_and_figures_refuse(tmp_path, main, args, fragment):
+    proc = run_main(main, [*args, "--out", str(tmp_path / "out")])
     assert_refused(proc, fragment)
     assert listing(tmp_path) == []
 
@@ -169,10 +176,7 @@ def params_file(folder, **changes):
     return path
 
 
-@pytest.mark.parametrize("make_args, fragment", [
-    (lambda d: ["--theta", "abc"], "argument --theta: 'abc' is not a number"),
-    (lambda d: ["--theta", "90", "--rotate-at", "-1"], "argument --rotate-at: '-1' must be > 0"),
-    (lambda d: ["--theta", "90", "--times", "0,2"], "time 2 lies outside"),
+@pytest.mark.parametrize("make_args, fragment", [  # bad numbers: tests/unit/test_cli.py
     (lambda d: ["--theta", "90", "--params", str(params_file(d, c3=5.0))], "packing fraction leaves (0, 1)"),
     (lambda d: ["--theta", "180", "--params", str(params_file(d, b2=35.0))], "parameters off Table 2: b2 = +35"),
     (lambda d: ["--theta", "90", "--params", str(d / "none.json")], "cannot read parameters"),
@@ -180,16 +184,16 @@ def params_file(folder, **changes):
 def test_python_m_model_refuses(tmp_path, make_args, fragment):
     args = make_args(tmp_path)
     before = listing(tmp_path)
-    proc = run([sys.executable, "-m", "model", "predict", *args, "--out", str(tmp_path / "out.csv")])
+    proc = run_main(model_main, ["predict", *args, "--out", str(tmp_path / "out.csv")])
     assert_refused(proc, fragment)
     assert listing(tmp_path) == before
 
 
 def test_python_m_model_refuses_a_duplicate_key_and_an_output_folder(tmp_path):
     (tmp_path / "dup.json").write_text(model.Params().to_json().replace('"C": -5.6', '"C": -5.6, "C": -5'))
-    proc = run([sys.executable, "-m", "model", "predict", "--theta", "90", "--params", str(tmp_path / "dup.json"),
-                "--out", str(tmp_path / "out.csv")])
+    proc = run_main(model_main, ["predict", "--theta", "90", "--params", str(tmp_path / "dup.json"),
+                                 "--out", str(tmp_path / "out.csv")])
     assert_refused(proc, "key(s) given more than once: C")
-    proc = run([sys.executable, "-m", "model", "predict", "--theta", "90", "--out", str(tmp_path)])
+    proc = run_main(model_main, ["predict", "--theta", "90", "--out", str(tmp_path)])
     assert_refused(proc, "is a folder: give a file name")
     assert listing(tmp_path) == [(tmp_path / "dup.json").relative_to(tmp_path)]

@@ -19,6 +19,7 @@ from tests.helpers import synthetic_file, synthetic_run
 TRUE = model.Params()
 
 
+@pytest.mark.slow
 def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path):
     path = synthetic_file(tmp_path, n_cycles=2)
     assert fit.main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 0
@@ -41,6 +42,7 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
         assert values["b2"] == pytest.approx(TRUE.b2, rel=0.02), window
 
 
+@pytest.mark.slow
 def test_several_seeds_give_a_mean_and_its_standard_error(tmp_path):
     runs = [synthetic_run(tmp_path, name=f"s{seed}", n_cycles=2, noise=0.002, seed=seed) for seed in range(3)]
     report = fit.fit(runs, tmp_path / "fit")
@@ -70,6 +72,7 @@ def test_sec33_cross_check_on_other_angles_finds_constant_C(tmp_path):
         assert check["m"] == pytest.approx(TRUE.m, abs=0.1) and check["n"] == pytest.approx(TRUE.n, abs=0.02)
 
 
+@pytest.mark.slow
 def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(tmp_path):
     runs = [synthetic_run(tmp_path, theta=t, name=f"g{int(t)}", n_cycles=3, noise=0.01, seed=int(t))
             for t in (180.0, 30.0, 90.0, 150.0)]
@@ -102,6 +105,7 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
     assert [r.path for r in lookup.other_angles(lookup.preset_runs("p", roots))] == [reference / "p/dem/theta090.h5"]
 
 
+@pytest.mark.slow
 def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path):
     runs = [synthetic_run(tmp_path, theta=t, name=f"b{int(t)}", n_cycles=4, noise=0.01, seed=int(t) + 7)
             for t in (180.0, 90.0)]
@@ -180,6 +184,7 @@ def test_held_parameters_stay_and_the_fisher_directions_name_the_weakest_combina
     assert "--hold 'a2=x' is not NAME=VALUE" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_profile_intervals_match_the_sandwich_errors_on_a_nearly_linear_problem(tmp_path):
     """On model data with white noise the problem is nearly linear near the optimum: the 68 % profile
     interval is the sandwich's +-1 standard error; the profile's minimum is the fit."""

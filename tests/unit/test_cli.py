@@ -1,16 +1,14 @@
-import subprocess
-import sys
-
 import numpy as np
 import pandas as pd
 import pytest
 
 from model import Params, predict
 from model.cli import CSV_COLUMNS, main
+from tests.helpers import run_main
 
 
 def run_cli(*args):
-    return subprocess.run([sys.executable, "-m", "model", *args], capture_output=True, text=True)
+    return run_main(main, args)
 
 
 def test_predict_writes_the_cycle_as_csv(tmp_path):
@@ -68,3 +66,13 @@ def test_help_explains_every_option():
     text = run_cli("predict", "--help").stdout
     for option in ("--theta", "--rotate-at", "--params", "--times", "--out", "t_gd", "tau/p"):
         assert option in text
+
+
+@pytest.mark.slow
+def test_python_m_model_runs_as_a_process_with_one_line_errors(tmp_path):
+    import subprocess
+    import sys
+
+    command = [sys.executable, "-m", "model", "predict", "--theta", "abc", "--out", str(tmp_path / "x.csv")]
+    proc = subprocess.run(command, capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0 and "'abc' is not a number" in proc.stderr

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import model
+from pipeline.errors import SpecError
 from pipeline.studies.fidelity import ladder, render, table
 from pipeline.studies.fidelity.summary import change_strains, summarize
 from tests.helpers import synthetic_run
@@ -19,7 +20,7 @@ def test_the_ladder_is_validated_and_its_preset_run_is_one_run_on_every_axis(tmp
     assert len({r.relative for r in base}) == 1
     bad = tmp_path / "bad.toml"
     bad.write_text('preset = "reduced"\nthetas = [180.0]\n[axes.x]\nvalues = [{ dt_safety = 0.9 }]\n')
-    with pytest.raises(Exception, match="dt_safety"):
+    with pytest.raises(SpecError, match="dt_safety"):
         ladder.rungs(ladder.load(bad))
 
 
@@ -38,11 +39,11 @@ def test_a_run_with_a_summary_or_a_file_is_not_run_again_and_the_rest_is_a_sweep
     assert len(relatives) == len(set(relatives)) == len({r.relative for r in rungs}) - 2
     sweep = ladder.sweep_of(todo, "reduced", results)
     assert [t.output for t in sweep.tasks] == [results / r.relative for r in todo]
-    from pipeline.runs.spec import output_path, resolve
-    from pipeline.runs.sweep import _resolve_args
+    from pipeline.runs.spec import output_path
+    from pipeline.runs.sweep import task_spec
 
     for task, rung in zip(sweep.tasks, todo, strict=True):  # the launcher's arguments make exactly that run
-        assert output_path(resolve(*_resolve_args(task.args)), results) == results / rung.relative
+        assert output_path(task_spec(task.args), results) == results / rung.relative
 
 
 def test_the_summary_recovers_the_models_steady_values_and_the_runs_own_fit(tmp_path):

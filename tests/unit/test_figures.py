@@ -70,6 +70,7 @@ def test_relaxation_strain_of_an_exponential():
     assert np.isnan(relaxation_strain(strain, np.random.default_rng(2).normal(0, 1, x.size)))
 
 
+@pytest.mark.slow
 def test_the_profile_figure_is_drawn_from_profiles_json_of_the_same_fit_only(compared, tmp_path):
     tmp, _ = compared
     fit_dir = tmp_path / "fit"

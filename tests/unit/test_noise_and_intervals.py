@@ -26,6 +26,7 @@ def test_the_noise_model_measures_the_scatter_its_correlation_and_the_a_tau_coup
     assert white.correlation_strain()["A"][0] < 0.012
 
 
+@pytest.mark.slow
 def test_68_percent_intervals_cover_the_truth_at_their_rate_and_white_noise_ones_do_not(tmp_path):
     """40 noise draws of three reversal seeds with correlated noise: the sandwich intervals cover each
     parameter in 55-80 % of the draws; the same fit's white-noise errors (the noise's correlation ignored)
@@ -71,6 +72,7 @@ def test_table_2_is_inside_the_region_on_its_own_data_and_outside_on_other_physi
     assert not test["inside"]["95"] and not test["inside_misfit_widened"]["95"]
 
 
+@pytest.mark.slow
 def test_the_noise_bootstrap_agrees_with_the_sandwich_errors(tmp_path):
     runs = [synthetic_run(tmp_path, name=f"b{s}", seed=s + 50, **NOISE) for s in range(3)]
     data, nm = global_fit.prepare(runs)
@@ -82,6 +84,7 @@ def test_the_noise_bootstrap_agrees_with_the_sandwich_errors(tmp_path):
         assert low < value < high
 
 
+@pytest.mark.slow
 def test_the_jackknife_over_seeds_agrees_with_the_noise_model_where_seeds_differ_only_by_noise(tmp_path):
     runs = [synthetic_run(tmp_path, name=f"j{s}", seed=s + 90, **NOISE) for s in range(5)]
     data, nm = global_fit.prepare(runs)
