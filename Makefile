@@ -25,6 +25,8 @@ BOOT ?= 100
 ALLOW_INERTIAL ?=
 # make profile-dem [PRESETS=reduced,paper] [THREADS=1]; make bench-dem [PRESETS=quick,reduced,paper]
 PRESETS ?=
+# make fit [FIT_FROM=0.005]: the model restarted from the DEM's state that far past each change of direction
+FIT_FROM ?=
 # make fit-profile [STRAIN=bulk|nominal] [PHI=central|gap]
 STRAIN ?= bulk
 PHI ?= central
@@ -50,6 +52,7 @@ space := $(subst ,, )
 comma := ,
 $(call check,THETA,$(NUMBER_CHARS),a number)
 $(call check,ROTATE_AT,$(NUMBER_CHARS),a number)
+$(call check,FIT_FROM,$(NUMBER_CHARS),a number)
 $(call check,THREADS,$(DIGITS),a whole number)
 $(call check,BOOT,$(DIGITS),a whole number)
 $(call check,STRAIN,$(LOWER),bulk or nominal)
@@ -84,8 +87,9 @@ FIT_DIR := results/$(DATA_PRESET)/fit
 COMPARE_DIR := results/$(DATA_PRESET)/compare
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
-.PHONY: help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
-	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-profile fidelity fidelity-table stability profile-dem bench-dem compare figures demo-dem clean
+FORCE:
+.PHONY: FORCE help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
+	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table stability profile-dem bench-dem compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -167,12 +171,17 @@ demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 
 results/quick/dem/theta%.h5: | $(VENV_STAMP)
 	$(PY) -m pipeline.runs run --theta $* --preset quick
 
-fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs -> results/<PRESET>/fit/params.json, fit.json, fit.h5
+fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs [FIT_FROM=0.005] -> results/<PRESET>/fit/params.json, fit.json, fit.h5
+
+FIT_OPTIONS := $(if $(FIT_FROM),--fit-from $(FIT_FROM))
+# the options of the last fit: a fit with other options is a new fit
+$(FIT_DIR)/options.txt: FORCE
+	@mkdir -p $(@D); echo '$(FIT_OPTIONS)' | cmp -s - $@ || echo '$(FIT_OPTIONS)' > $@
 
 $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(call RUN_FILES,$(DATA_PRESET)) $(VENV_STAMP) \
-		$(DATASET_CODE) $(wildcard pipeline/calibration/*.py)
+		$(DATASET_CODE) $(wildcard pipeline/calibration/*.py) $(FIT_DIR)/options.txt
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration --preset $(DATA_PRESET)
+	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) $(FIT_OPTIONS)
 
 fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 refits, a few minutes) -> fit.json
 	$(SAY_PRESET)
@@ -185,6 +194,10 @@ fit-jackknife: venv ## the fit plus a jackknife over the reversal seeds (one ref
 fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<PRESET>/fit/definitions.md
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration.definitions --preset $(DATA_PRESET)
+
+fit-from: venv ## the fit past the reversal jump: gamma0 = 0, 0.005, 0.01 and a profile of k -> fit/fit_from.md
+	$(SAY_PRESET)
+	$(PY) -m pipeline.calibration.restart --preset $(DATA_PRESET)
 
 fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=nominal PHI=gap] (minutes) -> fit/profiles*.json
 	$(SAY_PRESET)

@@ -43,16 +43,20 @@ def noise_scales(samples: int, noise: noise_model.NoiseModel | None, n_cycles: i
     return scales
 
 
-def prepare(runs: list) -> tuple[list[Cycle], noise_model.NoiseModel]:
-    """The noise model measured on ``runs`` and every run's cycle scaled by it."""
+def prepare(runs: list, fit_from: float = 0.0) -> tuple[list[Cycle], noise_model.NoiseModel]:
+    """The noise model measured on ``runs`` and every run's cycle scaled by it; with ``fit_from`` > 0 each
+    cycle is restarted that far past each change of direction (``Cycle.restarted``)."""
     noise = noise_model.estimate(runs)
-    return [scaled_cycle(r, noise) for r in runs], noise
+    return [scaled_cycle(r, noise, fit_from) for r in runs], noise
 
 
-def scaled_cycle(run, noise: noise_model.NoiseModel | None) -> Cycle:
+def scaled_cycle(run, noise: noise_model.NoiseModel | None, fit_from: float = 0.0) -> Cycle:
     """The run's :class:`Cycle` with each component's noise per sample as its scale."""
     cycle = Cycle.from_run(run)
-    return cycle.with_scales(*noise_scales(len(cycle.strain), noise, cycle.n_cycles))
+    try:
+        return cycle.with_scales(*noise_scales(len(cycle.strain), noise, cycle.n_cycles)).restarted(fit_from)
+    except ValueError as exc:
+        raise CalibrationError(str(exc)) from None
 
 
 @dataclass(frozen=True)
@@ -99,18 +103,57 @@ def directions(covariance: np.ndarray, values: np.ndarray, names) -> tuple[dict,
     return tuple(sorted(out, key=lambda d: -d["relative_step"]))
 
 
+def _scaled(d: Cycle, pred, pick=slice(None)) -> tuple[np.ndarray, np.ndarray]:
+    """(A, tau) residuals ``(samples, components)`` of ``pred`` against the samples ``pick`` of ``d``, over the
+    noise scale."""
+    i, j = np.array(COMPONENTS).T
+    return ((pred.A[:, i, j] - d.A[pick][:, i, j]) / d.A_scale[pick][:, i, j],
+            (pred.tau[:, i, j] - d.tau[pick][:, i, j]) / d.tau_scale[pick][:, i, j])
+
+
+#: an orthonormal basis of symmetric traceless tensors: the directions in which a restart state may move
+TRACELESS_BASIS = np.array([
+    np.diag([1.0, -1.0, 0.0]) / np.sqrt(2), np.diag([1.0, 1.0, -2.0]) / np.sqrt(6),
+    *[(np.eye(3)[:, [a]] @ np.eye(3)[[b]] + np.eye(3)[:, [b]] @ np.eye(3)[[a]]) / np.sqrt(2)
+      for a, b in ((0, 1), (0, 2), (1, 2))]])
+#: the step of the restart state's finite-difference sensitivity (A is of order 0.1)
+RESTART_STEP = 1e-4
+
+
+def _restarted_residuals(d: Cycle, params: model.Params) -> tuple[np.ndarray, np.ndarray]:
+    """A restarted cycle's residuals with each segment's restart state profiled out: the DEM's A at a restart is
+    one noisy sample, so the model starts from it plus the symmetric traceless offset that fits the segment
+    best (linearised: one Gauss-Newton step on five finite-difference sensitivities). Without it the restart
+    carries the noise of that sample, correlated with the samples after it, into the fabric law."""
+    parts_A, parts_tau = [], []
+    for k in range(len(d.restarts)):
+        pick = d.segment_mask(k)
+        r_A, r_tau = _scaled(d, d.segment_prediction(params, k), pick)
+        base = np.concatenate([r_A.ravel(), r_tau.ravel()])
+        columns = []
+        for E in TRACELESS_BASIS:
+            e_A, e_tau = _scaled(d, d.segment_prediction(params, k, RESTART_STEP * E), pick)
+            columns.append((np.concatenate([e_A.ravel(), e_tau.ravel()]) - base) / RESTART_STEP)
+        sensitivity = np.stack(columns, axis=1)
+        offset, *_ = np.linalg.lstsq(sensitivity, -base, rcond=None)
+        best = (base + sensitivity @ offset).reshape(2, *r_A.shape)
+        parts_A.append(best[0])
+        parts_tau.append(best[1])
+    return np.concatenate(parts_A), np.concatenate(parts_tau)
+
+
 def residuals(values: np.ndarray, data: list[Cycle], base: model.Params, names=FREE) -> np.ndarray:
-    """Model minus DEM over the noise scale: per run, per component, the A block then the tau block."""
+    """Model minus DEM over the noise scale: per run, per component, the A block then the tau block (a restarted
+    cycle's restart states profiled out: ``_restarted_residuals``)."""
     params = base.replace(**dict(zip(names, map(float, values), strict=True)))
     out = []
     for d in data:
         try:
-            pred = d.prediction(params)
+            r_A, r_tau = _restarted_residuals(d, params) if d.restarts else _scaled(d, d.prediction(params))
         except (model.SolverError, model.ParameterError):
             return np.full(sum(2 * len(x.strain) * len(COMPONENTS) for x in data), 1e3)
-        for i, j in COMPONENTS:
-            out.append((pred.A[:, i, j] - d.A[:, i, j]) / d.A_scale[:, i, j])
-            out.append((pred.tau[:, i, j] - d.tau[:, i, j]) / d.tau_scale[:, i, j])
+        for c in range(len(COMPONENTS)):
+            out += [r_A[:, c], r_tau[:, c]]
     return np.concatenate(out)
 
 
@@ -128,7 +171,7 @@ def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseMode
         length = len(d.strain)
         for k in range(len(COMPONENTS)):
             J = jac[row:row + 2 * length]
-            sigma = np.eye(2 * length) if noise is None else noise.covariance(k, length)
+            sigma = np.eye(2 * length) if noise is None else sample_covariance(noise, k, d)
             meat += J.T @ sigma @ J
             row += 2 * length
     sandwich, white = inverse @ meat @ inverse, inverse.copy()
@@ -137,6 +180,16 @@ def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseMode
         m[loose, :] = np.inf
         m[:, loose] = np.inf
     return sandwich, white
+
+
+def sample_covariance(noise: noise_model.NoiseModel, k: int, d: Cycle) -> np.ndarray:
+    """The noise's correlation of component ``k`` over the cycle's (A, tau) samples; for a restarted cycle,
+    the rows and columns of its kept samples out of the full grid's (the gaps keep their true lags)."""
+    if d.grid_index is None:
+        return noise.covariance(k, len(d.strain))
+    full = int(d.grid_index.max()) + 1
+    pick = np.concatenate([d.grid_index, d.grid_index + full])
+    return noise.covariance(k, full)[np.ix_(pick, pick)]
 
 
 def refine(data: list[Cycle], start: model.Params, names=FREE, max_nfev: int = 200,

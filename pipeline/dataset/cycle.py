@@ -29,6 +29,12 @@ class Cycle:
     A_scale: np.ndarray
     tau_scale: np.ndarray
     phi: np.ndarray
+    #: the samples kept, as indices into the full cycle grid (None: all of them)
+    grid_index: np.ndarray | None = None
+    #: with ``fit_from`` > 0: per segment of constant direction, (start strain, end strain, phi in degrees,
+    #: the DEM's A and Phi at the start) from which the model restarts
+    restarts: tuple = ()
+    fit_from: float = 0.0
 
     @classmethod
     def from_run(cls, run) -> Cycle:
@@ -45,8 +51,59 @@ class Cycle:
     def with_scales(self, A_scale: np.ndarray, tau_scale: np.ndarray) -> Cycle:
         return dataclasses.replace(self, A_scale=A_scale, tau_scale=tau_scale)
 
-    def prediction(self, params: model.Params) -> model.Result:
-        """The model's periodic cycle for this protocol, in the cycle's strain measure, at its samples."""
+    def restarted(self, fit_from: float) -> Cycle:
+        """The cycle fitted past the first ``fit_from`` strain after each change of direction (nominal strain,
+        a multiple of the sampling step): the samples before it are dropped, and the model restarts each
+        segment from the DEM's cycle-mean A and Phi at the segment's start plus ``fit_from``."""
+        if fit_from == 0:
+            return self
+        step = self.strain[1] - self.strain[0]
+        k = fit_from / step
+        shortest = min(self.rotate_at, self.period - self.rotate_at)
+        if not 0 < fit_from < shortest or abs(k - round(k)) > 1e-6:
+            raise ValueError(f"fit_from={fit_from!r} must be a multiple of the sampling step {step:g} inside each "
+                             "segment of constant direction")
+        keep, restarts = [], []
+        for start, end, phi in ((0.0, self.rotate_at, 0.0), (self.rotate_at, self.period, self.theta_deg)):
+            first = int(np.argmin(np.abs(self.strain - (start + fit_from))))
+            inside = np.flatnonzero((self.strain >= self.strain[first] - 1e-9) & (self.strain < end - 1e-9))
+            keep.append(inside)
+            restarts.append((float(self.strain[first]), float(end), float(phi), self.A[first], float(self.phi[first])))
+        idx = np.concatenate(keep)
+        return dataclasses.replace(self, strain=self.strain[idx], A=self.A[idx], tau=self.tau[idx],
+                                   A_scale=self.A_scale[idx], tau_scale=self.tau_scale[idx], phi=self.phi[idx],
+                                   grid_index=idx, restarts=tuple(restarts), fit_from=float(fit_from))
+
+    def prediction(self, params: model.Params):
+        """The model at the cycle's samples, in the cycle's strain measure: its converged periodic cycle, or,
+        for a restarted cycle, each segment integrated from the DEM's state at its restart (``.A``, ``.tau``,
+        ``.packing_fraction`` on the kept samples)."""
+        if not self.restarts:
+            r = self.bulk_over_nominal
+            history = model.periodic_cycle(self.theta_deg, rotate_at=r * self.rotate_at, period=r * self.period)
+            return model.periodic(history, params=params, times=r * self.strain)
+        parts = [self.segment_prediction(params, k) for k in range(len(self.restarts))]
+        return SegmentPrediction(*(np.concatenate([getattr(p, k) for p in parts])
+                                   for k in ("A", "tau", "packing_fraction")))
+
+    def segment_mask(self, k: int) -> np.ndarray:
+        """The kept samples of restart segment ``k``."""
+        start, end = self.restarts[k][:2]
+        return (self.strain >= start - 1e-9) & (self.strain < end - 1e-9)
+
+    def segment_prediction(self, params: model.Params, k: int, A0_offset=0.0) -> model.Result:
+        """The model over restart segment ``k``'s samples from the DEM's A (plus ``A0_offset``) and Phi at its start."""
+        start, end, phi, A0, phi0 = self.restarts[k]
         r = self.bulk_over_nominal
-        history = model.periodic_cycle(self.theta_deg, rotate_at=r * self.rotate_at, period=r * self.period)
-        return model.periodic(history, params=params, times=r * self.strain)
+        history = model.History((model.shear_segment(r * (end - start), phi),))
+        return model.integrate(history, A0=A0 + A0_offset, packing_fraction0=phi0, params=params,
+                               times=r * (self.strain[self.segment_mask(k)] - start))
+
+
+@dataclass(frozen=True)
+class SegmentPrediction:
+    """The model on a restarted cycle's kept samples."""
+
+    A: np.ndarray
+    tau: np.ndarray
+    packing_fraction: np.ndarray

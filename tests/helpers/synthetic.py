@@ -14,6 +14,8 @@ model and to calibrate on data whose parameters are known.
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 import model
@@ -48,13 +50,38 @@ def dem_like_noise(rng, n: int, scale: float, correlation_strain: float = 0.0, a
     return scale * _symmetric_traceless(a), scale * _symmetric_traceless(c * a + np.sqrt(1 - c**2) * b)
 
 
+def jump_cycle(theta_deg: float, params: model.Params, jump: float, iterations: int = 40):
+    """The periodic cycle of a model whose fabric loses the fraction ``jump`` of itself at once at each change of
+    direction, then follows Eq. 13: a jump the paper's model cannot make. Outputs every 0.005 over a period;
+    the sample at a change carries the state after the jump."""
+    grid = np.round(np.arange(0.0, PERIOD + STEP / 2, STEP), 10)
+    half = PERIOD / 2
+    start = model.predict(theta_deg, params=params)
+    A, phi = start.A[0], start.packing_fraction[0]
+    first = grid[grid < half - 1e-9]
+    second = grid[grid >= half - 1e-9] - half
+    for _ in range(iterations):
+        one = model.integrate(model.History((model.shear_segment(half, 0.0),)), A0=(1 - jump) * A,
+                              packing_fraction0=phi, params=params, times=np.append(first, half))
+        two = model.integrate(model.History((model.shear_segment(half, theta_deg),)), A0=(1 - jump) * one.A[-1],
+                              packing_fraction0=one.packing_fraction[-1], params=params, times=second)
+        done = np.max(np.abs(two.A[-1] - A)) < 1e-12
+        A, phi = two.A[-1], two.packing_fraction[-1]
+        if done:
+            break
+    return SimpleNamespace(strain=grid, **{k: np.concatenate([getattr(one, k)[:-1], getattr(two, k)])
+                                           for k in ("A", "tau", "packing_fraction")})
+
+
 def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles: int = 2, noise: float = 0.0,
                   seed: int = 0, gamma_dot: float = 1e-3, bulk_ratio: float = 1.0,
                   overrides: dict | None = None, correlation_strain: float = 0.0,
-                  a_tau_correlation: float = 0.0) -> tuple[dict, dict]:
-    """Raw samples and metadata of a synthetic run (rotation at half the period, Fig. 1)."""
+                  a_tau_correlation: float = 0.0, jump: float = 0.0) -> tuple[dict, dict]:
+    """Raw samples and metadata of a synthetic run (rotation at half the period, Fig. 1); with ``jump`` > 0 the
+    fabric loses that fraction of itself at each change of direction (``jump_cycle``)."""
     params = params or model.Params()
-    cycle = model.predict(theta_deg, params=params)  # strain 0, 0.005, ..., 1.4
+    # strain 0, 0.005, ..., 1.4
+    cycle = jump_cycle(theta_deg, params, jump) if jump else model.predict(theta_deg, params=params)
     per_period = len(cycle.strain) - 1
     strain = np.round(np.arange(-PRE, n_cycles * PERIOD + STEP / 2, STEP), 10)
     # a sample on a period boundary takes the new direction, as in the scene (the model's output at
