@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 import model
-from pipeline.calibration import __main__ as fit
 from pipeline.calibration import global_fit
+from pipeline.calibration.__main__ import main as fit_main
+from pipeline.calibration.calibrate import fit
 from pipeline.calibration.stepwise import dilatancy_estimate
 from pipeline.dataset import lookup
 from pipeline.dataset.cycle import Cycle
@@ -22,7 +23,7 @@ TRUE = model.Params()
 @pytest.mark.slow
 def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path):
     path = synthetic_file(tmp_path, n_cycles=2)
-    assert fit.main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 0
+    assert fit_main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 0
     report = json.loads((tmp_path / "fit" / "fit.json").read_text())
     est = {k: v["value"] for k, v in report["estimates"].items()}
     # the fabric law (Eqs. 9, 12, 13) from the smoothed Jaumann rate
@@ -45,28 +46,28 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
 @pytest.mark.slow
 def test_several_seeds_give_a_mean_and_its_standard_error(tmp_path):
     runs = [synthetic_run(tmp_path, name=f"s{seed}", n_cycles=2, noise=0.002, seed=seed) for seed in range(3)]
-    report = fit.fit(runs, tmp_path / "fit")
+    report = fit(runs, tmp_path / "fit")
     b2 = report["estimates"]["b2"]
     assert len(b2["per_run"]) == 3
     assert b2["standard_error"] == pytest.approx(np.std(b2["per_run"], ddof=1) / np.sqrt(3))
 
 
 def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
-    assert fit.main(["--preset", "no-such-preset", "--out", str(tmp_path / "fit")]) == 2
+    assert fit_main(["--preset", "no-such-preset", "--out", str(tmp_path / "fit")]) == 2
     assert "no reversal run found" in capsys.readouterr().err
     path = synthetic_file(tmp_path, theta=90.0, n_cycles=1)
-    assert fit.main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 2
+    assert fit_main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 2
     assert "not a reversal run: " in capsys.readouterr().err
-    assert fit.main(["--runs", str(tmp_path / "missing.h5")]) == 2
+    assert fit_main(["--runs", str(tmp_path / "missing.h5")]) == 2
     assert "cannot open" in capsys.readouterr().err
-    assert fit.main(["--window", "-1"]) == 2
+    assert fit_main(["--window", "-1"]) == 2
     assert not (tmp_path / "fit").exists()
 
 
 def test_sec33_cross_check_on_other_angles_finds_constant_C(tmp_path):
     reversal = synthetic_run(tmp_path, name="rev", n_cycles=1)
     angles = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=1) for t in (60.0, 120.0)]
-    report = fit.fit([reversal], tmp_path / "fit", cross_runs=angles)
+    report = fit([reversal], tmp_path / "fit", cross_runs=angles)
     for check in report["cross_check"]:
         assert check["C_median"] == pytest.approx(TRUE.C, rel=0.02)
         assert check["m"] == pytest.approx(TRUE.m, abs=0.1) and check["n"] == pytest.approx(TRUE.n, abs=0.02)
@@ -76,7 +77,7 @@ def test_sec33_cross_check_on_other_angles_finds_constant_C(tmp_path):
 def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(tmp_path):
     runs = [synthetic_run(tmp_path, theta=t, name=f"g{int(t)}", n_cycles=3, noise=0.01, seed=int(t))
             for t in (180.0, 30.0, 90.0, 150.0)]
-    report = fit.fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:])
+    report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:])
     g = report["global"]
     assert g["success"] and 0.5 < g["misfit"] < 3  # white noise, measured from the cycles: misfit ~ 1
     for name, value, se in zip(g["free"], g["values"], g["standard_errors"], strict=True):
@@ -109,7 +110,7 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
 def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path):
     runs = [synthetic_run(tmp_path, theta=t, name=f"b{int(t)}", n_cycles=4, noise=0.01, seed=int(t) + 7)
             for t in (180.0, 90.0)]
-    report = fit.fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], bootstrap=12)
+    report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], bootstrap=12)
     boot, g = report["bootstrap"], report["global"]
     assert len(boot["replicates"]) == 12
     ratio = np.array(boot["standard_deviation"]) / np.array(g["standard_errors"])
@@ -124,7 +125,7 @@ def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path):
 
 def test_bootstrap_needs_more_than_one_cycle(tmp_path, capsys):
     path = synthetic_file(tmp_path, n_cycles=1)
-    assert fit.main(["--runs", str(path), "--out", str(tmp_path / "fit"), "--bootstrap", "3"]) == 2
+    assert fit_main(["--runs", str(path), "--out", str(tmp_path / "fit"), "--bootstrap", "3"]) == 2
     assert "needs runs with more than one cycle" in capsys.readouterr().err
 
 
@@ -170,7 +171,7 @@ def test_the_strain_measure_option_recovers_the_truth_of_each_measure(tmp_path):
 def test_held_parameters_stay_and_the_fisher_directions_name_the_weakest_combination(tmp_path, capsys):
     runs = [synthetic_run(tmp_path, theta=t, name=f"h{int(t)}", n_cycles=2, noise=0.005, seed=int(t))
             for t in (180.0, 90.0)]
-    report = fit.fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], hold={"a2": TRUE.a2})
+    report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], hold={"a2": TRUE.a2})
     g = report["global"]
     assert "a2" not in g["free"] and g["params"]["a2"] == TRUE.a2 and report["held"] == {"a2": TRUE.a2}
     steps = [d["relative_step"] for d in g["directions"]]
@@ -178,8 +179,8 @@ def test_held_parameters_stay_and_the_fisher_directions_name_the_weakest_combina
     for d in g["directions"]:
         assert np.linalg.norm(list(d["direction"].values())) == pytest.approx(1.0)
     with pytest.raises(CalibrationError, match="cannot hold phi_c: only C, n, m"):
-        fit.fit(runs[:1], tmp_path / "fit2", hold={"phi_c": 0.6})
-    assert fit.main(["--runs", str(runs[0].path), "--hold", "a2=x", "--out", str(tmp_path / "f3")]) == 2
+        fit(runs[:1], tmp_path / "fit2", hold={"phi_c": 0.6})
+    assert fit_main(["--runs", str(runs[0].path), "--hold", "a2=x", "--out", str(tmp_path / "f3")]) == 2
     assert "--hold 'a2=x' is not NAME=VALUE" in capsys.readouterr().err
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import model
-from pipeline.calibration import __main__ as fit
+from pipeline.calibration.calibrate import fit
 from pipeline.comparison.__main__ import compare
 from pipeline.dataset.smoothing import relaxation_strain
 from pipeline.figures.__main__ import draw, main
@@ -20,7 +20,7 @@ def compared(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("compare")
     rev = synthetic_run(tmp, name="theta180", n_cycles=2, noise=0.005, seed=1)
     other = synthetic_run(tmp, theta=60.0, name="theta060", n_cycles=2, noise=0.005, seed=2)
-    fit.fit([rev], tmp / "fit", cross_runs=[other])
+    fit([rev], tmp / "fit", cross_runs=[other])
     sets = {"Table 2": model.Params(), "our fit": read_params(tmp / "fit" / "params.json")}
     metrics = compare([rev, other], sets, tmp / "fit" / "fit.h5", tmp / "compare", "synthetic")
     return tmp, metrics

@@ -123,7 +123,7 @@ def test_each_packing_fraction_definition_recovers_the_truth_of_data_built_with_
 def test_without_a_measured_noise_there_are_no_intervals_and_no_verdict_on_table_2(tmp_path):
     """One cycle per run and no seeds: the scatter about a smoothed cycle stands in, and nothing it would
     give is printed as an interval."""
-    from pipeline.calibration.__main__ import fit as calibrate
+    from pipeline.calibration.calibrate import fit as calibrate
 
     runs = [synthetic_run(tmp_path, theta=t, name=f"u{int(t)}", n_cycles=1, seed=int(t), **NOISE)
             for t in (180.0, 90.0)]

@@ -1,0 +1,83 @@
+"""``make fit``'s printout: the global fit first, then the runs that would help most, the stepwise route."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def print_global(report: dict) -> None:
+    """The global fit first: values with their 68 % intervals from the measured noise, what is determined."""
+    g, ident, nm = report["global"], report["identifiability"], report["noise"]
+    unit = ("the DEM's noise: 1 is a fit within the noise" if ident["noise_measured"] else
+            "the scatter about a smoothed cycle, which is less than the noise")
+    print(f"global fit on {len(report['global_runs'])} run(s); misfit {g['misfit']:.2f} (chi^2 per degree of "
+          f"freedom in units of {unit})")
+    if not ident["noise_measured"]:
+        print(f"intervals: none ({nm['source']}): run two cycles or more, or three seeds")
+    else:
+        print(f"intervals: 68 % from the DEM's noise ({nm['source']}; correlated over "
+              f"{min(min(v) for v in nm['correlation_strain'].values()):.2f}-"
+              f"{max(max(v) for v in nm['correlation_strain'].values()):.2f} strain), not scaled by the misfit")
+    for name, p in ident["parameters"].items():
+        band = p["intervals"]["68"]
+        text = "[none]" if band is None else f"[{band[0]:+.4g}, {band[1]:+.4g}]"
+        print(f"{name:>8s} = {p['value']:+.4g}  68 % {text:>24s}  {p['status']}")
+    d = report["dilatancy"]
+    for name, value, se in zip(d["free"], d["values"], d["standard_errors"], strict=True):
+        print(f"{name:>8s} = {value:+.4g} ± {se:.2g} (Eq. 18 on Phi; its scatter taken as white)")
+    for label, items in (("fixed best", ident["strongest"]), ("fixed least", ident["weakest"])):
+        if ident["noise_measured"]:
+            print(f"the data {label}: " + "; ".join(f"{c['combination']} (±{c['relative_step']:.2g})"
+                                                   for c in items))
+    if ident["not_determined"]:
+        print(f"not determined by these runs: {', '.join(ident['not_determined'])} (hold with --hold NAME=VALUE)")
+    t = ident["table2"]
+    if t:
+        where = ("inside" if t["inside"]["95"] else "outside") if t["quantiles"] else "undecided"
+        lenient = ("inside" if t["inside_misfit_widened"]["95"] else "outside") if t["quantiles"] else "undecided"
+        bound = f" against {t['quantiles']['95']:.0f}" if t["quantiles"] else ""
+        print(f"Table 2 on these data: chi^2 {t['relative_rise']:+.1%} above the best fit (a rise of "
+              f"{t['chi2_rise']:.0f}{bound}): {where} the 95 % region from the noise, {lenient} it when widened "
+              "by the misfit (make fit-definitions: under each definition)")
+
+
+def print_next_runs(report: dict, count: int = 5) -> None:
+    if not report["next_runs"]:
+        return
+    first = report["next_runs"][0]
+    print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first['weakest_before']:.2g}; "
+          "fit.json: next_runs):")
+    for r in report["next_runs"][:count]:
+        print(f"  {r['run']}: ±{r['weakest_after']:.2g}, {r['cpu_hours']:.2f} CPU-hours")
+
+
+def print_report(report: dict, out: Path) -> None:
+    if report["global"]:
+        print_global(report)
+        print_next_runs(report)
+    if report.get("bootstrap"):
+        b = report["bootstrap"]
+        print(f"noise bootstrap ({len(b['replicates'])} refits, blocks of {b['block_strain']:g} strain), 68 %: "
+              + ", ".join(f"{n} [{lo:+.4g}, {hi:+.4g}]" for n, (lo, hi) in zip(b["free"], b["interval_68"],
+                                                                               strict=True)))
+    if report.get("jackknife"):
+        j = report["jackknife"]
+        print(f"jackknife over the {len(j['left_out'])} reversal seeds: standard errors "
+              + ", ".join(f"{n} {se:.2g} ({r:.1f}x the noise model's)" for n, se, r in
+                          zip(j["free"], j["standard_error"], j["over_sandwich"], strict=True)))
+    print("the paper's stepwise route (Sec. 4), mean ± standard error over the reversal runs, and its range over "
+          "smoothing windows 0.03-0.08 and 1-4 relaxation strains of transient (fit.json: sensitivity):")
+    settings = [v for part in ("smoothing_window", "transient_efolds") for v in report["sensitivity"][part].values()]
+    for key, e in report["estimates"].items():
+        values = [v[key] for v in settings if key in v]
+        spread = f"   ({min(values):+.4g} to {max(values):+.4g} over its settings)" if values else ""
+        print(f"{key:>30s} = {e['value']:+.4g} ± {e['standard_error']:.2g}{spread}")
+    for c in report["cross_check"]:
+        if "C_median" in c:
+            q = c["C_quartiles"]
+            print(f"  Sec. 3.3, theta = {c['theta_deg']:g}: C = {c['C_median']:+.2f} (quartiles {q[0]:+.2f} "
+                  f"{q[1]:+.2f}), Y = {c['n']:+.3f} {c['m']:+.3f} S")
+    for note in report["notes"][2:]:
+        print(f"note: {note}")
+    print(f"wrote {out / 'params.json'} (global fit), fit.json and fit.h5"
+          + (", params_stepwise.json" if report["params_stepwise"] else ""))
