@@ -89,7 +89,7 @@ DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config
 
 FORCE:
 .PHONY: FORCE help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
-	dem sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table jump stability profile-dem bench-dem compare figures demo-dem clean
+	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table jump stability profile-dem bench-dem compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -158,6 +158,9 @@ sweep: system venv ## a sweep of runs (THETAS, ROTATE_ATS, SEEDS), LAUNCH=local 
 	$(PY) -m pipeline.runs.sweep run --preset $(PRESET) --thetas "$(THETAS)" \
 	  $(if $(ROTATE_ATS),--rotate-ats "$(ROTATE_ATS)") $(if $(SEEDS),--seeds "$(SEEDS)") $(foreach s,$(SET),--set $(s)) \
 	  --launch $(LAUNCH) $(foreach s,$(SLURM),--slurm $(s)) $(if $(JOBS),--jobs $(JOBS))
+
+runs: venv ## every DEM run here and committed: its folder, overrides, state (done, running, stopped, failed) and summary
+	$(PY) -m pipeline.runs.listing
 
 sweep-status: venv ## every run of the latest sweep (or SWEEP=<id>): done, running, queued, failed, stopped
 	$(PY) -m pipeline.runs.sweep status $(if $(SWEEP),--sweep $(SWEEP))

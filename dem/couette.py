@@ -34,10 +34,11 @@ import numpy as np
 
 from dem import checks, measure, protocol, schema
 from dem.contact import contact_constants, contact_engines, contact_material
-from dem.rawfile import save_npz, stack, write_raw
+from dem.rawfile import save_npz, stack, write_raw, write_status
 from dem.yade_lib import VERSION, O, PyRunner, Vector3, pack, utils
 
 RUN_DIR = SPEC = CHECKPOINT = RAW = None  # set by configure(run_dir)
+STATUS = "status.json"  # the run's progress, read by pipeline.runs.state
 
 
 def configure(run_dir):
@@ -264,6 +265,9 @@ class Run:
         print(f"[{done:4.0%}] strain {strain:+.3f} / {protocol.end_strain(SPEC):.2f}  "
               f"sigma_wall/p - 1 = {row['wall_stress_error_mean']:+.2%}  tau12/p = {row['stress_contact'][0, 1]:+.3f}  "
               f"{rate:.0f} steps/s  ETA {format_seconds(eta)}", flush=True)
+        write_status(os.path.join(RUN_DIR, STATUS), {
+            "percent": round(100 * done, 1), "strain": strain, "steps_per_second": round(rate, 1),
+            "eta_seconds": eta if math.isfinite(eta) else None, "updated": time.time()})
         self.last_print = (now, O.iter)
 
     def fail(self, message):

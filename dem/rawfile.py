@@ -1,4 +1,4 @@
-"""The scene's sample files: ``raw.npz`` (every sample and the run's meta data, read by
+"""The scene's files: ``status.json`` (its progress), ``raw.npz`` (every sample and the run's meta data, read by
 ``pipeline.dataset.dem_file``) and the samples saved beside each checkpoint. Plain python and numpy, so
 Yade's python3 and the project venv (the tests' synthetic runs) write the same format.
 
@@ -29,6 +29,14 @@ def save_npz(path, arrays):
     finally:
         if os.path.exists(tmp):
             os.remove(tmp)
+
+
+def write_status(path, status):
+    """``status.json`` beside the run: its progress for ``make sweep-status`` and ``make runs`` (temp, then rename)."""
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w") as fh:
+        json.dump(status, fh)
+    os.replace(tmp, path)
 
 
 def write_raw(path, columns, meta):

@@ -23,6 +23,7 @@ from ..errors import SpecError
 from ..paths import RESULTS_DIR, ROOT
 from . import spec as run_spec
 from . import yade
+from .state import FAILED
 
 YADE_NOISE = ("Using python version",)
 
@@ -82,7 +83,6 @@ def prepare(spec: dict, results_dir: Path, fresh: bool) -> Path:
 #: signals passed on to the scene: each stops it at its next checkpoint (SIGUSR1: a scheduler's warning
 #: before a time limit); a second SIGINT/SIGTERM stops it within two steps
 FORWARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
-FAILED = "failed.json"  # in the run folder: why the last attempt stopped for good (exit 2 or 3)
 
 
 def run_yade(run_dir: Path, threads: int, label: str) -> tuple[int, str]:

@@ -22,7 +22,6 @@ the run's own progress line), queued (with the scheduler's reason), failed (with
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import json
 import re
@@ -40,13 +39,12 @@ from ..config import load_presets
 from ..errors import PipelineError, SpecError
 from ..paths import CONFIG_DIR, RESULTS_DIR, ROOT
 from . import spec as run_spec
-from .launch import FAILED
+from .state import progress, run_state
 
 CLUSTER_FILE = CONFIG_DIR / "cluster.toml"
 NAME = re.compile(r"[A-Za-z0-9_.-]*")
 TIME_LIMIT = re.compile(r"(?:(\d+)-)?(\d{1,2}):(\d{2}):(\d{2})")
 MEMORY = re.compile(r"\d+[KMGT]?")
-PROGRESS = re.compile(r"\[\s*(\d+)%\].*?(\d+) steps/s\s+ETA (\S+)")
 
 
 @dataclass(frozen=True)
@@ -283,50 +281,19 @@ def queue(sweep: Sweep) -> dict[int, tuple[str, str]]:
     return out
 
 
-def _locked(task: Task) -> bool:
-    lock = task.run_dir.with_suffix(".lock")
-    if not lock.exists():
-        return False
-    with open(lock) as fh:
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            return True
-        fcntl.flock(fh, fcntl.LOCK_UN)
-    return False
-
-
-def _progress(task: Task) -> str:
-    log = task.run_dir / "log.txt"
-    if not log.exists():
-        return ""
-    for line in reversed(log.read_text(errors="replace").splitlines()):
-        match = PROGRESS.search(line)
-        if match:
-            return f"{match.group(1)} %, {match.group(2)} steps/s, ETA {match.group(3)}"
-        if line.startswith(("compaction", "built", "resumed")):
-            return line.strip()
-    return ""
-
-
 def status(sweep: Sweep) -> list[dict]:
     """One row per run: label, state (done, running, queued, failed, stopped, not started) and detail."""
     queued = queue(sweep)
     rows = []
     for k, task in enumerate(sweep.tasks):
-        state, detail = "not started", ""
+        state, detail = run_state(task.run_dir, task.output)
         slurm_state, reason = queued.get(k, ("", ""))
-        if task.output.exists():
-            state = "done"
-        elif (task.run_dir / FAILED).exists():
-            failure = json.loads((task.run_dir / FAILED).read_text())
-            state, detail = "failed", failure["reason"]
-        elif _locked(task) or slurm_state in ("RUNNING", "COMPLETING"):
-            state, detail = "running", _progress(task)
-        elif slurm_state:
+        if state in ("stopped", "not started") and slurm_state in ("RUNNING", "COMPLETING"):
+            state, detail = "running", progress(task.run_dir)
+        elif state in ("stopped", "not started") and slurm_state:
             state, detail = "queued", f"{slurm_state.lower()} ({reason})"
-        elif (task.run_dir / "checkpoint.yade.gz").exists():
-            state, detail = "stopped", "resumable from its checkpoint: rerun the sweep"
+        elif state == "stopped":
+            detail = "resumable from its checkpoint: rerun the sweep"
         rows.append({"task": k, "run": task.label, "state": state, "detail": detail})
     return rows
 

@@ -31,6 +31,7 @@ from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs import launch, yade
 from ..runs import spec as run_spec
+from ..runs.state import FAILED
 
 RUNS_DIR = RESULTS_DIR / "stability"
 ENERGY_STRAIN = 0.1
@@ -109,7 +110,7 @@ def run_case(case: Case, results: Path = RUNS_DIR) -> dict:
     try:
         path = launch.run(spec, results, fresh=True)
     except SystemExit as exc:
-        failed = run_spec.work_dir(spec, results) / launch.FAILED
+        failed = run_spec.work_dir(spec, results) / FAILED
         reason = json.loads(failed.read_text())["reason"] if failed.exists() else f"exit status {exc.code}"
         return {**row, "outcome": "stopped", "exit_status": exc.code, "diagnostic": reason}
     result = checks(path)

@@ -20,6 +20,7 @@ import pytest
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
 from pipeline.runs import sweep
+from pipeline.runs.state import STATUS, read_json
 
 pytestmark = [pytest.mark.yade, pytest.mark.slurm]
 
@@ -128,10 +129,8 @@ def release(job: str, task: int):
 
 
 def progressed(plan, task, percent):
-    log = plan.tasks[task].run_dir / "log.txt"
-    if not log.exists():
-        return False
-    return any(m and int(m.group(1)) >= percent for m in map(sweep.PROGRESS.search, log.read_text().splitlines()))
+    status = read_json(plan.tasks[task].run_dir / STATUS)
+    return bool(status) and status.get("percent", 0) >= percent
 
 
 def scene_pids(run_dir: Path) -> list[int]:
