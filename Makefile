@@ -27,9 +27,9 @@ ALLOW_INERTIAL ?=
 PRESETS ?=
 # make fit [FIT_FROM=0.005]: the model restarted from the DEM's state that far past each change of direction
 FIT_FROM ?=
-# make fit-profile [STRAIN=bulk|nominal] [PHI=central|gap]
-STRAIN ?= bulk
-PHI ?= central
+# make fit-profile [STRAIN=nominal|bulk] [PHI=gap|central]
+STRAIN ?= nominal
+PHI ?= gap
 # make sweep PRESET=... THETAS="30 60 90" [ROTATE_ATS="0.1 0.2"] [SEEDS="1 2 3"] [SET=...] [LAUNCH=local|slurm]
 #            [SLURM="partition=... time_limit=HH:MM:SS ..."] [JOBS=2]
 THETAS ?=
@@ -202,7 +202,7 @@ fit-from: venv ## the fit past the reversal jump: gamma0 = 0, 0.005, 0.01 and a 
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration.restart --preset $(DATA_PRESET)
 
-fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=nominal PHI=gap] (minutes) -> fit/profiles*.json
+fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=bulk PHI=central] (minutes) -> fit/profiles*.json
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration.profile --preset $(DATA_PRESET) --strain $(STRAIN) --phi $(PHI)
 

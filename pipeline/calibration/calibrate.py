@@ -20,7 +20,7 @@ import h5py
 import model
 
 from .. import io
-from ..dataset.derived import DEFAULT, Definitions
+from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..dataset.lookup import reversal_seeds
 from ..errors import CalibrationError
 from ..paths import most_faithful_preset
@@ -35,7 +35,7 @@ class Settings:
     persistence exponent k (held), and the optional bootstrap (resamples) and jackknife over seeds."""
 
     window: float = 0.05
-    definitions: Definitions = DEFAULT
+    definitions: Definitions = PAPER_DEFINITIONS
     hold: dict = field(default_factory=dict)
     fit_from: float = 0.0
     persistence_exponent: float = 0.75

@@ -24,7 +24,7 @@ import model
 
 from .. import io
 from ..cli import Parser, one_line_errors
-from ..dataset.derived import DEFAULT
+from ..dataset.derived import PAPER_DEFINITIONS
 from ..dataset.lookup import fit_runs
 from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError, PipelineError
@@ -110,7 +110,7 @@ def main(argv=None) -> int:
               flush=True)
 
     result = {"definitions": dataclasses.asdict(definitions), **profiles(data, best, args.points, args.span, progress)}
-    name = "profiles.json" if definitions == DEFAULT else f"profiles-{definitions.slug()}.json"
+    name = "profiles.json" if definitions == PAPER_DEFINITIONS else f"profiles-{definitions.slug()}.json"
     io.write_json(out / name, result)
     for key, p in result["parameters"].items():
         low, high = p["intervals"]["68"]

@@ -19,13 +19,12 @@ import model
 
 from .. import io
 from ..cli import Parser, one_line_errors
-from ..dataset.derived import Definitions
+from ..dataset.derived import PAPER_DEFINITIONS
 from ..dataset.lookup import fit_runs
 from ..errors import PipelineError
 from ..paths import check_folder_name, preset_output
 from .definitions import NAMES, fit_row
 
-PAPER_DEFINITIONS = Definitions(strain="nominal", phi="gap", pressure="target")
 FIT_FROM = (0.0, 0.005, 0.01)
 EXPONENTS = (0.5, 0.625, 0.75, 0.875, 1.0)
 

@@ -24,7 +24,7 @@ import model
 
 from .. import io
 from ..cli import Parser, one_line_errors
-from ..dataset.derived import DEFAULT, Definitions
+from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..dataset.lookup import preset_runs
 from ..errors import DemFileError
 from ..paths import check_folder_name, preset_output
@@ -114,7 +114,7 @@ def main(argv=None) -> int:
     fitted = io.read_params(params_file)
     fit_json = params_file.with_name("fit.json")
     definitions = Definitions(**json.loads(fit_json.read_text()).get("definitions", {})) \
-        if fit_json.exists() else DEFAULT
+        if fit_json.exists() else PAPER_DEFINITIONS
     runs = [r.with_definitions(definitions) for r in preset_runs(preset)]
     if not runs:
         raise DemFileError(f"no DEM run of preset {preset!r}: run `make dem PRESET={preset}` first")

@@ -51,6 +51,9 @@ class Definitions:
 
 
 DEFAULT = Definitions()
+#: the paper's own: strain t*2U/H (Sec. 2) and Phi of the whole gap; what ``make fit`` reports first
+#: (its Table 2 matches the nominal strain: docs/calibration.md, "Definitions the paper leaves open")
+PAPER_DEFINITIONS = Definitions(strain="nominal", phi="gap", pressure="target")
 
 
 def shear_rate_tensor(gradient):

@@ -1,15 +1,18 @@
 """Command-line options for the definitions a reader applies to a run (``derived.Definitions``)."""
 
-from .derived import DEFAULT, Definitions
+from .derived import PAPER_DEFINITIONS, Definitions
 
 
-def add_definition_arguments(parser) -> None:
-    """--strain, --phi, --pressure: the definitions the paper leaves open (``Definitions``)."""
-    helps = {"strain": "strain measure: the central band's (bulk, default) or the paper's t*2U/H (nominal)",
-             "phi": "packing fraction of the central region (default) or of the whole gap",
-             "pressure": "tau over the controlled p (target, default) or over the measured wall stress"}
+def add_definition_arguments(parser, default: Definitions = PAPER_DEFINITIONS) -> None:
+    """--strain, --phi, --pressure: the definitions the paper leaves open (``Definitions``), ``default`` the
+    paper's own."""
+    helps = {"strain": "strain measure: the paper's t*2U/H (nominal) or the central band's (bulk)",
+             "phi": "packing fraction of the whole gap (gap) or of the central region (central)",
+             "pressure": "tau over the controlled p (target) or over the measured wall stress (wall)"}
     for name, text in helps.items():
-        parser.add_argument(f"--{name}", choices=Definitions.CHOICES[name], default=getattr(DEFAULT, name), help=text)
+        value = getattr(default, name)
+        parser.add_argument(f"--{name}", choices=Definitions.CHOICES[name], default=value,
+                            help=f"{text}; default {value}")
 
 
 def definitions_from(args):

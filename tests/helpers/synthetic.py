@@ -23,6 +23,9 @@ from dem.schema import check_row
 from pipeline.config import protocol_defaults
 
 PERIOD, PRE, STEP = (protocol_defaults()[k] for k in ("period_strain", "pre_strain", "sample_strain"))
+#: a 10d x 8.5d cell of grains of diameter d: the gap follows Phi, so Phi of the gap is the model's Phi too
+WIDTH, N_GRAINS = 10.0, 860
+GRAIN_VOLUME = N_GRAINS * np.pi / 6
 
 
 def _symmetric_traceless(m):
@@ -101,7 +104,7 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
     edges = np.array([0.0, 8.5])
     raw = {
         "iteration": np.arange(n) * 1000, "time": (strain + PRE) / gamma_dot, "strain": strain,
-        "direction_deg": direction_deg, "gap": np.full(n, 8.5), "region": np.tile([2.5, 6.0], (n, 1)),
+        "direction_deg": direction_deg, "gap": 1.0 + GRAIN_VOLUME / (WIDTH**2 * phi), "region": np.tile([2.5, 6.0], (n, 1)),
         "top_position": np.zeros((n, 3)), "bottom_position": np.zeros((n, 3)), "top_velocity": np.zeros((n, 3)),
         "bottom_velocity": np.zeros((n, 3)), "top_force": np.zeros((n, 3)), "bottom_force": np.zeros((n, 3)),
         "wall_stress_error_mean": np.zeros(n), "wall_stress_error_max": np.zeros(n),
@@ -114,11 +117,11 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
     }
     check_row(raw)
     spec = {"preset": "synthetic", "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2, "seed": seed,
-            "width_d": 10.0,
+            "width_d": WIDTH,
             "overrides": dict(overrides or {}), "period_strain": PERIOD, "sample_strain": STEP, "n_cycles": n_cycles,
             "pre_strain": PRE, "inertial_number": gamma_dot, "noise": noise, "model_params": params.to_dict()}
     meta = {"spec": spec, "yade_version": "none (synthetic, made by the model)", "dt": 1.0, "kn": 0.0, "kt": 0.0,
-            "cn": 0.0, "ct": 0.0, "n_grains": 300, "n_wall_spheres": 0, "gap0": 8.5, "wall_speed": 0.0,
+            "cn": 0.0, "ct": 0.0, "n_grains": N_GRAINS, "n_wall_spheres": 0, "gap0": 8.5, "wall_speed": 0.0,
             "gamma_dot_nominal": gamma_dot, "t_shear0": 0.0, "iterations": int(n * 1000), "callback_seconds": 0.0,
-            "loop_seconds": 0.0, "grain_radius": [0.5] * 300}
+            "loop_seconds": 0.0, "grain_radius": [0.5] * N_GRAINS}
     return raw, meta

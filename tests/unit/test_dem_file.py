@@ -69,8 +69,10 @@ def test_definitions_of_strain_packing_fraction_and_pressure(tmp_path):
     assert bulk_over_nominal(run) == pytest.approx(1.3 * (1 - 2 * 0.005 / 1.4))  # two reversals in the period
     assert bulk_over_nominal(run.with_definitions(Definitions(strain="nominal"))) == 1.0
     gap = run.with_definitions(Definitions(phi="gap"))
-    expected = np.pi / 6 * np.sum(run.grain_diameter**3) / (run.parameters["width_d"] ** 2 * (8.5 - 1.0))
+    expected = np.pi / 6 * np.sum(run.grain_diameter**3) / (run.parameters["width_d"] ** 2 * (run.raw["gap"] - 1.0))
     np.testing.assert_allclose(gap.series["packing_fraction"], expected)
+    # the synthetic cell's gap follows its Phi: the whole gap's Phi is the model's, as the central one is
+    np.testing.assert_allclose(gap.series["packing_fraction"], run.raw["packing_fraction"], rtol=1e-12)
     assert gap_packing_fraction(5.0, 4.0, [1.0]) == pytest.approx(np.pi / 6 / 64)
     raw = dict(run.raw, wall_stress_error_mean=np.full(len(run.raw["strain"]), -0.2))
     wall = dataclasses.replace(run, raw=raw).with_definitions(Definitions(pressure="wall"))
