@@ -19,8 +19,10 @@ import pytest
 
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
-from pipeline.runs import sweep
 from pipeline.runs.state import STATUS, read_json
+from pipeline.runs.sweep import plan as sweep_plan
+from pipeline.runs.sweep import slurm as sweep_slurm
+from pipeline.runs.sweep import status as sweep_status
 
 pytestmark = [pytest.mark.yade, pytest.mark.slurm]
 
@@ -149,15 +151,15 @@ def test_a_sweep_survives_a_warning_a_killed_process_and_matches_a_local_run(clu
     proc = sweep_cli("run", "--preset", "tiny", "--thetas", THETAS, *LONGER, "--launch", "slurm", *SLURM,
                      "--results", str(remote))
     assert proc.returncode == 0 and "submitted job array" in proc.stdout, proc.stdout + proc.stderr
-    plan = sweep.read_plan(remote)
+    plan = sweep_plan.read_plan(remote)
     job = job_id(remote, plan.ident)
     table_states = set()
 
     def poll():
-        for k, (state, reason) in sweep.queue(plan).items():  # the admin who will not wait for a requeue delay
+        for k, (state, reason) in sweep_slurm.queue(plan).items():  # the admin who will not wait for a requeue delay
             if state == "PENDING" and reason == "BeginTime":
                 release(job, k)
-        rows = sweep.status(plan)
+        rows = sweep_status.status(plan)
         out = sweep_cli("status", "--results", str(remote)).stdout  # what `make sweep-status` prints
         table_states.update(s for s in ("done", "running", "queued", "failed", "stopped") if f"  {s}" in out)
         return rows
@@ -202,14 +204,14 @@ def test_a_run_that_fails_with_the_dem_diagnostic_is_not_requeued(cluster, tmp_p
     proc = sweep_cli("run", "--preset", "tiny", "--thetas", "90", "--set", "compaction_max_time=5",
                      "--launch", "slurm", *SLURM, "--results", str(tmp_path))
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    plan = sweep.read_plan(tmp_path)
-    row = wait_for(lambda: next((r for r in sweep.status(plan) if r["state"] == "failed"), None), 180,
+    plan = sweep_plan.read_plan(tmp_path)
+    row = wait_for(lambda: next((r for r in sweep_status.status(plan) if r["state"] == "failed"), None), 180,
                    "the run to fail")
     assert "compaction did not converge" in row["detail"]
     log = tmp_path / "sweeps" / plan.ident / "logs" / "task-0.out"
     wait_for(lambda: "not requeued" in log.read_text(), 60, "the task to end")
     time.sleep(2)
-    assert not sweep.queue(plan), "a failed task is back in the queue"
+    assert not sweep_slurm.queue(plan), "a failed task is back in the queue"
     assert "attempt 2" not in log.read_text()
     status = sweep_cli("status", "--results", str(tmp_path)).stdout
     assert "failed" in status and "compaction did not converge" in status

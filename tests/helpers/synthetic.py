@@ -104,7 +104,8 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
     edges = np.array([0.0, 8.5])
     raw = {
         "iteration": np.arange(n) * 1000, "time": (strain + PRE) / gamma_dot, "strain": strain,
-        "direction_deg": direction_deg, "gap": 1.0 + GRAIN_VOLUME / (WIDTH**2 * phi), "region": np.tile([2.5, 6.0], (n, 1)),
+        "direction_deg": direction_deg, "gap": 1.0 + GRAIN_VOLUME / (WIDTH**2 * phi),
+        "region": np.tile([2.5, 6.0], (n, 1)),
         "top_position": np.zeros((n, 3)), "bottom_position": np.zeros((n, 3)), "top_velocity": np.zeros((n, 3)),
         "bottom_velocity": np.zeros((n, 3)), "top_force": np.zeros((n, 3)), "bottom_force": np.zeros((n, 3)),
         "wall_stress_error_mean": np.zeros(n), "wall_stress_error_max": np.zeros(n),

@@ -40,10 +40,9 @@ def test_a_run_with_a_summary_or_a_file_is_not_run_again_and_the_rest_is_a_sweep
     sweep = ladder.sweep_of(todo, "reduced", results)
     assert [t.output for t in sweep.tasks] == [results / r.relative for r in todo]
     from pipeline.runs.spec import output_path
-    from pipeline.runs.sweep import task_spec
 
     for task, rung in zip(sweep.tasks, todo, strict=True):  # the launcher's arguments make exactly that run
-        assert output_path(task_spec(task.args), results) == results / rung.relative
+        assert output_path(task.spec(), results) == results / rung.relative
 
 
 def test_the_summary_recovers_the_models_steady_values_and_the_runs_own_fit(tmp_path):

@@ -22,7 +22,9 @@ from ... import io
 from ...cli import Parser, one_line_errors
 from ...dataset.dem_file import load
 from ...paths import RESULTS_DIR
-from ...runs import sweep as sweeps
+from ...runs.sweep.local import run_local
+from ...runs.sweep.plan import write_plan
+from ...runs.sweep.slurm import load_cluster_config, submit
 from . import ladder, render, table
 from .summary import VERSION, summarize
 
@@ -92,13 +94,13 @@ def main(argv=None) -> int:
     missing = ladder.missing(rungs)
     if args.run and missing:
         sweep = ladder.sweep_of(missing, spec["preset"])
-        sweeps.write_plan(sweep)
+        write_plan(sweep)
         print(f"running {len(missing)} ladder run(s) as sweep {sweep.ident} ({args.launch}; "
               f"make sweep-status SWEEP={sweep.ident})", flush=True)
         if args.launch == "slurm":
-            sweeps.submit(sweep, sweeps.load_cluster_config())
+            submit(sweep, load_cluster_config())
             return 0
-        sweeps.run_local(sweep, args.jobs)
+        run_local(sweep, args.jobs)
     entries = summaries(rungs)
     result = table.build(entries, extrapolations={axis: entry["extrapolate"] for axis, entry in spec["axes"].items()
                                                   if "extrapolate" in entry},

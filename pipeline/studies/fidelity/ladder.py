@@ -9,8 +9,6 @@ one Yade thread each, resumable from checkpoints).
 
 from __future__ import annotations
 
-import hashlib
-import json
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,7 +17,7 @@ from ...config import load_presets
 from ...errors import SpecError
 from ...paths import CONFIG_DIR, DATA_ROOTS, RESULTS_DIR, ROOT, first_existing
 from ...runs import spec as run_spec
-from ...runs.sweep import Sweep, Task
+from ...runs.sweep.plan import Sweep, Task, make_sweep
 
 LADDER_FILE = CONFIG_DIR / "fidelity.toml"
 SUMMARY_DIR = ROOT / "data" / "fidelity"
@@ -89,11 +87,6 @@ def missing(all_rungs: list[Rung], summaries: Path = SUMMARY_DIR, roots: tuple[P
 
 def sweep_of(to_run: list[Rung], preset: str, results: Path = RESULTS_DIR) -> Sweep:
     """The runs to make as a sweep (``pipeline.runs.sweep``): its plan, folder and local or SLURM launch."""
-    tasks = []
-    for r in to_run:
-        args = ("--theta", f"{r.theta_deg:g}", "--preset", preset)
-        args += tuple(x for k, v in sorted(r.spec["overrides"].items()) for x in ("--set", f"{k}={v:g}"))
-        tasks.append(Task(args, run_spec.output_path(r.spec, results), f"{r.spec['folder']}/{r.spec['name']}"))
-    digest = hashlib.sha1(json.dumps([t.args for t in tasks]).encode()).hexdigest()[:8]
-    ident = f"fidelity-{digest}"
-    return Sweep(ident, results / "sweeps" / ident, preset, tuple(tasks), results)
+    tasks = [Task(f"{r.theta_deg:g}", preset, None, tuple(f"{k}={v:g}" for k, v in sorted(r.spec["overrides"].items())),
+                  run_spec.output_path(r.spec, results), f"{r.spec['folder']}/{r.spec['name']}") for r in to_run]
+    return make_sweep("fidelity", preset, tasks, results)

@@ -1,0 +1,65 @@
+"""``make sweep``, ``make sweep-status``, ``make sweep-collect``: the command line of sweeps."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from ...cli import Parser, one_line_errors
+from ...errors import SpecError
+from ...paths import RESULTS_DIR
+from .local import run_local
+from .plan import plan, read_plan, write_plan
+from .slurm import apply_overrides, check_slurm, load_cluster_config, submit
+from .status import format_status, status
+
+
+@one_line_errors
+def main(argv=None) -> int:
+    parser = Parser(prog="python -m pipeline.runs.sweep", description="a set of DEM runs launched with one command")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    run = sub.add_parser("run", help="plan a sweep, check it, and launch the runs that are not done")
+    run.add_argument("--preset", required=True)
+    run.add_argument("--thetas", required=True, help='angles in degrees, e.g. "30 60 90"')
+    run.add_argument("--rotate-ats", help='strains at which the direction turns (default: half the period)')
+    run.add_argument("--seeds", help='seeds, e.g. "1 2 3" (default: the preset\'s)')
+    run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every run")
+    run.add_argument("--launch", choices=("local", "slurm"), default="local")
+    run.add_argument("--slurm", action="append", default=[], metavar="KEY=VALUE", help="override of [slurm]")
+    run.add_argument("--jobs", type=int, help="runs side by side with LAUNCH=local (default: [local] jobs)")
+    run.add_argument("--results", type=Path, default=RESULTS_DIR)
+    st = sub.add_parser("status", help="the state of every run of a sweep (default: the latest)")
+    st.add_argument("--sweep", help="the sweep's id (results/sweeps/<id>)")
+    st.add_argument("--results", type=Path, default=RESULTS_DIR)
+    pr = sub.add_parser("preset", help="print the preset of a sweep (default: the latest)")
+    pr.add_argument("--sweep")
+    pr.add_argument("--results", type=Path, default=RESULTS_DIR)
+    args = parser.parse_args(argv)
+    if args.command == "status":
+        sweep = read_plan(args.results, args.sweep)
+        print(format_status(sweep, status(sweep)))
+        return 0
+    if args.command == "preset":
+        print(read_plan(args.results, args.sweep).preset)
+        return 0
+    config = load_cluster_config()
+    sweep = plan(args.preset, args.thetas, args.rotate_ats, args.seeds, args.set, args.results)
+    if args.launch == "slurm":
+        slurm = apply_overrides(config["slurm"], args.slurm, "slurm")
+        check_slurm(slurm, sweep, config["throughput"])
+    jobs = args.jobs or config["local"]["jobs"]
+    if jobs < 1:
+        raise SpecError(f"jobs={jobs} must be >= 1")
+    write_plan(sweep)
+    print(f"sweep {sweep.ident}: {len(sweep.tasks)} run(s) of preset {sweep.preset} "
+          f"({sum(t.output.exists() for t in sweep.tasks)} done)")
+    if args.launch == "local":
+        return run_local(sweep, jobs)
+    job = submit(sweep, slurm)
+    print("every run is done: nothing submitted" if job is None else
+          f"submitted job array {job} ({sweep.folder / 'job.sh'}); follow it with `make sweep-status`")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

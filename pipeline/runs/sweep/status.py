@@ -1,0 +1,35 @@
+"""The state of every run of a sweep: done, running, queued, failed, stopped or not started."""
+
+from __future__ import annotations
+
+from ..state import progress, run_state
+from .plan import Sweep
+from .slurm import queue
+
+
+def status(sweep: Sweep) -> list[dict]:
+    """One row per run: label, state (done, running, queued, failed, stopped, not started) and detail."""
+    queued = queue(sweep)
+    rows = []
+    for k, task in enumerate(sweep.tasks):
+        state, detail = run_state(task.run_dir, task.output)
+        slurm_state, reason = queued.get(k, ("", ""))
+        if state in ("stopped", "not started") and slurm_state in ("RUNNING", "COMPLETING"):
+            state, detail = "running", progress(task.run_dir)
+        elif state in ("stopped", "not started") and slurm_state:
+            state, detail = "queued", f"{slurm_state.lower()} ({reason})"
+        elif state == "stopped":
+            detail = "resumable from its checkpoint: rerun the sweep"
+        rows.append({"task": k, "run": task.label, "state": state, "detail": detail})
+    return rows
+
+
+def format_status(sweep: Sweep, rows: list[dict]) -> str:
+    counts = {}
+    for r in rows:
+        counts[r["state"]] = counts.get(r["state"], 0) + 1
+    width = max(len(r["run"]) for r in rows)
+    lines = [f"sweep {sweep.ident}: " + ", ".join(f"{n} {s}" for s, n in counts.items()),
+             f"{'task':>4}  {'run':<{width}}  {'state':<11}  detail"]
+    lines += [f"{r['task']:>4}  {r['run']:<{width}}  {r['state']:<11}  {r['detail']}" for r in rows]
+    return "\n".join(lines)
