@@ -67,7 +67,8 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     if fit_h5.exists():
         made.append(laws.fabric_law(fit_h5, fitted, paper, figures / "fig3_fabric_law.png"))
         made.append(laws.flow_rule(fit_h5, fitted, paper, figures / "fig4_flow_rule.png"))
-    made.append(report.write(metrics, fit_json, out / "report.md", n_runs))
+    fit_from = read_json(fit_dir / "fit_from.json") if (fit_dir / "fit_from.json").exists() else None
+    made.append(report.write(metrics, fit_json, out / "report.md", n_runs, fit_from))
     return made
 
 

@@ -95,3 +95,14 @@ def test_the_profile_figure_is_drawn_from_profiles_json_of_the_same_fit_only(com
                                                        "parameters": same}))
     made = draw(tmp / "compare", fit_dir, tmp_path / "out")
     assert png in made and png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_report_shows_the_fit_against_the_restart_in_standard_errors_from_table_2():
+    from pipeline.figures.report import jump_lines
+
+    paper = model.Params().to_dict()
+    row = {"persistence_exponent": 0.75, "fit_from": 0.005, "misfit": 1.2, "table2": {"relative_rise": 0.045},
+           "params": {**paper, "a1": -0.015}, "standard_errors": {n: 0.003 if n == "a1" else 1.0 for n in paper}}
+    lines = jump_lines([row, {**row, "persistence_exponent": 0.5}], paper)
+    assert len([x for x in lines if x.startswith("| 0.005")]) == 1  # k = 3/4 rows only
+    assert "-0.015 (+2.0)" in lines[-1] and "+4.5%" in lines[-1]
