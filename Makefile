@@ -46,8 +46,9 @@ NUMBER_CHARS := $(DIGITS) . - + e E
 NAME_CHARS := $(LOWER) $(UPPER) $(DIGITS) _ . -
 # what is left of $(1) once every character of the list $(2) is removed
 strip_chars = $(if $(2),$(call strip_chars,$(subst $(firstword $(2)),,$(1)),$(wordlist 2,$(words $(2)),$(2))),$(1))
-# $(call check,NAME,allowed characters,what they may be)
-check = $(if $(strip $(call strip_chars,$(subst $(space),,$($(1))),$(2))),$(error $(1)='$($(1))' is not $(3)))
+# $(call check,NAME,allowed characters,what they may be): reads the variable's text unexpanded ($(value ...)),
+# so a value such as $(shell ...) is refused as text and never runs
+check = $(if $(strip $(call strip_chars,$(subst $(space),,$(value $(1))),$(2))),$(error $(1)='$(value $(1))' is not $(3)))
 space := $(subst ,, )
 comma := ,
 $(call check,THETA,$(NUMBER_CHARS),a number)
@@ -169,9 +170,10 @@ sweep-collect: venv ## make fit, compare and figures on the preset of the latest
 	$(MAKE) --no-print-directory figures PRESET="$$($(PY) -m pipeline.runs.sweep preset $(if $(SWEEP),--sweep $(SWEEP)))"
 
 demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 90, both at once
-	$(MAKE) --no-print-directory -j2 results/quick/dem/theta180.h5 results/quick/dem/theta090.h5
+	$(MAKE) --no-print-directory -j2 demo-dem-180 demo-dem-90
 
-results/quick/dem/theta%.h5: | $(VENV_STAMP)
+# one demo run (the launcher itself skips a run that is done and resumes one that was stopped)
+demo-dem-%: | $(VENV_STAMP)
 	$(PY) -m pipeline.runs run --theta $* --preset quick
 
 fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs [FIT_FROM=0.005] -> results/<PRESET>/fit/params.json, fit.json, fit.h5
@@ -186,13 +188,13 @@ $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(call RUN_FILES
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) $(FIT_OPTIONS)
 
-fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 refits, a few minutes) -> fit.json
+fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 refits, minutes) -> results/<P>/fit-bootstrap/
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --bootstrap $(BOOT)
+	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --bootstrap $(BOOT) --out results/$(DATA_PRESET)/fit-bootstrap
 
-fit-jackknife: venv ## the fit plus a jackknife over the reversal seeds (one refit per seed) -> fit.json
+fit-jackknife: venv ## the fit plus a jackknife over the reversal seeds (a refit per seed) -> results/<P>/fit-jackknife/
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --jackknife
+	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --jackknife --out results/$(DATA_PRESET)/fit-jackknife
 
 fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<PRESET>/fit/definitions.md
 	$(SAY_PRESET)
@@ -236,4 +238,4 @@ results/$(DATA_PRESET)/report.md: $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/com
 	$(PY) -m pipeline.figures --preset $(DATA_PRESET)
 
 clean: ## remove generated results (keeps the venv and the DEM runs under results/<preset>/dem/)
-	rm -rf results/model results/bench results/fidelity results/*/fit results/*/compare results/*/figures results/*/report.md
+	rm -rf results/model results/bench results/fidelity results/jump results/*/fit results/*/fit-* results/*/compare results/*/figures results/*/report.md

@@ -24,38 +24,34 @@ from dem.yade_lib import O, Vector3
 MODES = ("bare", "full")
 
 
-def control():
-    couette.control()
-
-
-def configure(mode):
-    """Reload the kept state and configure ``mode``."""
+def configure(scene, mode):
+    """Reload the kept state into ``scene`` and configure ``mode``."""
     O.loadTmp("bench")
-    couette.RUN = couette.Run()
-    couette.RUN.state["next_checkpoint"] = 1 << 62
+    run = scene.attach()
+    run.state["next_checkpoint"] = 1 << 62
     controller = next(e for e in O.engines if e.label == "controller")
     controller.dead = mode == "bare"
     if mode == "bare":  # walls at constant velocity: keep the shear, stop the vertical motion
-        for clump in (couette.RUN.top_clump, couette.RUN.bottom_clump):
+        for clump in (run.top_clump, run.bottom_clump):
             clump.state.vel = clump.state.vel - clump.state.vel[1] * Vector3(0, 1, 0)
 
 
-def timed(mode, steps):
+def timed(scene, mode, steps):
     """Seconds of ``steps`` steps in ``mode`` from the kept state."""
-    configure(mode)
-    state = couette.RUN.state
+    configure(scene, mode)
+    state = scene.run.state
     tic = time.perf_counter()
     O.run(steps, True)
     seconds = time.perf_counter() - tic
     if state["phase"] != "shear":
-        raise RuntimeError(f"the benchmark left the shear phase: {state['phase']} {couette.RUN.failure}")
+        raise RuntimeError(f"the benchmark left the shear phase: {state['phase']} {scene.run.failure}")
     return seconds
 
 
-def engine_split(mode, steps):
+def engine_split(scene, mode, steps):
     """Yade's timers over ``steps`` steps of ``mode``: microseconds per step per engine, collider sorts,
     and the interactions (real, all) at the end."""
-    configure(mode)
+    configure(scene, mode)
     collider = next(e for e in O.engines if type(e).__name__ == "InsertionSortCollider")
     sorts = collider.numAction
     O.timingEnabled = True
@@ -71,23 +67,23 @@ def engine_split(mode, steps):
 def main():
     steps, repeats, out = int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
     cache = sys.argv[5] if len(sys.argv) > 5 else None
-    couette.configure(sys.argv[1])
-    prepare(cache, shear_steps=steps)
-    state = couette.RUN.state
+    scene = couette.Scene(sys.argv[1])
+    prepare(scene, cache, shear_steps=steps)
+    state = scene.run.state
     O.tags["state"] = json.dumps(state)
     O.saveTmp("bench")
     runs = {mode: [] for mode in MODES}
     for _ in range(repeats):  # interleaved, so that a busy spell of the machine hits every mode
         for mode in MODES:
-            runs[mode].append(timed(mode, steps))
+            runs[mode].append(timed(scene, mode, steps))
     best = {mode: min(r) for mode, r in runs.items()}
-    engines = {mode: engine_split(mode, steps) for mode in MODES}
+    engines = {mode: engine_split(scene, mode, steps) for mode in MODES}
     full = engines["full"]["microseconds_per_step"]
     wall_spheres = len(state["top"][1]) * 2
     bodies = state["n_grains"] + wall_spheres
     result = {
-        "preset": couette.SPEC["preset"], "grains": state["n_grains"], "wall_spheres": wall_spheres,
-        "steps": steps, "repeats": repeats, "control_every_steps": couette.SPEC["control_every_steps"], "dt": O.dt,
+        "preset": scene.spec["preset"], "grains": state["n_grains"], "wall_spheres": wall_spheres,
+        "steps": steps, "repeats": repeats, "control_every_steps": scene.spec["control_every_steps"], "dt": O.dt,
         "seconds": best, "steps_per_second": {mode: steps / t for mode, t in best.items()},
         "particle_steps_per_second": {mode: steps * bodies / t for mode, t in best.items()},
         "spread_percent": {mode: 100 * (max(r) / best[mode] - 1) for mode, r in runs.items()},

@@ -32,23 +32,12 @@ import time
 
 import numpy as np
 
-from dem import checks, measure, protocol, schema
+from dem import active, checks, measure, protocol, schema
 from dem.contact import contact_constants, contact_engines, contact_material
 from dem.rawfile import save_npz, stack, write_raw, write_status
 from dem.yade_lib import VERSION, O, PyRunner, Vector3, pack, utils
 
-RUN_DIR = SPEC = CHECKPOINT = RAW = None  # set by configure(run_dir)
 STATUS = "status.json"  # the run's progress, read by pipeline.runs.state
-
-
-def configure(run_dir):
-    """Point the module at a run folder and read its ``spec.json``."""
-    global RUN_DIR, SPEC, CHECKPOINT, RAW
-    RUN_DIR = run_dir
-    with open(os.path.join(run_dir, "spec.json")) as fh:
-        SPEC = json.load(fh)
-    CHECKPOINT = os.path.join(run_dir, "checkpoint.yade.gz")
-    RAW = os.path.join(run_dir, "raw.npz")
 
 ROUGH_HEIGHT = 1 / math.sqrt(2)  # rough layer above the compact layer (sphere in a square hollow)
 WALL_RADIUS = checks.WALL_RADIUS
@@ -95,7 +84,7 @@ def build(spec):
     m_min = min(b.state.mass for b in O.bodies if b.id >= first_grain)
     O.dt = spec["dt_safety"] * math.sqrt(m_min / kn)
     O.engines = contact_engines() + [
-        PyRunner(iterPeriod=int(spec["control_every_steps"]), command="control()", label="controller"),
+        PyRunner(iterPeriod=int(spec["control_every_steps"]), command=active.COMMAND, label="controller"),
     ]
     O.tags["spec"] = json.dumps(spec)
     y_rough_bottom, y_rough_top = y_bottom + ROUGH_HEIGHT, y_top - ROUGH_HEIGHT
@@ -112,9 +101,11 @@ def build(spec):
 
 # ---------------------------------------------------------------- runtime state (restored from O.tags)
 class Run:
-    """Python-side state of the running scene; everything persistent lives in ``self.state``."""
+    """Python-side state of the running scene; everything persistent lives in ``self.state`` (``O.tags``)."""
 
-    def __init__(self):
+    def __init__(self, scene):
+        self.scene = scene
+        self.spec = scene.spec
         self.state = json.loads(O.tags["state"])
         st = self.state
         self.top_clump, self.bottom_clump = O.bodies[st["top"][0]], O.bodies[st["bottom"][0]]
@@ -122,11 +113,11 @@ class Run:
         self.grains = [O.bodies[i] for i in self.grain_ids]
         self.radius = np.array([b.shape.radius for b in self.grains])
         self.mass = np.array([b.state.mass for b in self.grains])
-        self.area = SPEC["width_d"] ** 2
-        self.gain = SPEC["gap_d"] * SPEC["overlap_ratio"] / SPEC["control_time"]
-        self.gamma_dot = SPEC["inertial_number"]  # I = d gamma_dot / sqrt(p/rho) with d = p = rho = 1
-        self.samples = load_samples(st["samples_file"])
-        self.sample_strains = protocol.sample_strains(SPEC)
+        self.area = self.spec["width_d"] ** 2
+        self.gain = self.spec["gap_d"] * self.spec["overlap_ratio"] / self.spec["control_time"]
+        self.gamma_dot = self.spec["inertial_number"]  # I = d gamma_dot / sqrt(p/rho) with d = p = rho = 1
+        self.samples = load_samples(scene.run_dir, st["samples_file"])
+        self.sample_strains = protocol.sample_strains(self.spec)
         self.failure = None
         self.last_print = (time.time(), O.iter)
         self.next_percent = 0.0
@@ -154,8 +145,8 @@ class Run:
             st["err_sum"] += err
             st["err_n"] += 1
             st["err_max"] = max(st["err_max"], abs(err))
-            strain = protocol.strain(O.time, st["t_shear0"], self.gamma_dot, SPEC)
-            phi = math.radians(protocol.direction_deg(strain, SPEC))
+            strain = protocol.strain(O.time, st["t_shear0"], self.gamma_dot, self.spec)
+            phi = math.radians(protocol.direction_deg(strain, self.spec))
             u = st["wall_speed"] * Vector3(math.cos(phi), 0, math.sin(phi))
             self.top_clump.state.vel = u + Vector3(0, vy, 0)
             self.bottom_clump.state.vel = -u
@@ -177,17 +168,17 @@ class Run:
             st.update(hold_since=O.time, hold_sum=0.0, hold_n=0)
         st["hold_sum"] += err
         st["hold_n"] += 1
-        if O.time - st["hold_since"] >= SPEC["compaction_hold_time"]:
+        if O.time - st["hold_since"] >= self.spec["compaction_hold_time"]:
             mean = st["hold_sum"] / st["hold_n"]
             st["hold_since"] = None
-            if abs(mean) < SPEC["compaction_tolerance"]:
+            if abs(mean) < self.spec["compaction_tolerance"]:
                 y_bottom, y_top = self.inner_planes()
                 st.update(phase="shear", t_shear0=O.time, gap0=y_top - y_bottom,
                           wall_speed=self.gamma_dot * (y_top - y_bottom) / 2)
                 print(f"compaction done at t = {O.time:.1f}: gap H0 = {st['gap0']:.3f} d, "
                       f"U = {st['wall_speed']:.3g}; shearing", flush=True)
-        if O.time > SPEC["compaction_max_time"]:
-            self.fail(f"compaction did not converge within t = {SPEC['compaction_max_time']} "
+        if O.time > self.spec["compaction_max_time"]:
+            self.fail(f"compaction did not converge within t = {self.spec['compaction_max_time']} "
                       f"(sigma_wall/p - 1 = {err:+.3f})")
 
     # sampling
@@ -217,13 +208,13 @@ class Run:
         contacts, grains = self.gather()
         y_bottom, y_top = self.inner_planes()
         gap = y_top - y_bottom
-        margin = SPEC["region_margin_d"]
-        n_bins = max(1, int(round(st["gap0"] / SPEC["profile_bin_d"])))
+        margin = self.spec["region_margin_d"]
+        n_bins = max(1, int(round(st["gap0"] / self.spec["profile_bin_d"])))
         edges = np.linspace(y_bottom, y_top, n_bins + 1)
         row = measure.measure(contacts, grains, st["first_grain"], self.area, (y_bottom + margin, y_top - margin),
                               edges)
         row.update(
-            iteration=O.iter, time=O.time, strain=strain, direction_deg=protocol.direction_deg(strain, SPEC),
+            iteration=O.iter, time=O.time, strain=strain, direction_deg=protocol.direction_deg(strain, self.spec),
             gap=gap, region=[y_bottom + margin, y_top - margin], profile_edges=edges,
             top_position=list(self.top_clump.state.pos), bottom_position=list(self.bottom_clump.state.pos),
             top_velocity=list(self.top_clump.state.vel), bottom_velocity=list(self.bottom_clump.state.vel),
@@ -246,26 +237,27 @@ class Run:
         problem = checks.sample_problem(row, grains["id"], grains["pos"], grains["vel"], (y_bottom, y_top),
                                         st["gap0"])
         if problem is None:
-            interval = row["strain"] - self.samples[-2]["strain"] if len(self.samples) > 1 else SPEC["sample_strain"]
+            step = self.spec["sample_strain"]
+            interval = row["strain"] - self.samples[-2]["strain"] if len(self.samples) > 1 else step
             st["alarm_strain"], problem = checks.stress_alarm(row["wall_stress_error_mean"], st["alarm_strain"],
-                                                              interval, SPEC)
+                                                              interval, self.spec)
         if problem is not None:
             self.fail(problem)
 
     def progress(self, strain, row):
-        total = protocol.end_strain(SPEC) + SPEC["pre_strain"]
-        done = (strain + SPEC["pre_strain"]) / total
+        total = protocol.end_strain(self.spec) + self.spec["pre_strain"]
+        done = (strain + self.spec["pre_strain"]) / total
         now = time.time()
         if done * 100 < self.next_percent and now - self.last_print[0] < 60:
             return
         self.next_percent = math.floor(done * 50 + 1e-9) * 2 + 2
         rate = (O.iter - self.last_print[1]) / max(now - self.last_print[0], 1e-9)
-        steps_left = (total - strain - SPEC["pre_strain"]) / (self.gamma_dot * O.dt)
+        steps_left = (total - strain - self.spec["pre_strain"]) / (self.gamma_dot * O.dt)
         eta = steps_left / rate if rate > 0 else float("nan")
-        print(f"[{done:4.0%}] strain {strain:+.3f} / {protocol.end_strain(SPEC):.2f}  "
+        print(f"[{done:4.0%}] strain {strain:+.3f} / {protocol.end_strain(self.spec):.2f}  "
               f"sigma_wall/p - 1 = {row['wall_stress_error_mean']:+.2%}  tau12/p = {row['stress_contact'][0, 1]:+.3f}  "
               f"{rate:.0f} steps/s  ETA {format_seconds(eta)}", flush=True)
-        write_status(os.path.join(RUN_DIR, STATUS), {
+        write_status(os.path.join(self.scene.run_dir, STATUS), {
             "percent": round(100 * done, 1), "strain": strain, "steps_per_second": round(rate, 1),
             "eta_seconds": eta if math.isfinite(eta) else None, "updated": time.time()})
         self.last_print = (now, O.iter)
@@ -296,10 +288,10 @@ def format_seconds(seconds):
 
 
 # ---------------------------------------------------------------- persistence (atomic: temp file, then rename)
-def load_samples(name):
+def load_samples(run_dir, name):
     if not name:
         return []
-    with np.load(os.path.join(RUN_DIR, name), allow_pickle=False) as data:
+    with np.load(os.path.join(run_dir, name), allow_pickle=False) as data:
         columns = {key: data[key] for key in data.files}
     n = len(next(iter(columns.values()))) if columns else 0
     return [{key: columns[key][i] for key in columns} for i in range(n)]
@@ -308,40 +300,72 @@ def load_samples(name):
 def checkpoint(run):
     """Samples first (a new file), then the scene that names it; old sample files go last."""
     name = f"samples_{O.iter:012d}.npz"
-    save_npz(os.path.join(RUN_DIR, name), stack(run.samples))
+    run_dir = run.scene.run_dir
+    save_npz(os.path.join(run_dir, name), stack(run.samples))
     previous = run.state["samples_file"]
     run.state["samples_file"] = name
     O.tags["state"] = json.dumps(run.state)
-    tmp = os.path.join(RUN_DIR, "checkpoint.tmp.yade.gz")
+    tmp = os.path.join(run_dir, "checkpoint.tmp.yade.gz")
     O.save(tmp)
-    os.replace(tmp, CHECKPOINT)
+    os.replace(tmp, run.scene.checkpoint)
     if previous and previous != name:
-        os.remove(os.path.join(RUN_DIR, previous))
+        os.remove(os.path.join(run_dir, previous))
 
 
 def write_run_raw(run):
     st = run.state
     meta = {
-        "spec": SPEC, "yade_version": VERSION,
+        "spec": run.spec, "yade_version": VERSION,
         "dt": O.dt, "kn": st["kn"], "kt": st["kt"], "cn": st["cn"], "ct": st["ct"], "n_grains": st["n_grains"],
         "n_wall_spheres": len(st["top"][1]) + len(st["bottom"][1]), "gap0": st["gap0"], "wall_speed": st["wall_speed"],
         "gamma_dot_nominal": run.gamma_dot, "t_shear0": st["t_shear0"], "iterations": O.iter,
         "callback_seconds": st["callback_seconds"], "loop_seconds": st["loop_seconds"],
         "grain_radius": run.radius.tolist(),
     }
-    write_raw(RAW, stack(run.samples), meta)
+    write_raw(run.scene.raw, stack(run.samples), meta)
+
+
+# ---------------------------------------------------------------- the scene of a run folder
+class Scene:
+    """The scene of one run folder: its spec (``spec.json``), its files, and once built or loaded the running
+    state ``run``. Yade's PyRunner reaches it through ``dem.active`` (its command is a string run in
+    ``__main__``, whatever script that is)."""
+
+    def __init__(self, run_dir):
+        self.run_dir = run_dir
+        with open(os.path.join(run_dir, "spec.json")) as fh:
+            self.spec = json.load(fh)
+        self.checkpoint = os.path.join(run_dir, "checkpoint.yade.gz")
+        self.raw = os.path.join(run_dir, "raw.npz")
+        self.run = None
+
+    def build(self):
+        """A new scene from the spec (``build``), attached."""
+        build(self.spec)
+        return self.attach()
+
+    def load(self, path):
+        """A saved scene (a checkpoint or a cached state), attached."""
+        O.load(path)
+        return self.attach()
+
+    def attach(self):
+        """Read the running state of the scene in ``O`` and let the controller drive this object (a scene saved
+        by an older version named its command otherwise)."""
+        next(e for e in O.engines if e.label == "controller").command = active.COMMAND
+        self.run = Run(self)
+        active.activate(self)
+        return self.run
+
+    def control(self):
+        """The PyRunner's entry point; an exception stops the run with its message instead of hanging Yade."""
+        try:
+            self.run.control()
+        except Exception as exc:  # noqa: BLE001 - reported to the user and turned into exit status 3
+            self.run.fail(f"{type(exc).__name__}: {exc} (in the controller)")
 
 
 # ---------------------------------------------------------------- main loop
-RUN = None
-
-
-def control():
-    """The PyRunner's entry point; an exception stops the run with its message instead of hanging Yade."""
-    try:
-        RUN.control()
-    except Exception as exc:  # noqa: BLE001 - reported to the user and turned into exit status 3
-        RUN.fail(f"{type(exc).__name__}: {exc} (in the controller)")
 
 
 def damaged(message):
@@ -350,13 +374,13 @@ def damaged(message):
     sys.exit(2)
 
 
-def run_until_stopped(stop):
+def run_until_stopped(run, stop):
     """Run to the next checkpoint iteration (or until the scene stops itself) and wait for the loop.
 
     The loop stops itself only at the end of a whole step (``O.run(n)`` sets ``stopAtIter``), so no
     engine is still running when this returns. A second signal asks for a stop two steps ahead.
     """
-    O.run(RUN.state["next_checkpoint"] - O.iter)
+    O.run(run.state["next_checkpoint"] - O.iter)
     target = None
     while O.running:
         if stop["count"] >= 2 and (target is None or O.iter >= target):
@@ -374,8 +398,7 @@ def main(run_dir):
     stops within two steps (the run then resumes correctly but not bit-identically). SIGUSR1 (a
     scheduler's warning before a time limit) only ever stops at the next checkpoint.
     """
-    global RUN
-    configure(run_dir)
+    scene = Scene(run_dir)
     stop = {"count": 0, "signal": 0}
 
     def on_usr1(signum, _frame):  # a scheduler's warning before a time limit: stop at the next checkpoint
@@ -386,55 +409,55 @@ def main(run_dir):
         stop["count"] += 1
         stop["signal"] = signum
         if stop["count"] == 1:
-            print(f"signal {signum}: stopping at the next checkpoint (iteration {RUN.state['next_checkpoint']}); "
+            print(f"signal {signum}: stopping at the next checkpoint (iteration "
+                  f"{scene.run.state['next_checkpoint']}); "
                   "signal again to stop at once", flush=True)
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGUSR1, on_usr1)
-    if os.path.exists(CHECKPOINT):
+    if os.path.exists(scene.checkpoint):
         try:
-            O.load(CHECKPOINT)
-            same_spec = json.loads(O.tags["spec"]) == SPEC
+            O.load(scene.checkpoint)
+            same_spec = json.loads(O.tags["spec"]) == scene.spec
         except Exception as exc:  # noqa: BLE001 - any damage: Yade raises RuntimeError, MemoryError, ...
-            damaged(f"checkpoint {CHECKPOINT} cannot be loaded ({type(exc).__name__})")
+            damaged(f"checkpoint {scene.checkpoint} cannot be loaded ({type(exc).__name__})")
         if not same_spec:
-            damaged(f"checkpoint {CHECKPOINT} belongs to another spec")
+            damaged(f"checkpoint {scene.checkpoint} belongs to another spec")
         print(f"resumed from checkpoint at iteration {O.iter}", flush=True)
     else:
-        build(SPEC)
+        build(scene.spec)
         print(f"built: {json.loads(O.tags['state'])['n_grains']} grains, dt = {O.dt:.4g}", flush=True)
     try:
-        RUN = Run()
+        run = scene.attach()
     except (OSError, ValueError, KeyError, EOFError) as exc:
         damaged(f"the samples of the checkpoint cannot be read ({type(exc).__name__})")
     while True:
         tic = time.time()
-        run_until_stopped(stop)
-        RUN.state["loop_seconds"] += time.time() - tic
-        phase = RUN.state["phase"]
+        run_until_stopped(run, stop)
+        run.state["loop_seconds"] += time.time() - tic
+        phase = run.state["phase"]
         if phase == "failed":
-            sys.stderr.write(f"error: {RUN.failure}\n")
+            sys.stderr.write(f"error: {run.failure}\n")
             sys.exit(3)
         if phase == "done":
             for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1):  # the work is complete: no stop now
                 signal.signal(signum, signal.SIG_IGN)
-            write_run_raw(RUN)
-            for name in os.listdir(RUN_DIR):
+            write_run_raw(run)
+            for name in os.listdir(run_dir):
                 if name.startswith(("checkpoint", "samples_")):
-                    os.remove(os.path.join(RUN_DIR, name))
-            print(f"done: {len(RUN.samples)} samples, {O.iter} steps", flush=True)
+                    os.remove(os.path.join(run_dir, name))
+            print(f"done: {len(run.samples)} samples, {O.iter} steps", flush=True)
             return
-        regular = O.iter == RUN.state["next_checkpoint"]
+        regular = O.iter == run.state["next_checkpoint"]
         if regular:
-            RUN.state["next_checkpoint"] += SPEC["checkpoint_steps"]
-        checkpoint(RUN)
+            run.state["next_checkpoint"] += scene.spec["checkpoint_steps"]
+        checkpoint(run)
         if not regular:
             print(f"interrupted: checkpoint at iteration {O.iter} (off the regular checkpoints: "
                   "the resumed run will not be bit-identical)", flush=True)
             sys.exit(128 + stop["signal"])
-        O.load(CHECKPOINT)
-        RUN = Run()
+        run = scene.load(scene.checkpoint)
         if stop["count"] >= 1:
             print(f"interrupted: checkpoint at iteration {O.iter}; rerun the same command to resume", flush=True)
             sys.exit(128 + stop["signal"])

@@ -24,10 +24,7 @@ import json
 import sys
 
 from dem import couette
-from dem.profile import (
-    control,  # noqa: F401 - the PyRunner's command runs in this namespace
-    prepare,
-)
+from dem.profile import prepare
 from dem.yade_lib import O, Vector3
 
 
@@ -98,9 +95,9 @@ def dissipation_rates(before, after, held, now):
 
 def main():
     strain, out = float(sys.argv[2]), sys.argv[3]
-    couette.configure(sys.argv[1])
-    prepare(None, shear_steps=200, chunk=500)  # into the shear, with all of the protocol left
-    run = couette.RUN
+    scene = couette.Scene(sys.argv[1])
+    prepare(scene, None, shear_steps=200, chunk=500)  # into the shear, with all of the protocol left
+    run = scene.run
     steps = int(strain / (run.gamma_dot * O.dt))
     run.state["next_checkpoint"] = 1 << 62
     walls = (run.top_clump, run.bottom_clump)

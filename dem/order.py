@@ -25,12 +25,11 @@ def morton_key(x, y, z, bits=10):
     return key
 
 
-def layout(order):
+def layout(scene, order, steps, cache):
     """Load the cached state; with ``morton``, move the grains' states so that ids follow space."""
-    O.load(CACHE)
-    couette.RUN = couette.Run()
-    couette.RUN.state["next_checkpoint"] = 1 << 62
-    grains = couette.RUN.grains
+    run = scene.load(cache)
+    run.state["next_checkpoint"] = 1 << 62
+    grains = run.grains
     if order == "morton":
         keys = [morton_key(*(int(max(c, 0.0)) for c in b.state.pos)) for b in grains]
         states = [(b.state.pos, b.state.vel, b.state.angVel, b.state.ori, b.shape.radius, b.state.mass,
@@ -40,32 +39,28 @@ def layout(order):
             body.state.pos, body.state.vel, body.state.angVel, body.state.ori = Vector3(pos), Vector3(vel), \
                 Vector3(ang), ori
             body.shape.radius, body.state.mass, body.state.inertia = radius, mass, Vector3(inertia)
-        couette.RUN = couette.Run()  # radii and masses in the new order
-        couette.RUN.state["next_checkpoint"] = 1 << 62
+        scene.attach().state["next_checkpoint"] = 1 << 62  # radii and masses in the new order
     O.interactions.clear()
     O.run(200, True)  # the collider finds the contacts again
     tic = time.perf_counter()
-    O.run(STEPS, True)
+    O.run(steps, True)
     return time.perf_counter() - tic
 
 
 def main():
-    global STEPS, CACHE
-    run_dir, STEPS, repeats, out, CACHE = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5]
-    couette.configure(run_dir)
+    run_dir, steps, repeats, out, cache = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5]
+    scene = couette.Scene(run_dir)
     times = {"created": [], "morton": []}
     for _ in range(repeats):
         for order in times:
-            times[order].append(layout(order))
+            times[order].append(layout(scene, order, steps, cache))
     best = {k: min(v) for k, v in times.items()}
-    result = {"preset": couette.SPEC["preset"], "grains": couette.RUN.state["n_grains"], "steps": STEPS,
-              "repeats": repeats, "seconds": times, "steps_per_second": {k: STEPS / v for k, v in best.items()},
+    result = {"preset": scene.spec["preset"], "grains": scene.run.state["n_grains"], "steps": steps,
+              "repeats": repeats, "seconds": times, "steps_per_second": {k: steps / v for k, v in best.items()},
               "speedup": best["created"] / best["morton"]}
     with open(out, "w") as fh:
         json.dump(result, fh, indent=1)
 
-
-STEPS = CACHE = None
 
 if __name__ == "__main__":
     main()

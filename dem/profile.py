@@ -21,21 +21,13 @@ from dem import couette
 from dem.yade_lib import O
 
 
-def control():
-    """The PyRunner's command ``control()`` runs in this (``__main__``) module's namespace."""
-    couette.control()
-
-
-def prepare(cache, shear_steps=2000, chunk=20000):
+def prepare(scene, cache, shear_steps=2000, chunk=20000):
     """The compacted scene, sheared ``shear_steps`` steps, in memory (from ``cache`` when it exists, which
-    is written otherwise); the module's RUN restored, its checkpoints off."""
+    is written otherwise), attached to ``scene``, its checkpoints off."""
     if cache and os.path.exists(cache):
-        O.load(cache)
-        couette.RUN = couette.Run()
+        scene.load(cache)
         return "loaded"
-    couette.build(couette.SPEC)
-    couette.RUN = couette.Run()
-    state = couette.RUN.state
+    state = scene.build().state
     state["next_checkpoint"] = 1 << 62
     while state["phase"] == "compaction":
         O.run(chunk, True)  # the shear starts within the last chunk
@@ -55,10 +47,10 @@ def timed_steps(steps):
 def main():
     run_dir, steps, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
     cache = sys.argv[4] if len(sys.argv) > 4 else None
-    couette.configure(run_dir)
-    origin = prepare(cache)
-    couette.RUN.state["next_checkpoint"] = 1 << 62
-    O.tags["state"] = json.dumps(couette.RUN.state)
+    scene = couette.Scene(run_dir)
+    origin = prepare(scene, cache)
+    scene.run.state["next_checkpoint"] = 1 << 62
+    O.tags["state"] = json.dumps(scene.run.state)
     plain = timed_steps(steps)  # timers off: the production speed
     collider = next(e for e in O.engines if type(e).__name__ == "InsertionSortCollider")
     sorts_before = collider.numAction
@@ -77,7 +69,7 @@ def main():
     total = sum(e["seconds"] for e in engines)
     for e in engines:
         e["percent"] = 100 * e["seconds"] / total
-    st = couette.RUN.state
+    st = scene.run.state
     grains = st["n_grains"]
     potential, real = len(O.interactions), O.interactions.countReal()  # a saved scene keeps only real contacts
     tic = time.perf_counter()
@@ -88,7 +80,7 @@ def main():
     loaded = time.perf_counter() - tic
     os.remove(os.path.join(run_dir, "profile.yade.gz"))
     result = {
-        "preset": couette.SPEC["preset"], "grains": grains, "wall_spheres": 2 * len(st["top"][1]),
+        "preset": scene.spec["preset"], "grains": grains, "wall_spheres": 2 * len(st["top"][1]),
         "origin": origin, "steps": steps, "threads": int(os.environ.get("OMP_NUM_THREADS", "1")),
         "steps_per_second": steps / plain, "steps_per_second_timed": steps / timed,
         "particle_steps_per_second": steps * (grains + 2 * len(st["top"][1])) / plain,

@@ -16,6 +16,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import h5py
+
 from .. import io
 from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import write_h5
@@ -38,7 +40,7 @@ def git_commit() -> str:
         return "unknown"
 
 
-def lock_run(spec: dict, results_dir: Path):
+def lock_run(spec: run_spec.DemSpec, results_dir: Path):
     """Take the run's lock (``<name>.lock`` beside its folder), held until this process ends.
 
     The lock comes before anything is created or deleted, so ``--fresh`` can never remove the
@@ -56,6 +58,15 @@ def lock_run(spec: dict, results_dir: Path):
     return lock
 
 
+def stored_spec(h5: Path) -> dict | None:
+    """The spec a run file records (its provenance), or None where it cannot be read."""
+    try:
+        with h5py.File(h5, "r") as f:
+            return json.loads(f["provenance"].attrs["spec_json"])
+    except (OSError, KeyError, ValueError):
+        return None
+
+
 def read_spec_file(path: Path):
     """A run folder's ``spec.json``; a damaged one is a one-line error that says how to recover."""
     try:
@@ -64,19 +75,20 @@ def read_spec_file(path: Path):
         raise SpecError(f"{path} is damaged (not JSON): rerun with FRESH=1 (--fresh) to start the run again") from None
 
 
-def prepare(spec: dict, results_dir: Path, fresh: bool) -> Path:
+def prepare(spec: run_spec.DemSpec, results_dir: Path, fresh: bool) -> Path:
     """The run folder with its ``spec.json``; refuses to mix a checkpoint with another spec. Call under the lock."""
     run_dir = run_spec.work_dir(spec, results_dir)
     if fresh and run_dir.exists():
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     spec_file = run_dir / "spec.json"
-    if spec_file.exists() and read_spec_file(spec_file) != spec:
-        if (run_dir / "checkpoint.yade.gz").exists():
-            raise SpecError(f"{run_dir} holds a checkpoint of another spec: rerun with --fresh (FRESH=1)")
+    if spec_file.exists() and read_spec_file(spec_file) != spec.to_dict():
+        for leftover in ("checkpoint.yade.gz", "raw.npz"):
+            if (run_dir / leftover).exists():
+                raise SpecError(f"{run_dir} holds a {leftover} of another spec: rerun with --fresh (FRESH=1)")
         spec_file.unlink()
     if not spec_file.exists():
-        io.write_json(spec_file, spec)
+        io.write_json(spec_file, spec.to_dict())
     return run_dir
 
 
@@ -116,10 +128,14 @@ def run_yade(run_dir: Path, threads: int, label: str) -> tuple[int, str]:
                 signal.signal(s, handler)
 
 
-def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, threads: int = 1) -> Path:
+def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = False, threads: int = 1) -> Path:
     """Run (or resume) one DEM run and write its HDF5 file; returns the file's path."""
     out = run_spec.output_path(spec, results_dir)
     if out.exists() and not fresh:
+        stored = stored_spec(out)
+        if stored != spec.to_dict():
+            why = "its file is unreadable" if stored is None else "its values differ"
+            raise SpecError(f"{out} holds a run of another spec ({why}): rerun with --fresh (FRESH=1) to replace it")
         print(f"{out} is up to date (FRESH=1 / --fresh reruns it)")
         return out
     lock = lock_run(spec, results_dir)  # noqa: F841 - held until this process ends
@@ -132,7 +148,7 @@ def run(spec: dict, results_dir: Path = RESULTS_DIR, fresh: bool = False, thread
     io.write_json(provenance_file, provenance)
     (run_dir / FAILED).unlink(missing_ok=True)
     if not (run_dir / "raw.npz").exists():
-        status, error = run_yade(run_dir, threads, f"{spec['folder']}/{spec['name']}")
+        status, error = run_yade(run_dir, threads, spec.label())
         if status in (2, 3):
             io.write_json(run_dir / FAILED, {"exit_status": status, "reason": error or f"exit status {status}",
                                              "at": dt.datetime.now().isoformat(timespec="seconds")})

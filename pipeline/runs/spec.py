@@ -1,17 +1,20 @@
 """DEM run specification: presets from ``config/dem.toml``, overrides, validation, names and paths.
 
-One source of truth for the Couette experiment's parameters. A *spec* is the fully resolved,
-validated dict that the Yade scene (``dem/couette.py``) reads; it carries every value it uses.
+One source of truth for the Couette experiment's parameters. A :class:`DemSpec` is the fully resolved,
+validated, frozen spec of one run; its ``to_dict`` is the ``spec.json`` that the Yade scene
+(``dem/couette.py``) reads, carrying every value it uses.
 Units: lengths in mean diameters d, stresses in the wall normal stress p, densities in the grain
 density rho (time in d sqrt(rho/p)); strain is t * gamma_dot; angles in degrees.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
 import re
+from decimal import Decimal
 from pathlib import Path
 
 from dem.contact import tangential_damping_number
@@ -148,18 +151,57 @@ def parse_number(name: str, text) -> float:
     return value
 
 
+def exact_text(value: float) -> str:
+    """Every digit of ``value`` (the shortest decimal that reads back as the same float), never in exponent form."""
+    return format(Decimal(repr(float(value))), "f")
+
+
 def run_name(theta_deg: float, rotate_at: float, default_rotate_at: float) -> str:
-    """File stem of a run: ``theta090``, ``theta092.5``, ``theta090_rot0.10``."""
-    theta = f"{theta_deg:05.1f}" if theta_deg != int(theta_deg) else f"{int(theta_deg):03d}"
-    name = f"theta{theta}".replace("-", "m")
-    if not math.isclose(rotate_at, default_rotate_at, abs_tol=1e-12):
-        name += f"_rot{rotate_at:.2f}"
+    """File stem of a run, with every digit of its angle and rotation strain, so that two specs never share
+    it: ``theta090``, ``theta092.5``, ``theta000.01``, ``thetam045``, ``theta090_rot0.10``, ``theta090_rot0.101``."""
+    whole, _, fraction = exact_text(abs(theta_deg)).partition(".")
+    theta = f"{int(whole):03d}" + (f".{fraction}" if fraction.strip("0") else "")
+    name = f"theta{'m' if theta_deg < 0 else ''}{theta}"
+    if rotate_at != default_rotate_at:
+        two = f"{rotate_at:.2f}"
+        name += f"_rot{two if float(two) == rotate_at else exact_text(rotate_at)}"
     return name
 
 
+@dataclasses.dataclass(frozen=True)
+class DemSpec:
+    """One run, resolved and validated: its preset, angle theta (degrees), rotation strain, overrides, file
+    name and folder, and every physical value of ``config/dem.toml`` (``values``; read as attributes,
+    ``spec.gap_d``). Units as in ``config/dem.toml``: lengths d, stresses p, strain t*gamma_dot."""
+
+    preset: str
+    theta_deg: float
+    rotate_at_strain: float
+    name: str
+    folder: str
+    overrides: dict
+    values: dict
+
+    def __getattr__(self, key):
+        values = self.__dict__.get("values", {})
+        if key in values:
+            return values[key]
+        raise AttributeError(f"DemSpec has no value {key!r}")
+
+    def to_dict(self) -> dict:
+        """``spec.json``: what the scene reads (the identity first, then every value)."""
+        return {"spec_version": SPEC_VERSION, "preset": self.preset, "overrides": dict(self.overrides),
+                "theta_deg": self.theta_deg, "rotate_at_strain": self.rotate_at_strain, "name": self.name,
+                "folder": self.folder, **self.values}
+
+    def label(self) -> str:
+        """``<folder>/<name>``, as logs and listings name a run."""
+        return f"{self.folder}/{self.name}"
+
+
 def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | None = None,
-            presets_file: Path = PRESETS_FILE, allow_inertial: bool = False) -> dict:
-    """Validate everything and return the run spec (a JSON-able dict); raises :class:`SpecError`.
+            presets_file: Path = PRESETS_FILE, allow_inertial: bool = False) -> DemSpec:
+    """Validate everything and return the run's :class:`DemSpec`; raises :class:`SpecError`.
 
     ``theta_deg``: rotation of the second half-period's shear direction about e2, in degrees
     (positive turns e1 towards e3). ``rotate_at``: strain within each period at which the direction
@@ -169,6 +211,8 @@ def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | 
     theta = parse_number("theta", theta_deg)
     if not -180 <= theta <= 180:
         raise SpecError(f"theta={theta_deg!r} must lie in [-180, 180] degrees (other angles repeat these)")
+    if theta == -180:
+        theta = 180.0  # the same reversal: one run, one name
     presets = load_presets(presets_file)
     if preset not in presets:
         raise SpecError(f"unknown preset {preset!r} (known: {', '.join(presets)})")
@@ -194,23 +238,14 @@ def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | 
     if overrides:
         digest = hashlib.sha1(json.dumps(overrides, sort_keys=True).encode()).hexdigest()[:8]
         folder = f"{preset}-{digest}"
-    return {
-        "spec_version": SPEC_VERSION,
-        "preset": preset,
-        "overrides": overrides,
-        "theta_deg": theta,
-        "rotate_at_strain": rotate_at,
-        "name": run_name(theta, rotate_at, default_rotate_at),
-        "folder": folder,
-        **values,
-    }
+    return DemSpec(preset, theta, rotate_at, run_name(theta, rotate_at, default_rotate_at), folder, overrides, values)
 
 
-def output_path(spec: dict, results_dir: Path = RESULTS_DIR) -> Path:
+def output_path(spec: DemSpec, results_dir: Path = RESULTS_DIR) -> Path:
     """The run's HDF5 file: ``results/<folder>/dem/<name>.h5``."""
-    return results_dir / spec["folder"] / "dem" / f"{spec['name']}.h5"
+    return results_dir / spec.folder / "dem" / f"{spec.name}.h5"
 
 
-def work_dir(spec: dict, results_dir: Path = RESULTS_DIR) -> Path:
+def work_dir(spec: DemSpec, results_dir: Path = RESULTS_DIR) -> Path:
     """Scratch folder of a run (spec, checkpoints, raw samples, log) beside its HDF5 file."""
     return output_path(spec, results_dir).with_suffix(".run")

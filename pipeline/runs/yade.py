@@ -47,12 +47,12 @@ def environment(threads: int = 1) -> dict[str, str]:
 OUT = object()
 
 
-def run_script(module: str, spec: dict, args: tuple, threads: int = 1, what: str = "") -> dict:
-    """Run ``dem.<module>`` on ``spec`` in a scratch folder (its ``spec.json``) with ``args`` after the folder,
-    ``OUT`` among them standing for the JSON file the script writes; that file's content, or a one-line
+def run_script(module: str, spec, args: tuple, threads: int = 1, what: str = "") -> dict:
+    """Run ``dem.<module>`` on ``spec`` (a ``DemSpec``) in a scratch folder (its ``spec.json``) with ``args`` after
+    the folder, ``OUT`` among them standing for the JSON file the script writes; that file's content, or a one-line
     error with the script's last line on stderr."""
     with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, "spec.json").write_text(json.dumps(spec))
+        Path(tmp, "spec.json").write_text(json.dumps(spec.to_dict()))
         out = Path(tmp, "out.json")
         argv = [out if a is OUT else a for a in args]
         proc = subprocess.run(command(module, tmp, *argv), capture_output=True, text=True, cwd=tmp,

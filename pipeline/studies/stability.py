@@ -17,6 +17,7 @@ walls, a gap that runs away and a wall stress off target (``dem/checks.py``), wi
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from dataclasses import dataclass, field
@@ -69,13 +70,11 @@ CASES = (
 )
 
 
-def spec_of(case: Case) -> dict:
+def spec_of(case: Case) -> run_spec.DemSpec:
+    """The case's spec; its ``unchecked`` values put in past the bounds that ``resolve`` enforces."""
     spec = run_spec.resolve(case.theta_deg, case.preset, overrides=case.overrides, allow_inertial=case.allow_inertial)
-    spec.update(case.unchecked)
-    spec["folder"] = f"{case.preset}-{case.label}"
-    if case.unchecked:
-        spec["overrides"] = {**spec["overrides"], **case.unchecked}
-    return spec
+    return dataclasses.replace(spec, folder=f"{case.preset}-{case.label}", values={**spec.values, **case.unchecked},
+                               overrides={**spec.overrides, **case.unchecked})
 
 
 def checks(path: Path) -> dict:
@@ -95,7 +94,7 @@ def checks(path: Path) -> dict:
     return out
 
 
-def energy_balance(spec: dict, strain: float = ENERGY_STRAIN) -> dict:
+def energy_balance(spec: run_spec.DemSpec, strain: float = ENERGY_STRAIN) -> dict:
     """``dem/energy.py`` on ``spec`` in a scratch folder: every term of the balance, or the scene's diagnostic."""
     try:
         return yade.run_script("energy", spec, (strain, yade.OUT))
@@ -116,11 +115,11 @@ def run_case(case: Case, results: Path = RUNS_DIR) -> dict:
     result = checks(path)
     result["energy"] = energy_balance(spec)
     residual = result["energy"].get("relative_residual")
-    held = result["max_wall_stress_error"] < spec["stress_alarm"]
+    held = result["max_wall_stress_error"] < spec.stress_alarm
     failures = [] if result["finite"] else ["not finite"]
     if not held:
         failures.append(f"wall stress off by up to {result['max_wall_stress_error']:.0%} (alarm "
-                        f"{spec['stress_alarm']:.0%}, unnoticed: it never lasted {spec['stress_alarm_strain']} strain)")
+                        f"{spec.stress_alarm:.0%}, unnoticed: it never lasted {spec.stress_alarm_strain} strain)")
     if residual is not None and abs(residual) > ENERGY_TOLERANCE:
         failures.append(f"energy balance off by {residual:+.0%}")
     verdict = "passed" if not failures else "ran, checks failed: " + "; ".join(failures)

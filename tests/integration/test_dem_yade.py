@@ -39,7 +39,7 @@ def tiny_run(tmp_path_factory):
 
 
 def test_collisions_restitution_stiffness_ratio_and_sliding(tmp_path):
-    spec = run_spec.resolve(90, "paper")
+    spec = run_spec.resolve(90, "paper").to_dict()
     (tmp_path / "spec.json").write_text(json.dumps(spec))
     subprocess.run(yade_command.command("collision", tmp_path / "spec.json", tmp_path / "out.json"), check=True,
                    capture_output=True, cwd=tmp_path, env=yade_command.environment())
@@ -60,6 +60,7 @@ def test_tiny_run_end_to_end_into_hdf5(tiny_run):
     assert "ETA" in stdout and "steps/s" in stdout
     spec = run_spec.resolve(90, "tiny")
     run_file = load(run_spec.output_path(spec, results))
+    spec = spec.to_dict()
     assert run_file.provenance["preset"] == "tiny" and run_file.provenance["yade_version"].startswith("20")
     assert run_file.spec == spec
     n = len(run_file.raw["strain"])

@@ -82,7 +82,8 @@ def test_make_dem_refuses(tmp_path, args, fragment):
 MAKE_CASES = [
     ("THETA=180; touch INJECTED", "THETA='180; touch INJECTED' is not a number"),
     ("PRESET=quick; touch INJECTED", "PRESET='quick; touch INJECTED' is not a preset name"),
-    ("SET=seed=2 $$(touch INJECTED)", "SET='seed=2 $(touch INJECTED)' is not a list of key=value"),
+    ("SET=seed=2 $$(touch INJECTED)", "SET='seed=2 $$(touch INJECTED)' is not a list of key=value"),
+    ("THETA=$(shell touch INJECTED)", "THETA='$(shell touch INJECTED)' is not a number"),
     ("THREADS=1 && touch INJECTED", "THREADS='1 && touch INJECTED' is not a whole number"),
     ("ROTATE_AT=`touch INJECTED`", "ROTATE_AT='`touch INJECTED`' is not a number"),
     ("BOOT=0|touch INJECTED", "BOOT='0|touch INJECTED' is not a whole number"),

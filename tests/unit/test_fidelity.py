@@ -14,7 +14,7 @@ from tests.helpers import synthetic_run
 
 def test_the_ladder_is_validated_and_its_preset_run_is_one_run_on_every_axis(tmp_path):
     rungs = ladder.rungs(ladder.load())
-    base = [r for r in rungs if not r.spec["overrides"] and r.theta_deg == 180.0]
+    base = [r for r in rungs if not r.spec.overrides and r.theta_deg == 180.0]
     # every axis but the seeds of other settings passes through the preset, always as the same run
     assert {r.axis for r in base} == set(ladder.load()["axes"]) - {"small_cell_seed", "dt_safety_seed"}
     assert len({r.relative for r in base}) == 1
@@ -97,10 +97,10 @@ def test_stability_cases_are_distinct_runs_and_only_the_unchecked_ones_pass_the_
     from pipeline.studies import stability
 
     specs = [stability.spec_of(c) for c in stability.CASES]
-    assert len({(s["folder"], s["name"]) for s in specs}) == len(specs)
+    assert len({(s.folder, s.name) for s in specs}) == len(specs)
     for case, spec in zip(stability.CASES, specs, strict=True):
         for key, value in case.unchecked.items():
-            assert spec[key] == value and spec["overrides"][key] == value
+            assert getattr(spec, key) == value and spec.overrides[key] == value
             with pytest.raises(SpecError):
                 resolve(case.theta_deg, case.preset, overrides={**case.overrides, key: value})
 

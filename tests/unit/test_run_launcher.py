@@ -1,7 +1,10 @@
+
 """The DEM launcher's run folder: spec bookkeeping before Yade starts (no Yade needed)."""
 
+import dataclasses
 import json
 
+import h5py
 import pytest
 
 from pipeline.errors import SpecError
@@ -12,20 +15,47 @@ from pipeline.runs import spec as run_spec
 def test_prepare_writes_the_spec_and_refuses_a_checkpoint_of_another_spec(tmp_path):
     spec = run_spec.resolve(90, "tiny")
     run_dir = dem.prepare(spec, tmp_path, fresh=False)
-    assert json.loads((run_dir / "spec.json").read_text()) == spec
+    assert json.loads((run_dir / "spec.json").read_text()) == spec.to_dict()
     (run_dir / "checkpoint.yade.gz").write_bytes(b"x")
     other = run_spec.resolve(90, "tiny", overrides={"seed": 5.0})
-    other["folder"] = spec["folder"]  # same folder, other physics
-    with pytest.raises(SpecError, match="holds a checkpoint of another spec"):
+    other = dataclasses.replace(other, folder=spec.folder)  # same folder, other physics
+    with pytest.raises(SpecError, match="holds a checkpoint.yade.gz of another spec"):
         dem.prepare(other, tmp_path, fresh=False)
     assert dem.prepare(other, tmp_path, fresh=True) == run_dir  # --fresh starts again
     assert not (run_dir / "checkpoint.yade.gz").exists()
 
 
-def test_an_existing_result_is_not_run_again(tmp_path, capsys):
+def write_run_file(out, spec: dict):
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with h5py.File(out, "w") as f:
+        f.create_group("provenance").attrs["spec_json"] = json.dumps(spec, sort_keys=True)
+
+
+def test_an_existing_result_is_not_run_again_and_one_of_another_spec_is_refused(tmp_path, capsys):
     spec = run_spec.resolve(90, "tiny")
     out = run_spec.output_path(spec, tmp_path)
-    out.parent.mkdir(parents=True)
-    out.write_bytes(b"done")
+    write_run_file(out, spec.to_dict())
     assert dem.run(spec, tmp_path) == out
     assert "is up to date" in capsys.readouterr().out
+    write_run_file(out, {**spec.to_dict(), "theta_deg": 90.04})  # a name that used to hold both
+    with pytest.raises(SpecError, match="holds a run of another spec .its values differ.: rerun with --fresh"):
+        dem.run(spec, tmp_path)
+    out.write_bytes(b"not a run")
+    with pytest.raises(SpecError, match="its file is unreadable"):
+        dem.run(spec, tmp_path)
+
+
+def test_names_carry_every_digit_and_minus_180_is_the_reversal():
+    names = {run_spec.resolve(t, "tiny", rotate_at=r).name for t, r in
+             [(0.01, None), (0.04, None), (90, 0.101), (90, 0.104), (90, 0.1)]}
+    assert names == {"theta000.01", "theta000.04", "theta090_rot0.101", "theta090_rot0.104", "theta090_rot0.10"}
+    assert run_spec.resolve(-180, "tiny") == run_spec.resolve(180, "tiny")
+
+
+def test_a_leftover_raw_file_of_another_spec_is_refused(tmp_path):
+    spec = run_spec.resolve(180, "tiny")
+    run_dir = dem.prepare(spec, tmp_path, fresh=False)
+    (run_dir / "raw.npz").write_bytes(b"x")
+    other = dataclasses.replace(run_spec.resolve(135, "tiny"), name=spec.name)  # the same folder, another angle
+    with pytest.raises(SpecError, match="holds a raw.npz of another spec"):
+        dem.prepare(other, tmp_path, fresh=False)

@@ -16,18 +16,18 @@ def test_every_preset_resolves_and_the_paper_preset_is_section_2():
     for name in presets:
         resolve(90, name)
     paper = resolve(90, "paper")
-    assert (paper["width_d"], paper["gap_d"], paper["overlap_ratio"], paper["kt_over_kn"]) == (20, 17, 0.0005, 0.5)
-    assert (paper["friction_deg"], paper["restitution"], paper["inertial_number"]) == (24, 0.5, 2.9e-4)
-    assert (paper["period_strain"], paper["rotate_at_strain"], paper["n_cycles"]) == (1.4, 0.7, 5)
+    assert (paper.width_d, paper.gap_d, paper.overlap_ratio, paper.kt_over_kn) == (20, 17, 0.0005, 0.5)
+    assert (paper.friction_deg, paper.restitution, paper.inertial_number) == (24, 0.5, 2.9e-4)
+    assert (paper.period_strain, paper.rotate_at_strain, paper.n_cycles) == (1.4, 0.7, 5)
     reduced = resolve(90, "reduced")
-    assert (reduced["width_d"], reduced["gap_d"], reduced["inertial_number"], reduced["n_cycles"]) == (10, 8.5, 1e-3, 2)
+    assert (reduced.width_d, reduced.gap_d, reduced.inertial_number, reduced.n_cycles) == (10, 8.5, 1e-3, 2)
 
 
 def test_names_and_paths():
-    assert resolve(90, "quick")["name"] == "theta090"
-    assert resolve(180, "quick", rotate_at=0.7)["name"] == "theta180"
-    assert resolve(90, "quick", rotate_at=0.1)["name"] == "theta090_rot0.10"
-    assert resolve(92.5, "quick")["name"] == "theta092.5"
+    assert resolve(90, "quick").name == "theta090"
+    assert resolve(180, "quick", rotate_at=0.7).name == "theta180"
+    assert resolve(90, "quick", rotate_at=0.1).name == "theta090_rot0.10"
+    assert resolve(92.5, "quick").name == "theta092.5"
     spec = resolve(30, "reduced")
     assert run_spec.output_path(spec).parts[-3:] == ("reduced", "dem", "theta030.h5")
     assert run_spec.work_dir(spec).name == "theta030.run"
@@ -35,8 +35,11 @@ def test_names_and_paths():
 
 def test_overrides_change_the_folder_and_are_validated():
     spec = resolve(90, "quick", overrides=run_spec.parse_overrides(["friction_deg=30", "seed=4"]))
-    assert spec["friction_deg"] == 30 and spec["seed"] == 4 and isinstance(spec["seed"], int)
-    assert spec["folder"].startswith("quick-") and spec["folder"] != "quick"
+    assert spec.friction_deg == 30 and spec.seed == 4 and isinstance(spec.seed, int)
+    assert spec.folder.startswith("quick-") and spec.folder != "quick"
+    assert spec.to_dict()["seed"] == 4 and spec.to_dict()["overrides"] == {"friction_deg": 30.0, "seed": 4.0}
+    with pytest.raises(AttributeError, match="no value 'colour'"):
+        spec.colour  # noqa: B018
 
 
 @pytest.mark.parametrize("kwargs, message", [

@@ -21,6 +21,12 @@ def test_a_plan_is_every_combination_once_and_reads_back_as_written(tmp_path):
     write_plan(sweep)
     assert read_plan(tmp_path) == sweep
     assert [r["state"] for r in status(sweep)] == ["not started"] * 4
+    plan_json = json.loads((sweep.folder / "plan.json").read_text())
+    (sweep.folder / "plan.json").write_text(json.dumps({**plan_json, "preset": "$(shell touch INJECTED)"}))
+    with pytest.raises(PipelineError, match="preset '\\$\\(shell touch INJECTED\\)' is not a valid name"):
+        read_plan(tmp_path)
+    with pytest.raises(PipelineError, match="sweep '../../x' is not a valid name"):
+        read_plan(tmp_path, "../../x")
     (sweep.folder / "plan.json").write_text(json.dumps({"id": "x", "tasks": [{"args": []}]}))
     with pytest.raises(PipelineError, match="is not a plan of this version"):
         read_plan(tmp_path)

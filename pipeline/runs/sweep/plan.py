@@ -13,7 +13,7 @@ from pathlib import Path
 from ... import io
 from ...config import load_presets
 from ...errors import PipelineError, SpecError
-from ...paths import RESULTS_DIR
+from ...paths import RESULTS_DIR, check_folder_name
 from .. import spec as run_spec
 
 
@@ -40,7 +40,7 @@ class Task:
     def run_dir(self) -> Path:
         return self.output.with_suffix(".run")
 
-    def spec(self) -> dict:
+    def spec(self) -> run_spec.DemSpec:
         """The run spec the launcher resolves from these arguments: what ``make dem`` with them would run."""
         overrides = run_spec.parse_overrides(list(self.overrides))
         return run_spec.resolve(self.theta, self.preset, self.rotate_at, overrides)
@@ -91,7 +91,7 @@ def plan(preset: str, thetas: str, rotate_ats: str | None = None, seeds: str | N
                 task = Task(theta, preset, rotate_at, tuple(items), Path(), "")
                 spec = task.spec()
                 output = run_spec.output_path(spec, results)
-                tasks[output] = dataclasses.replace(task, output=output, label=f"{spec['folder']}/{spec['name']}")
+                tasks[output] = dataclasses.replace(task, output=output, label=spec.label())
     return make_sweep(preset, preset, list(tasks.values()), results)
 
 
@@ -105,18 +105,19 @@ def write_plan(sweep: Sweep) -> None:
 def read_plan(results: Path = RESULTS_DIR, ident: str | None = None) -> Sweep:
     if ident is None:
         latest = results / "sweeps" / "latest"
-        if not latest.exists():
+        if not latest.is_file():
             raise PipelineError(f"no sweep in {results / 'sweeps'}: run `make sweep` first")
-        ident = latest.read_text().strip()
+        ident = latest.read_text(errors="replace").strip()
+    check_folder_name(ident, "sweep")
     path = results / "sweeps" / ident / "plan.json"
     try:
         data = json.loads(path.read_text())
     except (OSError, ValueError):
         raise PipelineError(f"sweep {ident!r} has no readable plan ({path})") from None
     try:
-        tasks = tuple(Task(t["theta"], t["preset"], t["rotate_at"], tuple(t["overrides"]), Path(t["output"]),
-                           t["label"]) for t in data["tasks"])
-        return Sweep(data["id"], path.parent, data["preset"], tasks, Path(data["results"]))
+        tasks = tuple(Task(t["theta"], check_folder_name(t["preset"]), t["rotate_at"], tuple(t["overrides"]),
+                           Path(t["output"]), t["label"]) for t in data["tasks"])
+        return Sweep(data["id"], path.parent, check_folder_name(data["preset"]), tasks, Path(data["results"]))
     except (KeyError, TypeError):
         raise PipelineError(f"sweep {ident!r}: {path} is not a plan of this version (make sweep again)") from None
 

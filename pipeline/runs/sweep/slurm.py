@@ -65,7 +65,7 @@ def check_slurm(config: dict, sweep: Sweep, throughput: dict) -> None:
     limit = time_limit_seconds(config["time_limit"])
     lead = config["signal_lead_seconds"]
     spec = sweep.tasks[0].spec()
-    interval = spec["checkpoint_steps"] / throughput.get(sweep.preset, min(throughput.values()))
+    interval = spec.checkpoint_steps / throughput.get(sweep.preset, min(throughput.values()))
     if lead < interval:
         raise SpecError(f"slurm signal_lead_seconds={lead} is shorter than a checkpoint interval of preset "
                         f"{sweep.preset} (about {interval:.0f} s): the run could not checkpoint before the limit")

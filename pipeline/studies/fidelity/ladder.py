@@ -33,7 +33,7 @@ class Rung:
     @property
     def relative(self) -> Path:
         """``<folder>/dem/<name>.h5``: where the run lives under a data root."""
-        return Path(self.spec["folder"], "dem", f"{self.spec['name']}.h5")
+        return Path(self.spec.folder, "dem", f"{self.spec.name}.h5")
 
     @property
     def label(self) -> str:
@@ -69,7 +69,7 @@ def rungs(ladder: dict) -> list[Rung]:
 
 
 def summary_path(rung: Rung, root: Path = SUMMARY_DIR) -> Path:
-    return root / rung.spec["folder"] / f"{rung.spec['name']}.json"
+    return root / rung.spec.folder / f"{rung.spec.name}.json"
 
 
 def dem_file(rung: Rung, roots: tuple[Path, ...] = DATA_ROOTS) -> Path | None:
@@ -87,6 +87,6 @@ def missing(all_rungs: list[Rung], summaries: Path = SUMMARY_DIR, roots: tuple[P
 
 def sweep_of(to_run: list[Rung], preset: str, results: Path = RESULTS_DIR) -> Sweep:
     """The runs to make as a sweep (``pipeline.runs.sweep``): its plan, folder and local or SLURM launch."""
-    tasks = [Task(f"{r.theta_deg:g}", preset, None, tuple(f"{k}={v:g}" for k, v in sorted(r.spec["overrides"].items())),
-                  run_spec.output_path(r.spec, results), f"{r.spec['folder']}/{r.spec['name']}") for r in to_run]
+    tasks = [Task(f"{r.theta_deg:g}", preset, None, tuple(f"{k}={v:g}" for k, v in sorted(r.spec.overrides.items())),
+                  run_spec.output_path(r.spec, results), r.spec.label()) for r in to_run]
     return make_sweep("fidelity", preset, tasks, results)
