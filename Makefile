@@ -86,6 +86,10 @@ DEM_ARGS = --preset $(PRESET) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(fore
 RUN_FILES = $(wildcard $(foreach r,results data/reference,$(r)/$(1)/dem/*.h5 $(r)/$(1)-*/dem/*.h5))
 FIT_DIR := results/$(DATA_PRESET)/fit
 COMPARE_DIR := results/$(DATA_PRESET)/compare
+# every writer renames its outputs into place when they are complete: an interrupted step keeps the previous set,
+# which Make must not delete either
+.PRECIOUS: $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 $(COMPARE_DIR)/metrics.json \
+	$(COMPARE_DIR)/compare.h5 results/$(DATA_PRESET)/report.md
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
 FORCE:

@@ -13,12 +13,28 @@ from .errors import PipelineError
 @contextlib.contextmanager
 def atomic_path(path: Path):
     """Yield a temporary path beside ``path`` (same suffix); renamed onto ``path`` on success, removed on error."""
-    path = Path(path)
+    with atomic_paths(path) as (tmp,):
+        yield tmp
+
+
+@contextlib.contextmanager
+def atomic_paths(*paths: Path):
+    """Temporary paths beside each of ``paths``, renamed onto them together once the block succeeds: a set of
+    outputs appears complete, or the previous set stays (an interrupt or an error removes the temporaries)."""
+    stack = contextlib.ExitStack()
+    with stack:
+        temps = [stack.enter_context(_temporary(Path(p))) for p in paths]
+        yield temps
+        for tmp, path in zip(temps, paths, strict=True):
+            os.replace(tmp, path)
+
+
+@contextlib.contextmanager
+def _temporary(path: Path):
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
     try:
         yield tmp
-        os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
 
@@ -29,8 +45,13 @@ def write_text(path: Path, text: str) -> Path:
     return Path(path)
 
 
+def json_text(data) -> str:
+    """The project's JSON files: sorted keys, one-space indents, a final newline."""
+    return json.dumps(data, indent=1, sort_keys=True) + "\n"
+
+
 def write_json(path: Path, data) -> Path:
-    return write_text(path, json.dumps(data, indent=1, sort_keys=True) + "\n")
+    return write_text(path, json_text(data))
 
 
 def write_params(path: Path, params, metadata: dict | None = None) -> Path:

@@ -216,8 +216,8 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
 
 
 def write_arrays(path: Path, arrays: dict, per_run: list[dict], cross: list[dict]) -> None:
-    """fit.h5: the per-sample values behind the fit (alpha_i, beta_i, Y, C against S), atomically."""
-    with io.atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    """fit.h5: the per-sample values behind the fit (alpha_i, beta_i, Y, C against S)."""
+    with h5py.File(path, "w") as f:
         f.attrs.update(schema="granular-backstress/fit", schema_version=1)
         for group, items, meta in (("reversal", arrays["reversal"], per_run),
                                    ("cross_check", arrays["cross_check"], cross)):
@@ -232,14 +232,18 @@ def write_arrays(path: Path, arrays: dict, per_run: list[dict], cross: list[dict
 
 def write(cal: Calibration, out_dir: Path) -> None:
     """``fit.h5``, ``params_stepwise.json`` (when the stepwise route gives a valid set), ``params.json`` and
-    ``fit.json`` in ``out_dir``, each atomically."""
+    ``fit.json`` in ``out_dir``, renamed into place together: an interrupt leaves the previous complete set."""
     io.check_writable_dir(out_dir)
-    write_arrays(out_dir / "fit.h5", cal.arrays, cal.per_run, cal.cross_check)
-    (out_dir / "params_stepwise.json").unlink(missing_ok=True)
-    if cal.stepwise is not None:
-        io.write_params(out_dir / "params_stepwise.json", cal.stepwise)
-    io.write_params(out_dir / "params.json", cal.params, cal.params_metadata())
-    io.write_json(out_dir / "fit.json", cal.to_dict())
+    names = ["fit.h5", "params.json", "fit.json"] + (["params_stepwise.json"] if cal.stepwise is not None else [])
+    with io.atomic_paths(*(out_dir / n for n in names)) as temps:
+        tmp = dict(zip(names, temps, strict=True))
+        write_arrays(tmp["fit.h5"], cal.arrays, cal.per_run, cal.cross_check)
+        tmp["params.json"].write_text(cal.params.to_json(cal.params_metadata()))
+        tmp["fit.json"].write_text(io.json_text(cal.to_dict()))
+        if cal.stepwise is not None:
+            tmp["params_stepwise.json"].write_text(cal.stepwise.to_json())
+    if cal.stepwise is None:
+        (out_dir / "params_stepwise.json").unlink(missing_ok=True)
 
 
 def fit(reversals: list, out_dir: Path, cross_runs: tuple = (), left_out: tuple = (), refine: bool = True,

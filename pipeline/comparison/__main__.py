@@ -37,7 +37,7 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
                      reversal_parts: list) -> None:
     """compare.h5: per run, the DEM cycle and every parameter set's model cycle (bulk strain); per
     reversal run of the fit, the smoothed tau12/p split into backstress C A12 and isotropic part."""
-    with io.atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    with h5py.File(path, "w") as f:
         f.attrs.update(schema=SCHEMA, schema_version=1, preset=preset,
                        param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
         for k, run in enumerate(runs):
@@ -97,8 +97,9 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
             "reversal_runs": len(parts), "dem": {"isotropic": iso, "backstress": back},
             "model": {label: dict(zip(("isotropic", "backstress"), metrics.model_relaxation(p, rotate_at),
                                       strict=True)) for label, p in sets.items()}}
-    write_compare_h5(out_dir / "compare.h5", runs, predictions, sets, preset, parts)
-    io.write_json(out_dir / "metrics.json", result)
+    with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
+        write_compare_h5(h5, runs, predictions, sets, preset, parts)
+        js.write_text(io.json_text(result))
     return result
 
 

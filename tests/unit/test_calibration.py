@@ -236,3 +236,20 @@ def test_a_restarted_cycle_keeps_the_samples_past_gamma0_and_restarts_from_the_d
     for bad in (0.003, -0.005, 0.7):
         with pytest.raises(ValueError, match=f"fit_from={bad}"):
             cycle.restarted(bad)
+
+
+def test_an_interrupted_write_keeps_the_previous_complete_set(tmp_path):
+    from pipeline import io
+
+    paths = [tmp_path / "fit.json", tmp_path / "params.json"]
+    for p in paths:
+        p.write_text("previous")
+    with pytest.raises(KeyboardInterrupt), io.atomic_paths(*paths) as temps:
+        temps[0].write_text("new")
+        raise KeyboardInterrupt  # Ctrl-C between two outputs
+    assert [p.read_text() for p in paths] == ["previous", "previous"]
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["fit.json", "params.json"]  # no temporary left
+    with io.atomic_paths(*paths) as temps:
+        for t in temps:
+            t.write_text("new")
+    assert [p.read_text() for p in paths] == ["new", "new"]
