@@ -12,6 +12,7 @@ change, and Table 2 tested on the same data.
 from __future__ import annotations
 
 import sys
+import time
 
 import numpy as np
 
@@ -35,12 +36,14 @@ def table(runs: list, fit_from=FIT_FROM, exponents=EXPONENTS, definitions=PAPER_
     profiled = next((g for g in fit_from if g > 0), None)
     if profiled is not None:
         settings += [(profiled, k) for k in exponents if k != 0.75]
-    rows = []
-    for g, k in settings:
+    rows, tic = [], time.time()
+    for done, (g, k) in enumerate(settings, start=1):
         rows.append(fit_row(runs, definitions, g, k))
         t = rows[-1]["table2"]
-        print(f"fit from {g:g}, k = {k:g}: misfit {rows[-1]['misfit']:.3f}, chi^2 {rows[-1]['chi2']:.0f}, "
-              f"Table 2 chi^2 {t['relative_rise']:+.1%}", flush=True)
+        eta = (time.time() - tic) / done * (len(settings) - done)
+        print(f"[{done}/{len(settings)}, {done / len(settings):.0%}] fit from {g:g}, k = {k:g}: misfit "
+              f"{rows[-1]['misfit']:.3f}, chi^2 {rows[-1]['chi2']:.0f}, Table 2 chi^2 {t['relative_rise']:+.1%}; "
+              f"ETA {eta:.0f} s", flush=True)
     return rows
 
 
