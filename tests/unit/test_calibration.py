@@ -253,3 +253,20 @@ def test_an_interrupted_write_keeps_the_previous_complete_set(tmp_path):
         for t in temps:
             t.write_text("new")
     assert [p.read_text() for p in paths] == ["new", "new"]
+
+
+def test_the_restart_table_reads_its_options_and_marks_what_is_not_determined():
+    from pipeline.calibration import restart
+    from pipeline.errors import PipelineError
+
+    assert restart._numbers("fit-from", "0,0.005") == (0.0, 0.005)
+    with pytest.raises(PipelineError, match="--fit-from 'x' is not a comma-separated list"):
+        restart._numbers("fit-from", "x")
+    with pytest.raises(PipelineError, match="--exponents: 5.0 must lie in"):
+        restart._numbers("exponents", "0.5,5")
+    names = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
+    row = {"fit_from": 0.005, "persistence_exponent": 0.75, "params": {n: 1.0 for n in names},
+           "standard_errors": {n: 0.1 for n in names}, "status": {"m": "not determined"}, "misfit": 1.2,
+           "chi2": 100.0, "chi2_share_after_changes": 0.05, "table2": {"relative_rise": 0.045, "quantiles": None}}
+    text = restart.markdown([row], "reduced")
+    assert "| 0.005 | 0.75 | +1 ± 0.1 | +1 ± 0.1 | +1 (open) |" in text and "+4.5% | n/a |" in text
