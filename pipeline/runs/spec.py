@@ -98,6 +98,8 @@ MAX_OVERLAP_RATIO = 0.01  # delta/d: grains stay quasi-rigid
 RANDOM_CLOSE_PACKING = 0.64
 QUASI_STATIC_I = 1e-2  # above this inertial number the flow is no longer quasi-static
 MAX_SEED = 2**31 - 1
+MIN_SAMPLE_STRAIN = 5e-4  # every sample is a pass over the contacts and a row of profiles
+MIN_PROFILE_BIN_D = 0.25
 
 
 def _physical_problems(values: dict) -> list[str]:
@@ -130,6 +132,14 @@ def _physical_problems(values: dict) -> list[str]:
     if grains < 10:
         problems.append(f"fill_packing_fraction={values['fill_packing_fraction']!r} gives {grains:.0f} grains: at "
                         "least 10 are needed")
+    if values["sample_strain"] < MIN_SAMPLE_STRAIN:
+        problems.append(f"sample_strain={values['sample_strain']!r} must be >= {MIN_SAMPLE_STRAIN} (a sample costs "
+                        "a pass over every contact; dense_sample_strain samples finer after each change)")
+    if values["dense_window_strain"] > 0 and values["dense_sample_strain"] < MIN_SAMPLE_STRAIN / 2:
+        problems.append(f"dense_sample_strain={values['dense_sample_strain']!r} must be >= {MIN_SAMPLE_STRAIN / 2}")
+    if values["profile_bin_d"] < MIN_PROFILE_BIN_D:
+        problems.append(f"profile_bin_d={values['profile_bin_d']!r} must be >= {MIN_PROFILE_BIN_D} d (a profile "
+                        "bin thinner than a quarter grain holds no average)")
     if values["checkpoint_steps"] < 1000:
         problems.append(f"checkpoint_steps={values['checkpoint_steps']!r} must be >= 1000 (a checkpoint costs a save)")
     return problems

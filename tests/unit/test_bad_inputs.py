@@ -62,6 +62,8 @@ DEM_CASES = [
     (["--theta", "90", "--set", "friction_deg=95"], "friction_deg=95.0 must be < 90"),
     (["--theta", "90", "--set", "diameter_min_d=2"], "diameter_min_d=2.0 must be < diameter_max_d"),
     (["--theta", "90", "--set", "checkpoint_steps=10"], "checkpoint_steps=10.0 must be >= 1000"),
+    (["--theta", "90", "--set", "sample_strain=0.00001"], "sample_strain=1e-05 must be >= 0.0005"),
+    (["--theta", "90", "--set", "profile_bin_d=0.0001"], "profile_bin_d=0.0001 must be >= 0.25 d"),
     (["--theta", "90", "--set", "noequals"], "override 'noequals' is not of the form key=value"),
     (["--theta", "90", "--set", "seed=0x10"], "override seed='0x10' is not a number"),
     (["--theta", "90", "--rotate-at", "2"], "rotate_at=2.0 must lie strictly between 0 and period_strain=1.4"),
