@@ -67,9 +67,12 @@ def run_profiles(run) -> list[dict]:
 
 
 def setting_label(run) -> str:
-    """The run's preset and its overrides but the seed: runs of one setting differ only by their seed."""
+    """The run's preset and its overrides but the seed (runs of one setting differ only by their seed), and
+    whether it has dense samples (its band strain right after a change is resolved; on the 0.005 grid alone
+    the trapezoid over the first interval averages the old and the new direction's flow)."""
     rest = {k: v for k, v in sorted(run.overrides.items()) if k != "seed"}
-    return run.spec["preset"] + "".join(f" {k}={v:g}" for k, v in rest.items())
+    dense = run.spec.get("dense_window_strain", 0) > 0
+    return run.spec["preset"] + "".join(f" {k}={v:g}" for k, v in rest.items()) + (" (dense)" if dense else "")
 
 
 def mean_and_error(values) -> tuple[float, float, int]:
