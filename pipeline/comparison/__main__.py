@@ -4,7 +4,7 @@
 cycle with Table 2 and with the fitted parameters (``fit/params.json``), reading the runs with the
 fit's definitions of strain, Phi and p (``fit/fit.json``), and writes, atomically:
 ``compare.h5`` (per run: the DEM's cycle mean and standard error, and each parameter set's model
-cycle at the same samples, in bulk strain; the reversal split into backstress and isotropic part) and
+cycle at the same samples, in the fit's strain measure; the reversal split into backstress and isotropic part) and
 ``metrics.json`` (the normalised errors per run and parameter set, the backstress share, the
 packing fraction, the second-law check and the relaxation strains after the reversal). The figures
 and the report read these files; they compute nothing.
@@ -35,10 +35,11 @@ SCHEMA = "granular-backstress/compare"
 
 def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, preset: str,
                      reversal_parts: list) -> None:
-    """compare.h5: per run, the DEM cycle and every parameter set's model cycle (bulk strain); per
-    reversal run of the fit, the smoothed tau12/p split into backstress C A12 and isotropic part."""
+    """compare.h5: per run, the DEM cycle and every parameter set's model cycle, against strain in the fit's
+    measure (``strain_measure``: the datasets keep the name ``strain_bulk``); per reversal run of the fit, the
+    smoothed tau12/p split into backstress C A12 and isotropic part."""
     with h5py.File(path, "w") as f:
-        f.attrs.update(schema=SCHEMA, schema_version=1, preset=preset,
+        f.attrs.update(schema=SCHEMA, schema_version=1, preset=preset, strain_measure=runs[0].definitions.strain,
                        param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
         for k, run in enumerate(runs):
             g = f.create_group(f"runs/{k:02d}")
@@ -52,7 +53,7 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
             dem.create_dataset("strain_bulk", data=c["strain"] * ratio)
             for key in ("A", "A_sem", "tau_over_p", "tau_over_p_sem", "packing_fraction"):
                 dem.create_dataset(key, data=c[key])
-            for key in ("w_shear", "w_vol"):  # per unit bulk strain
+            for key in ("w_shear", "w_vol"):  # per unit strain of the fit's measure
                 dem.create_dataset(key, data=c[key] / ratio)
             for label, (data, pred) in predictions[k].items():
                 m = g.create_group(f"model/{label}")

@@ -1,6 +1,6 @@
 """Model against DEM, on arrays: the model's cycle for a run's protocol and the measures that compare them.
 
-The model runs in bulk strain (the DEM's measured central shear rate; ``Cycle.prediction``),
+The model runs in the fit's strain measure (``Cycle.prediction``),
 so its cycle is compared sample by sample with the DEM's cycle average. The error of a component is
 the RMSE over the cycle divided by the steady value of that component's family (the largest |A12|
 or |tau12/p| of the cycle).

@@ -8,7 +8,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .output import save
+from .output import save, strain_label
 
 COMPONENTS = {"A12": ("A", 0, 1), "A32": ("A", 2, 1), "tau12": ("tau_over_p", 0, 1), "tau32": ("tau_over_p", 2, 1)}
 LABELS = {"A12": "$A_{12}$", "A32": "$A_{32}$", "tau12": r"$\tau_{12}/p$", "tau32": r"$\tau_{32}/p$"}
@@ -34,7 +34,7 @@ def plot(groups: list, out: Path, title: str) -> Path:
         row[0].set_title(f"θ = {g.attrs['theta_deg']:g}°, rotation at {g.attrs['rotate_at_strain']:g}", loc="left",
                          fontsize=9)
     for ax in axes[-1]:
-        ax.set_xlabel(r"bulk strain $t\dot\gamma$")
+        ax.set_xlabel(strain_label(groups[0]))
     axes[0, -1].legend(fontsize=7, loc="best")
     fig.suptitle(title, fontsize=10)
     return save(fig, out)

@@ -16,3 +16,9 @@ def save(fig, out: Path, dpi: int = 110) -> Path:
         fig.savefig(tmp, dpi=dpi)
     plt.close(fig)
     return out
+
+
+def strain_label(group) -> str:
+    """The strain axis of a ``compare.h5`` group: the measure the fit used (files before it was recorded: bulk)."""
+    measure = group.file.attrs.get("strain_measure", "bulk")
+    return r"nominal strain $t\dot\gamma$" if measure == "nominal" else r"bulk strain $t\dot\gamma$"

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-from .output import save
+from .output import save, strain_label
 
 
 def backstress_figure(parts: list, C: float, out: Path) -> Path:
@@ -48,6 +48,6 @@ def work_figure(groups: list, label: str, out: Path) -> Path:
     axes[0, 0].legend(fontsize=7)
     axes[0, 1].legend(fontsize=7)
     for ax in axes[-1]:
-        ax.set_xlabel(r"bulk strain $t\dot\gamma$")
+        ax.set_xlabel(strain_label(groups[0]))
     fig.suptitle("Fig. 9: work rates (Sec. 5) and the packing fraction", fontsize=10)
     return save(fig, out)
