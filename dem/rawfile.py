@@ -2,7 +2,9 @@
 ``pipeline.dataset.dem_file``) and the samples saved beside each checkpoint. Plain python and numpy, so
 Yade's python3 and the project venv (the tests' synthetic runs) write the same format.
 
-Written atomically: a temporary file named after the process, flushed to disk, then renamed.
+Written atomically: a temporary file named after the process, flushed to disk, then renamed. This is the scene's
+own writer, not ``pipeline.io``'s: the scene runs under Debian's python3 with numpy and Yade only, without the
+project's virtualenv and its packages.
 """
 
 import json
