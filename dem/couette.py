@@ -61,22 +61,22 @@ CLOUD_GROWTH, CLOUD_TRIES = 1.25, 6
 
 
 def initial_cloud(spec, n_grains, width, y_bottom):
-    """The grains' loose start, ``(cloud, loose_gap)``: a random cloud at packing fraction ~0.35 between the walls'
-    rough layers. Where a seed's cloud does not fit (random sequential placement stalls, about one seed in seven
-    of the tiny cell), the box grows by a quarter and the cloud is drawn again; compaction takes the extra height
-    out. A seed that fits at once gives the same cloud as ever."""
+    """The grains' loose start, ``(cloud, y_top)``: a random cloud at packing fraction ~0.35 between the walls'
+    rough layers, and the height of the top wall's compact layer that encloses it. Where a seed's cloud does not
+    fit (random sequential placement stalls, about one seed in seven of the tiny cell), the box grows by a quarter
+    and the cloud is drawn again; compaction takes the extra height out. A seed that fits at once gives the same
+    cloud as ever."""
     d_min, d_max = spec["diameter_min_d"], spec["diameter_max_d"]
     loose_gap = spec["gap_d"] * spec["fill_packing_fraction"] / 0.35
+    lo = y_bottom + ROUGH_HEIGHT + WALL_RADIUS
     for _ in range(CLOUD_TRIES):
         cloud = pack.SpherePack()
-        lo = y_bottom + ROUGH_HEIGHT + WALL_RADIUS
-        y_top = y_bottom + 2 * ROUGH_HEIGHT + loose_gap + d_max  # as build() places the top wall, to the last bit
-        hi = y_top - ROUGH_HEIGHT - WALL_RADIUS
-        made = cloud.makeCloud((0, lo, 0), (width, hi, width), rMean=(d_min + d_max) / 4,
-                               rRelFuzz=(d_max - d_min) / (d_max + d_min), num=n_grains, periodic=False,
-                               seed=int(spec["seed"]) + 1)
+        y_top = y_bottom + 2 * ROUGH_HEIGHT + loose_gap + d_max
+        made = cloud.makeCloud((0, lo, 0), (width, y_top - ROUGH_HEIGHT - WALL_RADIUS, width),
+                               rMean=(d_min + d_max) / 4, rRelFuzz=(d_max - d_min) / (d_max + d_min), num=n_grains,
+                               periodic=False, seed=int(spec["seed"]) + 1)
         if made == n_grains:
-            return cloud, loose_gap
+            return cloud, y_top
         loose_gap *= CLOUD_GROWTH
     raise RuntimeError(f"placed only {made} of {n_grains} grains in the initial cloud, in a box "
                        f"{CLOUD_GROWTH ** (CLOUD_TRIES - 1):.1f} times the usual height")
@@ -88,8 +88,7 @@ def build(spec):
     width = int(spec["width_d"])
     n_grains = protocol.grain_count(spec)
     y_bottom = 1.0
-    cloud, loose_gap = initial_cloud(spec, n_grains, width, y_bottom)
-    y_top = y_bottom + 2 * ROUGH_HEIGHT + loose_gap + spec["diameter_max_d"]
+    cloud, y_top = initial_cloud(spec, n_grains, width, y_bottom)
     O.periodic = True
     O.cell.setBox(width, 2 * (y_top + 2.0), width)
     material = O.materials.append(contact_material(spec))

@@ -54,6 +54,16 @@ def write_json(path: Path, data) -> Path:
     return write_text(path, json_text(data))
 
 
+def write_table(out: Path, stem: str, data, markdown: str) -> Path:
+    """A study's result as a set: ``<stem>.json`` (the data) and ``<stem>.md`` (its table), renamed into place
+    together; returns the Markdown file's path."""
+    paths = (Path(out) / f"{stem}.json", Path(out) / f"{stem}.md")
+    with atomic_paths(*paths) as (js, md):
+        js.write_text(json_text(data))
+        md.write_text(markdown)
+    return paths[1]
+
+
 def write_params(path: Path, params, metadata: dict | None = None) -> Path:
     """A ``model.Params`` as JSON (``Params.to_json``, with ``metadata``), atomically."""
     return write_text(path, params.to_json(metadata))

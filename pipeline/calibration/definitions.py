@@ -68,6 +68,14 @@ def early_share(refined, data: list, start: model.Params) -> float:
     return float(np.sum(res[early] ** 2) / np.sum(res**2))
 
 
+def preset_fit_runs(preset: str) -> list:
+    """The runs the global fit of ``preset`` uses; none is a one-line error."""
+    runs = fit_runs(preset)
+    if not runs:
+        raise PipelineError(f"no run of preset {preset!r}")
+    return runs
+
+
 def compare_definitions(runs: list) -> list[dict]:
     rows = []
     for strain, phi, pressure in itertools.product(*Definitions.CHOICES.values()):
@@ -111,13 +119,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     preset = check_folder_name(args.preset)
     out = io.check_writable_dir(args.out or preset_output(preset, "fit"))
-    runs = fit_runs(preset)
-    if not runs:
-        raise PipelineError(f"no run of preset {preset!r}")
-    rows = compare_definitions(runs)
-    io.write_json(out / "definitions.json", rows)
-    io.write_text(out / "definitions.md", markdown(rows, preset))
-    print(f"wrote {out / 'definitions.md'} and definitions.json")
+    rows = compare_definitions(preset_fit_runs(preset))
+    print(f"wrote {io.write_table(out, 'definitions', rows, markdown(rows, preset))} and definitions.json")
     return 0
 
 

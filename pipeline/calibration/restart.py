@@ -21,10 +21,9 @@ import model
 from .. import io
 from ..cli import Parser, one_line_errors
 from ..dataset.derived import PAPER_DEFINITIONS
-from ..dataset.lookup import fit_runs
 from ..errors import PipelineError
 from ..paths import check_folder_name, preset_output
-from .definitions import NAMES, fit_row
+from .definitions import NAMES, fit_row, preset_fit_runs
 
 FIT_FROM = (0.0, 0.005, 0.01)
 EXPONENTS = (0.5, 0.625, 0.75, 0.875, 1.0)
@@ -94,13 +93,8 @@ def main(argv=None) -> int:
     preset = check_folder_name(args.preset)
     fit_from, exponents = _numbers("fit-from", args.fit_from), _numbers("exponents", args.exponents)
     out = io.check_writable_dir(args.out or preset_output(preset, "fit"))
-    runs = fit_runs(preset)
-    if not runs:
-        raise PipelineError(f"no run of preset {preset!r}")
-    rows = table(runs, fit_from, exponents)
-    io.write_json(out / "fit_from.json", rows)
-    io.write_text(out / "fit_from.md", markdown(rows, preset))
-    print(f"wrote {out / 'fit_from.md'} and fit_from.json")
+    rows = table(preset_fit_runs(preset), fit_from, exponents)
+    print(f"wrote {io.write_table(out, 'fit_from', rows, markdown(rows, preset))} and fit_from.json")
     return 0
 
 

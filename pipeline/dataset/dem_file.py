@@ -159,7 +159,7 @@ class DemRun:
         return derived.run_cycle(self)
 
 
-def _check_raw(path: Path, raw: dict, spec: dict) -> None:
+def _check_raw(path: Path, raw: dict, spec: dict, grid: np.ndarray) -> None:
     fields = sample_fields()
     missing = sorted(set(fields) - set(raw))
     if missing:
@@ -174,7 +174,7 @@ def _check_raw(path: Path, raw: dict, spec: dict) -> None:
         if not np.all(np.isfinite(raw[key])):
             raise DemFileError(f"{path}: /raw/{key} has non-finite values")
     try:
-        derived.cycle_indices(raw["strain"][grid_samples(raw["strain"], spec)], spec["period_strain"],
+        derived.cycle_indices(raw["strain"][grid], spec["period_strain"],
                               spec["sample_strain"], spec["n_cycles"])
     except ValueError as exc:
         raise DemFileError(f"{path}: {exc}") from None
@@ -205,6 +205,6 @@ def load(path) -> DemRun:
     missing = [k for k in REQUIRED_SPEC if k not in spec]
     if missing or "gamma_dot_nominal" not in params:
         raise DemFileError(f"{path}: the spec lacks {', '.join(missing or ['gamma_dot_nominal'])}")
-    _check_raw(path, raw, spec)
     grid = grid_samples(raw["strain"], spec)
+    _check_raw(path, raw, spec, grid)
     return DemRun(path, spec, params, prov, {k: v[grid] for k, v in raw.items()}, units, diameters, raw_all=raw)

@@ -166,9 +166,7 @@ def main(argv=None) -> int:
         raise PipelineError("no DEM run found: make dem first")
     runs = [load(p) for p in paths]
     summary = summarise([r for r in runs if direction_changes(r.spec)])
-    io.write_json(out / "jump.json", summary)
-    io.write_text(out / "jump.md", markdown(summary))
-    print(f"wrote {out / 'jump.md'} and jump.json ({len(runs)} runs)")
+    print(f"wrote {io.write_table(out, 'jump', summary, markdown(summary))} and jump.json ({len(runs)} runs)")
     return 0
 
 

@@ -168,9 +168,7 @@ def main(argv=None) -> int:
         print(f"[{k + 1}/{len(chosen)}] {label}: {known[label].what}", flush=True)
         rows.append(run_case(known[label]))
         print(f"  -> {rows[-1]['outcome']} {rows[-1].get('diagnostic', '')}", flush=True)
-    io.write_json(out / "stability.json", rows)
-    io.write_text(out / "stability.md", markdown(rows))
-    print(f"wrote {out / 'stability.md'}")
+    print(f"wrote {io.write_table(out, 'stability', rows, markdown(rows))}")
     return 0
 
 
