@@ -119,8 +119,9 @@ test-cluster: system system-slurm venv ## a sweep on a real one-node SLURM clust
 lint: venv ## ruff over the whole project
 	$(PY) -m ruff check .
 
-bench: system venv ## benchmarks: model numerics, DEM steps/s per preset and the cost of our Python, in results/bench/
+bench: system venv ## benchmarks: model numerics, the material-point update, DEM steps/s per preset and the cost of our Python, in results/bench/
 	$(PY) -m pipeline.studies.bench_model --out results/bench
+	$(PY) -m pipeline.studies.bench_update --out results/bench
 	$(PY) -m pipeline.studies.bench_dem --out results/bench
 
 bench-dem: system venv ## DEM steps/s, bare and production loop (PRESETS=quick,reduced,paper) -> results/bench/dem_throughput.json

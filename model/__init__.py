@@ -22,6 +22,7 @@ from .kinematics import (
     steady_shear,
     stretching,
 )
+from .material_point import Update, update
 from .params import PAPER, ParameterError, Params
 from .solver import Result, SolverError, integrate, periodic, predict, steady_state
 
@@ -29,5 +30,5 @@ __all__ = [
     "PAPER", "PERIOD_STRAIN", "ROTATE_AT_STRAIN", "History", "HistoryError", "ParameterError", "Params", "Result",
     "Segment", "SolverError", "deviator", "hardening_variable_stack", "integrate", "modulus", "periodic",
     "periodic_cycle", "predict", "reversal", "rotation_about_e2", "shear_direction", "shear_segment",
-    "shear_velocity_gradient", "spin", "steady_shear", "steady_state", "stretching",
+    "shear_velocity_gradient", "spin", "steady_shear", "steady_state", "stretching", "Update", "update",
 ]

@@ -1,0 +1,329 @@
+"""The material-point update for continuum codes: N points, one step of constant velocity gradient each.
+
+``update(A, phi, L, dt)`` advances the fabric (Eq. 13, Jaumann rate) and the packing fraction (Eq. 18)
+of every point over a step dt under its velocity gradient L, as ``model.integrate`` does for one point
+(the same equations and regularised variable s through S -> 0; the steps in ``model.stepper``), and
+returns tau/p of Eq. 14 at the end of the step. The model is rate independent: only the strain of the
+step, |D'| dt, and the directions of D' and W matter, not dt itself.
+
+A point with D' = 0 (|D'| <= 1e-12 |L|, round-off) is *stationary*: Eqs. 13 and 18 leave its packing
+fraction unchanged and its fabric co-rotating with the spin (A -> R A R^T, R = exp(W dt); unchanged
+when W = 0 too), and the flow rule does not define tau/p there (the direction D'/|D'| is undefined),
+so tau/p and S are NaN and ``Update.stationary`` says so.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from . import integrator, stepper
+from .equations import K_PERSIST, hardening_variable, jit, yield_function
+from .equations import C as C_INDEX
+from .params import Params
+from .solver import DEFAULT_S_REF, SolverError, _params
+
+DEFAULT_RTOL = 1e-9  # per step: A, Phi and tau/p within 1e-6 of ``model.predict`` over whole cycles
+DEFAULT_ATOL = 1e-11
+FABRIC_TOL = 1e-8  # allowed asymmetry and trace of an input fabric (absolute)
+ROUNDOFF_STRETCHING = 1e-12  # |D'| up to this fraction of |L| is round-off: the point is stationary
+MAX_STEPS = 100_000  # integrator steps per point and update
+_BAD_A, _BAD_SYM, _BAD_TRACE, _BAD_PHI, _BAD_L, _BAD_DT = range(1, 7)
+_PROBLEMS = {
+    _BAD_A: "A[{i}] has non-finite entries",
+    _BAD_SYM: "A[{i}] is not symmetric (asymmetry {value:.3g} > fabric_tol)",
+    _BAD_TRACE: "A[{i}] is not traceless (trace {value:.3g} > fabric_tol)",
+    _BAD_PHI: "phi[{i}]={value!r} must lie in (0, 1)",
+    _BAD_L: "L[{i}] has non-finite entries",
+    _BAD_DT: "dt[{i}]={value!r} must be finite and >= 0",
+}
+
+
+@dataclass
+class Update:
+    """State after a step, per point: ``A`` (N, 3, 3) fabric; ``phi`` (N,) packing fraction; ``tau_over_p``
+    (N, 3, 3) tau/p of Eq. 14 (tension positive); ``S`` (N,) hardening variable of Eq. 10 (both NaN where
+    ``stationary``); ``substeps`` (N,) integrator steps taken (accepted and rejected); ``stationary`` (N,)
+    D' = 0 over the step."""
+
+    A: np.ndarray
+    phi: np.ndarray
+    tau_over_p: np.ndarray
+    S: np.ndarray
+    substeps: np.ndarray
+    stationary: np.ndarray
+
+    @classmethod
+    def empty(cls, n: int) -> Update:
+        """Arrays for ``n`` points, to pass as ``out`` and reuse step after step."""
+        return cls(np.empty((n, 3, 3)), np.empty(n), np.empty((n, 3, 3)), np.empty(n),
+                   np.empty(n, dtype=np.int64), np.empty(n, dtype=np.bool_))
+
+    def __len__(self) -> int:
+        return self.phi.shape[0]
+
+
+@jit
+def _check_inputs(A, phi, L, dt, fabric_tol):
+    """(problem code, point, value) of the first bad input; code 0 when all are good."""
+    for i in range(A.shape[0]):
+        a = A[i]
+        total = 0.0
+        for j in range(3):
+            for k in range(3):
+                total += a[j, k]
+        if not math.isfinite(total):
+            return _BAD_A, i, total
+        asym = max(abs(a[0, 1] - a[1, 0]), abs(a[0, 2] - a[2, 0]), abs(a[1, 2] - a[2, 1]))
+        if asym > fabric_tol:
+            return _BAD_SYM, i, asym
+        trace = a[0, 0] + a[1, 1] + a[2, 2]
+        if abs(trace) > fabric_tol:
+            return _BAD_TRACE, i, trace
+        if not 0.0 < phi[i] < 1.0:
+            return _BAD_PHI, i, phi[i]
+    for i in range(L.shape[0]):
+        total = 0.0
+        for j in range(3):
+            for k in range(3):
+                total += L[i, j, k]
+        if not math.isfinite(total):
+            return _BAD_L, i, total
+    for i in range(dt.shape[0]):
+        if not (math.isfinite(dt[i]) and dt[i] >= 0.0):
+            return _BAD_DT, i, dt[i]
+    return 0, 0, 0.0
+
+
+@jit
+def _co_rotate(a, w12, w13, w23, dt, k, r, out):
+    """out = R a R^T with R = exp(W dt) (Rodrigues), W = [[0, w12, w13], [-w12, 0, w23], [-w13, -w23, 0]];
+    k and r are 3x3 scratch."""
+    theta = math.sqrt(w12 * w12 + w13 * w13 + w23 * w23) * dt
+    s1 = 1.0 if theta == 0.0 else math.sin(theta) / theta
+    s2 = 0.5 if theta == 0.0 else (1.0 - math.cos(theta)) / (theta * theta)
+    k[0, 0], k[0, 1], k[0, 2] = 0.0, w12 * dt, w13 * dt
+    k[1, 0], k[1, 1], k[1, 2] = -w12 * dt, 0.0, w23 * dt
+    k[2, 0], k[2, 1], k[2, 2] = -w13 * dt, -w23 * dt, 0.0
+    for i in range(3):
+        for j in range(3):
+            kk = 0.0
+            for m in range(3):
+                kk += k[i, m] * k[m, j]
+            r[i, j] = (1.0 if i == j else 0.0) + s1 * k[i, j] + s2 * kk
+    for i in range(3):
+        for j in range(3):
+            acc = 0.0
+            for m in range(3):
+                for q in range(3):
+                    acc += r[i, m] * a[m, q] * r[j, q]
+            out[i, j] = acc
+
+
+@jit
+def _write_state(y, Dh, p, A_out, tau_out):
+    """The packed fabric y into A_out (3, 3), tau/p of Eq. 14 into tau_out; returns S (Eq. 10)."""
+    a11, a22, a12, a13, a23 = y[0], y[1], y[2], y[3], y[4]
+    a33 = -a11 - a22
+    A_out[0, 0], A_out[1, 1], A_out[2, 2] = a11, a22, a33
+    A_out[0, 1] = A_out[1, 0] = a12
+    A_out[0, 2] = A_out[2, 0] = a13
+    A_out[1, 2] = A_out[2, 1] = a23
+    S = hardening_variable(a11, a22, a12, a13, a23, Dh[0], Dh[1], Dh[2], Dh[3], Dh[4], Dh[5])
+    Y = yield_function(S, p)
+    c = p[C_INDEX]  # Eq. 14: tau/p = C A + Y(S) D'/|D'|
+    tau_out[0, 0] = c * a11 + Y * Dh[0]
+    tau_out[1, 1] = c * a22 + Y * Dh[1]
+    tau_out[2, 2] = c * a33 + Y * Dh[2]
+    tau_out[0, 1] = tau_out[1, 0] = c * a12 + Y * Dh[3]
+    tau_out[0, 2] = tau_out[2, 0] = c * a13 + Y * Dh[4]
+    tau_out[1, 2] = tau_out[2, 1] = c * a23 + Y * Dh[5]
+    return S
+
+
+@jit
+def _update_range(start, stop, A, phi, L, dt, p, lam_ref, rtol, atol,
+                  A_out, phi_out, tau_out, S_out, steps_out, stationary_out):
+    """Points start..stop-1; returns (failures, first failing point, its status). A failing point keeps
+    its input state. Scratch is allocated once per call, not per point; ``A_out`` may be ``A``."""
+    y = np.empty(integrator.N_STATE)
+    work = np.empty((stepper.WORK_ROWS, integrator.N_STATE))
+    Dh = np.empty(6)
+    Wn = np.empty(3)
+    rotation = np.empty((3, 3, 3))  # the co-rotated fabric and two scratch matrices
+    failures = 0
+    first_failure = -1
+    first_status = 0
+    for i in range(start, stop):
+        li = L[i if L.shape[0] > 1 else 0]
+        dti = dt[i if dt.shape[0] > 1 else 0]
+        a = A[i]
+        trace = (li[0, 0] + li[1, 1] + li[2, 2]) / 3.0
+        d11, d22, d33 = li[0, 0] - trace, li[1, 1] - trace, li[2, 2] - trace
+        d12 = 0.5 * (li[0, 1] + li[1, 0])
+        d13 = 0.5 * (li[0, 2] + li[2, 0])
+        d23 = 0.5 * (li[1, 2] + li[2, 1])
+        w12 = 0.5 * (li[0, 1] - li[1, 0])
+        w13 = 0.5 * (li[0, 2] - li[2, 0])
+        w23 = 0.5 * (li[1, 2] - li[2, 1])
+        rate = math.sqrt(d11 * d11 + d22 * d22 + d33 * d33 + 2.0 * (d12 * d12 + d13 * d13 + d23 * d23))
+        size = 0.0
+        for j in range(3):
+            for k in range(3):
+                size += li[j, k] * li[j, k]
+        if rate <= ROUNDOFF_STRETCHING * math.sqrt(size):
+            # D' = 0: Phi fixed, A co-rotates with the spin (Eq. 13 with a vanishing right-hand side)
+            _co_rotate(a, w12, w13, w23, dti, rotation[1], rotation[2], rotation[0])
+            for j in range(3):
+                for k in range(3):
+                    A_out[i, j, k] = rotation[0, j, k]
+                    tau_out[i, j, k] = math.nan
+            phi_out[i] = phi[i]
+            S_out[i] = math.nan
+            steps_out[i] = 0
+            stationary_out[i] = True
+            continue
+        Dh[0], Dh[1], Dh[2] = d11 / rate, d22 / rate, d33 / rate
+        Dh[3], Dh[4], Dh[5] = d12 / rate, d13 / rate, d23 / rate
+        Wn[0], Wn[1], Wn[2] = w12 / rate, w13 / rate, w23 / rate
+        y[0], y[1] = a[0, 0], a[1, 1]
+        y[2] = 0.5 * (a[0, 1] + a[1, 0])
+        y[3] = 0.5 * (a[0, 2] + a[2, 0])
+        y[4] = 0.5 * (a[1, 2] + a[2, 1])
+        y[integrator.T_INDEX] = 0.0
+        y[integrator.G_INDEX] = 0.0
+        y[integrator.V_INDEX] = 0.0
+        steps, status = stepper.advance(y, Dh, Wn, rate, p, lam_ref, dti, rtol, atol, MAX_STEPS, work)
+        steps_out[i] = steps
+        stationary_out[i] = False
+        if status != integrator.SUCCESS:
+            failures += 1
+            if first_failure < 0:
+                first_failure, first_status = i, status
+            for j in range(3):
+                for k in range(3):
+                    tau_out[i, j, k] = math.nan
+            S_out[i] = math.nan
+            continue  # A_out[i] and phi_out[i] are left alone: the input state, when out is the input
+        # Eq. 18 in closed form: 1/Phi(dt) = exp(-G)/Phi(0) + v (see model.integrator)
+        phi_out[i] = 1.0 / (math.exp(-y[integrator.G_INDEX]) / phi[i] + y[integrator.V_INDEX])
+        S_out[i] = _write_state(y, Dh, p, A_out[i], tau_out[i])
+    return failures, first_failure, first_status
+
+
+@jit
+def _update_serial(A, phi, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, tau_out, S_out, steps_out, stationary_out):
+    return _update_range(0, A.shape[0], A, phi, L, dt, p, lam_ref, rtol, atol,
+                         A_out, phi_out, tau_out, S_out, steps_out, stationary_out)
+
+
+CHUNK = 256  # points per parallel task
+
+
+@numba.njit(parallel=True, cache=True, nogil=True)
+def _update_parallel(A, phi, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, tau_out, S_out, steps_out,
+                     stationary_out):
+    n = A.shape[0]
+    n_chunks = (n + CHUNK - 1) // CHUNK
+    failures = np.zeros(n_chunks, dtype=np.int64)
+    first = np.full(n_chunks, -1, dtype=np.int64)
+    status = np.zeros(n_chunks, dtype=np.int64)
+    for c in numba.prange(n_chunks):
+        failures[c], first[c], status[c] = _update_range(
+            c * CHUNK, min(n, (c + 1) * CHUNK), A, phi, L, dt, p, lam_ref, rtol, atol,
+            A_out, phi_out, tau_out, S_out, steps_out, stationary_out)
+    total = 0
+    first_failure, first_status = -1, 0
+    for c in range(n_chunks):
+        total += failures[c]
+        if first_failure < 0 and first[c] >= 0:
+            first_failure, first_status = first[c], status[c]
+    return total, first_failure, first_status
+
+
+def _array(name: str, value, shapes: tuple[tuple, ...]) -> np.ndarray:
+    """``value`` as a C-contiguous float array of one of ``shapes``; a one-line error otherwise."""
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise SolverError(f"{name} must be an array of numbers, got {type(value).__name__}") from None
+    if array.shape not in shapes:
+        wanted = " or ".join(str(s) for s in shapes)
+        raise SolverError(f"{name} has shape {array.shape}, expected {wanted}")
+    return np.ascontiguousarray(array)
+
+
+def _out(out, n: int) -> Update:
+    if out is None:
+        return Update.empty(n)
+    if not isinstance(out, Update):
+        raise SolverError(f"out must be a model.Update (see Update.empty), got {type(out).__name__}")
+    expected = Update.empty(0)
+    for name in ("A", "phi", "tau_over_p", "S", "substeps", "stationary"):
+        array, like = getattr(out, name), getattr(expected, name)
+        if (not isinstance(array, np.ndarray) or array.shape != (n,) + like.shape[1:] or array.dtype != like.dtype
+                or not array.flags.c_contiguous or not array.flags.writeable):
+            raise SolverError(f"out.{name} must be a writable C-contiguous {like.dtype} array of shape "
+                              f"{(n,) + like.shape[1:]}")
+    return out
+
+
+def update(A, phi, L, dt, params: Params | None = None, out: Update | None = None, *,
+           rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL, s_ref: float = DEFAULT_S_REF,
+           fabric_tol: float = FABRIC_TOL, threads: int = 1) -> Update:
+    """Advance N material points over one step of constant velocity gradient (Eqs. 13, 14, 18).
+
+    Parameters
+    ----------
+    A : (N, 3, 3) fabric at the start of the step, symmetric and traceless within ``fabric_tol``
+        (it is symmetrised and its trace dropped).
+    phi : (N,) packing fraction at the start of the step, in (0, 1).
+    L : (N, 3, 3) or (3, 3) velocity gradient dv_i/dx_j over the step (1/time), constant in the step.
+    dt : float or (N,) step duration (time, >= 0); the step's strain is |D'| dt (``model.kinematics``).
+    params : model.Params (default Table 2).
+    out : an ``Update`` to fill (``Update.empty(N)``); ``out.A`` and ``out.phi`` may be the inputs
+        themselves, for an update in place.
+    rtol, atol, s_ref : per-step tolerances and regularisation of the integrator
+        (``model.stepper``); see docs/model.md for their cost against accuracy.
+    threads : 1 (default) or more: points are shared among that many numba threads.
+
+    Returns the ``Update``. Raises ``SolverError`` on bad input (one line, naming the first bad point)
+    before any work, and after the step if a point could not be integrated (those points keep their
+    start state).
+    """
+    p = _params(params).as_array()
+    if not (np.ndim(A) == 3 and np.shape(A)[0] > 0 and np.shape(A)[1:] == (3, 3)):
+        raise SolverError(f"A has shape {np.shape(A)}, expected (N, 3, 3) with N >= 1")
+    A = _array("A", A, (np.shape(A),))
+    n = A.shape[0]
+    phi = _array("phi", phi, ((n,),))
+    L = _array("L", L, ((3, 3), (n, 3, 3))).reshape(-1, 3, 3)
+    dt = _array("dt", dt, ((), (n,))).reshape(-1)
+    for name, value in (("rtol", rtol), ("atol", atol), ("s_ref", s_ref), ("fabric_tol", fabric_tol)):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise SolverError(f"{name}={value!r} must be a finite number > 0")
+    if not (isinstance(threads, int) and 1 <= threads <= numba.config.NUMBA_NUM_THREADS):
+        raise SolverError(f"threads={threads!r} must be an integer in 1..{numba.config.NUMBA_NUM_THREADS}")
+    code, index, value = _check_inputs(A, phi, L, dt, fabric_tol)
+    if code:
+        raise SolverError(_PROBLEMS[code].format(i=index, value=float(value)))
+    out = _out(out, n)
+    lam_ref = s_ref ** p[K_PERSIST]
+    arrays = (out.A, out.phi, out.tau_over_p, out.S, out.substeps, out.stationary)
+    if threads == 1:
+        failures, first, status = _update_serial(A, phi, L, dt, p, lam_ref, rtol, atol, *arrays)
+    else:
+        previous = numba.get_num_threads()
+        numba.set_num_threads(threads)
+        try:
+            failures, first, status = _update_parallel(A, phi, L, dt, p, lam_ref, rtol, atol, *arrays)
+        finally:
+            numba.set_num_threads(previous)
+    if failures:
+        raise SolverError(f"update failed at {failures} point(s), first at point {first}: "
+                          f"{integrator.STATUS_MESSAGES[int(status)]}")
+    return out
+

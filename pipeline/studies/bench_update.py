@@ -1,0 +1,144 @@
+"""Speed and accuracy of the material-point update, ``model.update`` (part of ``make bench``).
+
+- Accuracy: one point stepped through whole periodic cycles (theta = 90 and 180 deg) at 0.005 strain
+  per update, against ``model.predict`` at rtol 1e-12: the worst error in A, Phi and tau/p.
+- Speed: point-updates per second for N points (default 1e5) whose phases are spread over the
+  theta = 90 deg cycle (so reversal-adjacent steps come in their true share), 0.005 strain per update,
+  each on its own velocity gradient; the best of repeated runs of ``STEPS`` updates.
+- Work-precision: both for several tolerances; threads: the default tolerance on 1..cores threads;
+  and the same points advanced by ``model.integrate`` one at a time, all measured side by side.
+
+Writes results/bench/update.json and update.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+from model import PAPER, History, Segment, Update, integrate, periodic_cycle, predict, update
+from model.equations import observables
+from model.material_point import DEFAULT_RTOL
+
+from ..io import write_table
+
+STRAIN_STEP = 0.005
+STEPS = 10  # updates per timed run
+RTOLS = (1e-4, 1e-6, DEFAULT_RTOL, 1e-10)
+ACCURACY_ANGLES = (90.0, 180.0)
+SPEED_ANGLE = 90.0
+
+
+def cycle_steps(theta: float):
+    """The velocity gradient of each 0.005-strain step of one period, and the predicted cycle."""
+    history = periodic_cycle(theta)
+    n = int(round(history.duration / STRAIN_STEP))
+    segments = history.segment_index((np.arange(n) + 0.5) * STRAIN_STEP)
+    L = np.array([history.segments[i].L for i in segments])
+    cycle = predict(theta, times=np.arange(n + 1) * STRAIN_STEP, rtol=1e-12, atol=1e-14)
+    return L, cycle
+
+
+def worst_error(rtol: float) -> float:
+    """Max |error| in A, Phi and tau/p over whole cycles stepped at 0.005 strain (worst angle); tau/p
+    at a step's end is compared with Eq. 14 on the predicted fabric and that step's D'."""
+    worst = 0.0
+    for theta in ACCURACY_ANGLES:
+        L, cycle = cycle_steps(theta)
+        A, phi = cycle.A[:1].copy(), cycle.packing_fraction[:1].copy()
+        for k, Lk in enumerate(L):
+            step = update(A, phi, Lk, STRAIN_STEP, rtol=rtol, atol=rtol * 1e-2)
+            A, phi = step.A, step.phi
+            tau = observables(cycle.A[k + 1:k + 2], (0.5 * (Lk + Lk.T))[None], PAPER.as_array())["tau"][0]
+            worst = max(worst, float(np.max(np.abs(A[0] - cycle.A[k + 1]))),
+                        abs(float(phi[0] - cycle.packing_fraction[k + 1])),
+                        float(np.max(np.abs(step.tau_over_p[0] - tau))))
+    return worst
+
+
+def spread_points(n: int):
+    """n points at phases spread over the theta = 90 deg cycle: their states and each step's L."""
+    L, cycle = cycle_steps(SPEED_ANGLE)
+    phase = np.arange(n) % len(L)
+    return cycle.A[phase].copy(), cycle.packing_fraction[phase].copy(), L, phase
+
+
+def updates_per_second(n: int, rtol: float, threads: int, repeats: int = 3) -> tuple[float, float]:
+    """(point-updates per second, mean substeps) for ``STEPS`` updates of n spread points; best of repeats."""
+    A0, phi0, L, phase = spread_points(n)
+    gradients = [np.ascontiguousarray(L[(phase + k) % len(L)]) for k in range(STEPS)]
+    state = Update.empty(n)
+    best, substeps = np.inf, 0.0
+    for _ in range(repeats):
+        state.A[:], state.phi[:] = A0, phi0
+        start = time.perf_counter()
+        total = 0
+        for Lk in gradients:
+            update(state.A, state.phi, Lk, STRAIN_STEP, out=state, rtol=rtol, atol=rtol * 1e-2, threads=threads)
+            total += int(state.substeps.sum())
+        best = min(best, time.perf_counter() - start)
+        substeps = total / (n * STEPS)
+    return n * STEPS / best, substeps
+
+
+def integrate_per_second(n: int) -> float:
+    """Point-updates per second when each point's step is a ``model.integrate`` call of its own."""
+    A0, phi0, L, phase = spread_points(n)
+    start = time.perf_counter()
+    for i in range(n):
+        history = History((Segment(STRAIN_STEP, L[phase[i]]),))
+        integrate(history, A0=A0[i], packing_fraction0=phi0[i], times=[STRAIN_STEP])
+    return n / (time.perf_counter() - start)
+
+
+def markdown(data: dict) -> str:
+    lines = [f"# Material-point update ({data['machine']}, N = {data['points']:,} points, "
+             f"{STRAIN_STEP} strain per update)", "",
+             "Error: max |A, Phi, tau/p - model.predict| over whole cycles (theta 90 and 180 deg) at 0.005 strain "
+             "per update. Rate: point-updates per second on one thread, phases spread over the theta = 90 deg cycle.",
+             "", "| rtol (atol = rtol/100) | max error | updates/s, 1 thread | substeps per update |",
+             "|---|---|---|---|"]
+    lines += [f"| {r['rtol']:g}{' (default)' if r['rtol'] == DEFAULT_RTOL else ''} | {r['error']:.2g} | "
+              f"{r['per_second']:.3g} | {r['substeps']:.3f} |" for r in data["work_precision"]]
+    lines += ["", "| threads | updates/s | speed-up |", "|---|---|---|"]
+    base = data["threads"][0]["per_second"]
+    lines += [f"| {r['threads']} | {r['per_second']:.3g} | {r['per_second'] / base:.2f}x |" for r in data["threads"]]
+    lines += ["", f"`model.integrate` one point at a time: {data['integrate_per_second']:.3g} updates/s; "
+              f"`model.update` (default rtol, 1 thread) is {base / data['integrate_per_second']:.0f}x that.", ""]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m pipeline.studies.bench_update", description=__doc__)
+    parser.add_argument("--out", type=Path, default=Path("results/bench"), help="output folder")
+    parser.add_argument("--points", type=int, default=100_000, help="points per update (default 1e5)")
+    args = parser.parse_args(argv)
+    if args.points < 1:
+        parser.error(f"--points={args.points} must be >= 1")
+    args.out.mkdir(parents=True, exist_ok=True)
+    cores = os.cpu_count() or 1
+    A, phi, L, _ = spread_points(4)
+    for threads in range(1, cores + 1):
+        update(A, phi, L[:4], STRAIN_STEP, threads=threads)  # compile / load before timing
+    rows = []
+    for rtol in RTOLS:
+        print(f"update: rtol {rtol:g} ...", flush=True)
+        rate, substeps = updates_per_second(args.points, rtol, 1)
+        rows.append(dict(rtol=rtol, error=worst_error(rtol), per_second=rate, substeps=substeps))
+    threads = [dict(threads=t, per_second=updates_per_second(args.points, DEFAULT_RTOL, t)[0])
+               for t in range(1, cores + 1)]
+    data = dict(machine=f"{platform.processor() or platform.machine()}, {cores} cores", points=args.points,
+                strain_step=STRAIN_STEP, work_precision=rows, threads=threads,
+                integrate_per_second=integrate_per_second(min(args.points, 2000)))
+    path = write_table(args.out, "update", data, markdown(data))
+    print(path.read_text())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,209 @@
+"""The material-point update (``model.update``): accuracy against ``model.predict``, its symmetries,
+the stationary limit, batching and threads, and its input checks."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+import model
+from model import PAPER, History, Segment, SolverError, Update, integrate, periodic_cycle, predict, update
+from model.equations import observables
+from model.kinematics import shear_velocity_gradient
+
+STRAIN_STEP = 0.005
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "model.md"
+
+
+def step_through_cycle(theta, rotate_at=0.7, **options):
+    """The predicted cycle's start stepped through one period at 0.005 strain per update; returns the
+    cycle, the updates' A, Phi, tau/p after each step and the D' of each step."""
+    strains = np.arange(281) * STRAIN_STEP
+    cycle = predict(theta, rotate_at=rotate_at, times=strains, rtol=1e-12, atol=1e-14)
+    history = periodic_cycle(theta, rotate_at=rotate_at)
+    A, phi = cycle.A[:1].copy(), cycle.packing_fraction[:1].copy()
+    out = {"A": [], "phi": [], "tau": [], "D": []}
+    for k in range(280):
+        segment = history.segments[history.segment_index(np.array([(k + 0.5) * STRAIN_STEP]))[0]]
+        result = update(A, phi, segment.L, STRAIN_STEP, **options)
+        A, phi = result.A.copy(), result.phi.copy()
+        out["A"].append(A[0])
+        out["phi"].append(phi[0])
+        out["tau"].append(result.tau_over_p[0])
+        out["D"].append(segment.D_dev)
+    return cycle, {key: np.array(value) for key, value in out.items()}
+
+
+@pytest.mark.parametrize("theta, rotate_at", [(30, 0.7), (90, 0.7), (180, 0.7), (90, 0.1)])
+def test_stepping_through_a_cycle_agrees_with_predict_within_1e6(theta, rotate_at):
+    cycle, steps = step_through_cycle(theta, rotate_at)
+    assert np.max(np.abs(steps["A"] - cycle.A[1:])) < 1e-6
+    assert np.max(np.abs(steps["phi"] - cycle.packing_fraction[1:])) < 1e-6
+    # tau/p at the end of a step uses that step's D' (predict's output at a segment end uses the next one)
+    expected = observables(cycle.A[1:], steps["D"], PAPER.as_array())["tau"]
+    assert np.max(np.abs(steps["tau"] - expected)) < 1e-6
+
+
+def test_a_looser_tolerance_costs_less_and_is_less_accurate():
+    _, tight = step_through_cycle(180, rtol=1e-10, atol=1e-12)
+    cycle, loose = step_through_cycle(180, rtol=1e-4, atol=1e-6)
+    err_tight = np.max(np.abs(tight["A"] - cycle.A[1:]))
+    err_loose = np.max(np.abs(loose["A"] - cycle.A[1:]))
+    assert err_tight < err_loose
+
+
+def test_large_steps_substep_and_agree_with_integrate():
+    L = shear_velocity_gradient(0.0)
+    A0, phi0 = predict(180).A[0], 0.6
+    reference = integrate(History((Segment(0.5, L),)), A0=A0, packing_fraction0=phi0, times=[0.5])
+    result = update(A0[None], [phi0], L, 0.5)
+    assert result.substeps[0] > 1
+    assert np.max(np.abs(result.A[0] - reference.A[-1])) < 1e-7
+    assert abs(result.phi[0] - reference.packing_fraction[-1]) < 1e-7
+    assert np.max(np.abs(result.tau_over_p[0] - reference.tau[-1])) < 1e-7
+
+
+def test_isotropic_start_matches_integrate_through_S_zero():
+    L = shear_velocity_gradient(30.0, shear_rate=3.0)
+    reference = integrate(History((Segment(0.01 / 3.0, L),), shear_rate=3.0), times=[0.01])
+    result = update(np.zeros((1, 3, 3)), [PAPER.phi_c], L, 0.01 / 3.0)
+    assert np.max(np.abs(result.A[0] - reference.A[-1])) < 1e-8
+    assert abs(result.S[0] - reference.S[-1]) < 1e-8
+
+
+def test_rate_independence_and_objectivity():
+    rng = np.random.default_rng(3)
+    cycle = predict(120)
+    A, phi = cycle.A[::40], cycle.packing_fraction[::40]
+    L = rng.normal(size=(len(phi), 3, 3))
+    base = update(A, phi, L, 0.004)
+    faster = update(A, phi, 2.5 * L, 0.004 / 2.5)
+    assert np.max(np.abs(faster.A - base.A)) < 1e-9
+    assert np.max(np.abs(faster.tau_over_p - base.tau_over_p)) < 1e-9
+    Q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    Q *= np.sign(np.diag(r))
+    turned = update(Q @ A @ Q.T, phi, Q @ L @ Q.T, 0.004)
+    assert np.max(np.abs(turned.A - Q @ base.A @ Q.T)) < 1e-9
+    assert np.max(np.abs(turned.tau_over_p - Q @ base.tau_over_p @ Q.T)) < 1e-9
+    assert np.max(np.abs(turned.phi - base.phi)) < 1e-12
+
+
+def test_batch_equals_point_by_point_and_threads_agree_bit_for_bit():
+    rng = np.random.default_rng(5)
+    cycle = predict(60)
+    n = 600
+    A = cycle.A[rng.integers(0, len(cycle.strain), n)]
+    phi = rng.uniform(0.55, 0.65, n)
+    L = rng.normal(size=(n, 3, 3))
+    dt = rng.uniform(0.0, 0.02, n)
+    batch = update(A, phi, L, dt)
+    single = [update(A[i:i + 1], phi[i:i + 1], L[i], dt[i]) for i in range(0, n, 97)]
+    for i, one in zip(range(0, n, 97), single, strict=True):
+        assert np.array_equal(one.A[0], batch.A[i]) and one.phi[0] == batch.phi[i]
+    parallel = update(A, phi, L, dt, threads=2)
+    for name in ("A", "phi", "tau_over_p", "S", "substeps", "stationary"):
+        assert np.array_equal(getattr(parallel, name), getattr(batch, name), equal_nan=name != "substeps"), name
+
+
+def test_in_place_update_and_broadcast_forms():
+    cycle = predict(90)
+    A, phi = cycle.A[:50].copy(), cycle.packing_fraction[:50].copy()
+    L = shear_velocity_gradient(90.0)
+    expected = update(A, phi, np.broadcast_to(L, (50, 3, 3)), np.full(50, 0.005))
+    state = Update.empty(50)
+    state.A[:], state.phi[:] = A, phi
+    result = update(state.A, state.phi, L, 0.005, out=state)
+    assert result is state
+    assert np.array_equal(state.A, expected.A) and np.array_equal(state.phi, expected.phi)
+
+
+def test_zero_step_keeps_the_state_and_gives_eq14_stress():
+    cycle = predict(150)
+    A, phi = cycle.A[:5], cycle.packing_fraction[:5]
+    L = shear_velocity_gradient(150.0)
+    result = update(A, phi, L, 0.0)
+    assert np.array_equal(result.A, A) and np.array_equal(result.phi, phi)
+    expected = observables(A, np.broadcast_to(L + L.T, (5, 3, 3)) / 2, PAPER.as_array())["tau"]
+    assert np.max(np.abs(result.tau_over_p - expected)) < 1e-14
+
+
+def test_without_deviatoric_stretching_fabric_co_rotates_and_stress_is_undefined():
+    cycle = predict(90)
+    A, phi = cycle.A[:4], cycle.packing_fraction[:4]
+    W = np.array([[0.0, 0.3, -0.2], [-0.3, 0.0, 0.5], [0.2, -0.5, 0.0]])
+    L = W + 0.7 * np.eye(3)  # spin plus isotropic expansion: D' = 0
+    result = update(A, phi, L, 1.3)
+    R = expm(W * 1.3)
+    assert result.stationary.all() and (result.substeps == 0).all()
+    assert np.max(np.abs(result.A - R @ A @ R.T)) < 1e-13
+    assert np.array_equal(result.phi, phi)
+    assert np.isnan(result.tau_over_p).all() and np.isnan(result.S).all()
+    at_rest = update(A, phi, np.zeros((3, 3)), 1.0)
+    assert np.array_equal(at_rest.A, A) and at_rest.stationary.all()
+
+
+GOOD = {"A": np.zeros((2, 3, 3)), "phi": [0.6, 0.6], "L": shear_velocity_gradient(0.0), "dt": 0.01}
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"A": np.zeros((2, 3))}, r"A has shape \(2, 3\), expected \(N, 3, 3\)"),
+    ({"A": np.zeros((0, 3, 3))}, r"A has shape \(0, 3, 3\)"),
+    ({"A": np.stack([np.zeros((3, 3)), np.diag([1e-6, 0, 0])])}, r"A\[1\] is not traceless"),
+    ({"A": np.stack([np.zeros((3, 3)), np.triu(np.ones((3, 3)), 1) * 0.01])}, r"A\[1\] is not symmetric"),
+    ({"A": np.full((2, 3, 3), np.nan)}, r"A\[0\] has non-finite entries"),
+    ({"phi": [0.6, 1.0]}, r"phi\[1\]=1.0 must lie in \(0, 1\)"),
+    ({"phi": [0.6]}, r"phi has shape \(1,\), expected \(2,\)"),
+    ({"L": np.zeros((3, 3, 3))}, r"L has shape \(3, 3, 3\), expected \(3, 3\) or \(2, 3, 3\)"),
+    ({"L": np.full((3, 3), np.inf)}, r"L\[0\] has non-finite entries"),
+    ({"dt": [0.01, -0.01]}, r"dt\[1\]=-0.01 must be finite and >= 0"),
+    ({"dt": "soon"}, r"dt must be an array of numbers"),
+    ({"rtol": 0.0}, r"rtol=0.0 must be a finite number > 0"),
+    ({"threads": 0}, r"threads=0 must be an integer"),
+    ({"params": {"C": -5.6}}, r"params must be a model.Params"),
+    ({"out": Update.empty(3)}, r"out.A must be a writable C-contiguous float64 array of shape \(2, 3, 3\)"),
+])
+def test_bad_input_is_one_line_naming_the_value(change, message):
+    with pytest.raises(SolverError, match=message) as info:
+        update(**{**GOOD, **change})
+    assert "\n" not in str(info.value)
+
+
+def test_the_documented_layer_example_runs_and_each_point_follows_its_own_history():
+    code = re.search(r"## In a continuum code.*?```python\n(.*?)```", DOCS.read_text(), re.S).group(1)
+    names = {}
+    exec(compile(code, str(DOCS), "exec"), names)
+    state, turn_at, shear_rate = names["state"], names["turn_at"], names["shear_rate"]
+    for i in (0, 499, 999):
+        turn = np.ceil(turn_at[i] / 0.005 - 1e-9) * 0.005  # the first step at or after the turn
+        history = History((Segment(turn / shear_rate, names["L_before"]),
+                           Segment((1.0 - turn) / shear_rate, names["L_after"])), shear_rate)
+        reference = integrate(history, packing_fraction0=0.60, times=[1.0])
+        assert np.max(np.abs(state.A[i] - reference.A[-1])) < 1e-6
+        assert abs(state.phi[i] - reference.packing_fraction[-1]) < 1e-6
+    assert names["tau13"].shape == (1000,) and np.all(np.isfinite(names["tau13"]))
+    assert isinstance(model.update, type(update))
+
+
+def test_bench_reports_errors_rates_and_thread_scaling(tmp_path):
+    import json
+
+    from pipeline.studies import bench_update
+
+    assert bench_update.main(["--out", str(tmp_path), "--points", "300"]) == 0
+    data = json.loads((tmp_path / "update.json").read_text())
+    rows = {row["rtol"]: row for row in data["work_precision"]}
+    assert rows[bench_update.DEFAULT_RTOL]["error"] < 1e-6
+    assert rows[1e-10]["error"] < rows[1e-4]["error"]
+    assert all(row["per_second"] > 0 and row["substeps"] >= 1 for row in rows.values())
+    assert [row["threads"] for row in data["threads"]] == list(range(1, len(data["threads"]) + 1))
+    assert "| threads | updates/s |" in (tmp_path / "update.md").read_text()
+
+
+def test_bench_refuses_no_points(tmp_path, capsys):
+    from pipeline.studies import bench_update
+
+    with pytest.raises(SystemExit):
+        bench_update.main(["--out", str(tmp_path), "--points", "0"])
+    assert "--points=0 must be >= 1" in capsys.readouterr().err
