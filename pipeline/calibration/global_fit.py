@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -22,6 +23,7 @@ from scipy.optimize import least_squares
 import model
 
 from ..dataset.cycle import Cycle
+from ..dataset.derived import states_after_changes
 from ..errors import CalibrationError
 from . import noise as noise_model
 from .noise import COMPONENTS, QUANTITIES
@@ -53,10 +55,12 @@ def prepare(runs: list, fit_from: float = 0.0) -> tuple[list[Cycle], noise_model
 def scaled_cycle(run, noise: noise_model.NoiseModel | None, fit_from: float = 0.0) -> Cycle:
     """The run's :class:`Cycle` with each component's noise per sample as its scale."""
     cycle = Cycle.from_run(run)
+    step = run.spec["sample_strain"]
+    states = None if abs(fit_from / step - round(fit_from / step)) <= 1e-6 else states_after_changes(run, fit_from)
     try:
-        return cycle.with_scales(*noise_scales(len(cycle.strain), noise, cycle.n_cycles)).restarted(fit_from)
+        return cycle.with_scales(*noise_scales(len(cycle.strain), noise, cycle.n_cycles)).restarted(fit_from, states)
     except ValueError as exc:
-        raise CalibrationError(str(exc)) from None
+        raise CalibrationError(f"{Path(run.path).parent.parent.name}/{Path(run.path).stem}: {exc}") from None
 
 
 @dataclass(frozen=True)

@@ -20,27 +20,51 @@ import model
 
 from .. import io
 from ..cli import Parser, one_line_errors
-from ..dataset.derived import PAPER_DEFINITIONS
+from ..dataset.derived import PAPER_DEFINITIONS, states_after_changes
 from ..errors import PipelineError
 from ..paths import check_folder_name, preset_output
 from .definitions import NAMES, fit_row, preset_fit_runs
 
-FIT_FROM = (0.0, 0.005, 0.01)
+FIT_FROM = (0.0, 0.002, 0.005, 0.01)
 EXPONENTS = (0.5, 0.625, 0.75, 0.875, 1.0)
 
 
+def on_grid(run, fit_from: float) -> bool:
+    k = fit_from / run.spec["sample_strain"]
+    return abs(k - round(k)) <= 1e-6
+
+
+def settings(runs: list, fit_from=FIT_FROM, exponents=EXPONENTS) -> list[tuple]:
+    """(gamma0, k, runs) per row: each gamma0 at k = 3/4 on every run; a gamma0 between the sampling grid's
+    points only on the runs with dense samples there, and beside it the first gamma0 > 0 on the grid on the
+    same runs (to compare like with like); then a profile of k at the first gamma0 > 0 on the grid."""
+    rows = []
+    grid = [g for g in fit_from if g > 0 and all(on_grid(r, g) for r in runs)]
+    for g in fit_from:
+        if all(on_grid(r, g) for r in runs):
+            rows.append((g, 0.75, runs))
+            continue
+        dense = [r for r in runs if on_grid(r, g) or states_after_changes(r, g) is not None]
+        if not dense:
+            print(f"fit from {g:g}: skipped, no run has samples {g:g} past each change of direction", flush=True)
+            continue
+        rows.append((g, 0.75, dense))
+        if grid and len(dense) < len(runs):
+            rows.append((grid[0], 0.75, dense))
+    if grid:
+        rows += [(grid[0], k, runs) for k in exponents if k != 0.75]
+    return rows
+
+
 def table(runs: list, fit_from=FIT_FROM, exponents=EXPONENTS, definitions=PAPER_DEFINITIONS) -> list[dict]:
-    """One row per gamma0 at k = 3/4, then one per k at the first gamma0 > 0 (k = 3/4 not repeated)."""
-    settings = [(g, 0.75) for g in fit_from]
-    profiled = next((g for g in fit_from if g > 0), None)
-    if profiled is not None:
-        settings += [(profiled, k) for k in exponents if k != 0.75]
+    """One fit per ``settings`` row, with the number of runs it used."""
+    todo = settings(runs, fit_from, exponents)
     rows, tic = [], time.time()
-    for done, (g, k) in enumerate(settings, start=1):
-        rows.append(fit_row(runs, definitions, g, k))
+    for done, (g, k, used) in enumerate(todo, start=1):
+        rows.append({**fit_row(used, definitions, g, k), "runs": len(used)})
         t = rows[-1]["table2"]
-        eta = (time.time() - tic) / done * (len(settings) - done)
-        print(f"[{done}/{len(settings)}, {done / len(settings):.0%}] fit from {g:g}, k = {k:g}: misfit "
+        eta = (time.time() - tic) / done * (len(todo) - done)
+        print(f"[{done}/{len(todo)}, {done / len(todo):.0%}] fit from {g:g}, k = {k:g}, {len(used)} runs: misfit "
               f"{rows[-1]['misfit']:.3f}, chi^2 {rows[-1]['chi2']:.0f}, Table 2 chi^2 {t['relative_rise']:+.1%}; "
               f"ETA {eta:.0f} s", flush=True)
     return rows
@@ -52,22 +76,26 @@ def markdown(rows: list[dict], preset: str) -> str:
              "Paper's definitions (nominal strain, Φ of the gap, τ over the controlled p). *γ0*: the model restarts "
              "from the DEM's cycle-mean A and Φ this far past each change of direction and is fitted to what "
              "follows (0: the converged periodic cycle, all samples). *k*: the persistence exponent of Eq. 12, "
-             "held. ± one standard error from the DEM's measured noise; (open): not determined. *early χ²*: the "
+             "held. *runs*: how many runs the row fits (a γ0 between the 0.005 grid's points needs the dense "
+             "samples after each change; the first γ0 on the grid is refitted on the same runs beside it). "
+             "± one standard error from the DEM's measured noise; (open): not determined. *early χ²*: the "
              "share of χ² within 0.05 strain after a change (a uniform misfit: 7 %). Table 2 is tested on its "
              "flow rule and fabric law on the same samples. χ² compares rows of one γ0 (the samples differ "
              "between γ0).", "",
-             "| γ0 | k | " + " | ".join(shown) + " | misfit | χ² | early χ² | Table 2: χ² rise | in 95 % region |",
-             "|" + "---|" * (len(shown) + 7)]
+             "| γ0 | k | runs | " + " | ".join(shown)
+             + " | misfit | χ² | early χ² | Table 2: χ² rise | in 95 % region |",
+             "|" + "---|" * (len(shown) + 8)]
     yes = {True: "yes", False: "no", None: "n/a"}
     for r in rows:
         p, se, t = r["params"], r["standard_errors"], r["table2"]
         cells = " | ".join(f"{p[n]:+.4g} ± {se[n]:.2g}" if se[n] is not None and np.isfinite(se[n])
                            and r["status"].get(n) != "not determined" else f"{p[n]:+.4g} (open)" for n in shown)
         inside = yes[t["inside"]["95"]] if t["quantiles"] else "n/a"
-        lines.append(f"| {r['fit_from']:g} | {r['persistence_exponent']:g} | {cells} | {r['misfit']:.3f} | "
-                     f"{r['chi2']:.0f} | {r['chi2_share_after_changes']:.0%} | {t['relative_rise']:+.1%} | {inside} |")
+        lines.append(f"| {r['fit_from']:g} | {r['persistence_exponent']:g} | {r['runs']} | {cells} | "
+                     f"{r['misfit']:.3f} | {r['chi2']:.0f} | {r['chi2_share_after_changes']:.0%} | "
+                     f"{t['relative_rise']:+.1%} | {inside} |")
     paper = model.Params()
-    lines.append("| Table 2 | 0.75 | " + " | ".join(f"{getattr(paper, n):+.4g}" for n in shown) + " | | | | | |")
+    lines.append("| Table 2 | 0.75 | | " + " | ".join(f"{getattr(paper, n):+.4g}" for n in shown) + " | | | | | |")
     return "\n".join(lines) + "\n"
 
 

@@ -51,24 +51,33 @@ class Cycle:
     def with_scales(self, A_scale: np.ndarray, tau_scale: np.ndarray) -> Cycle:
         return dataclasses.replace(self, A_scale=A_scale, tau_scale=tau_scale)
 
-    def restarted(self, fit_from: float) -> Cycle:
-        """The cycle fitted past the first ``fit_from`` strain after each change of direction (nominal strain,
-        a multiple of the sampling step): the samples before it are dropped, and the model restarts each
-        segment from the DEM's cycle-mean A and Phi at the segment's start plus ``fit_from``."""
+    def restarted(self, fit_from: float, states=None) -> Cycle:
+        """The cycle fitted past the first ``fit_from`` strain after each change of direction (nominal strain):
+        the samples before it are dropped, and the model restarts each segment from the DEM's cycle-mean A and
+        Phi at the segment's start plus ``fit_from``. Those come from the cycle's own samples when ``fit_from``
+        is a multiple of the sampling step, else from ``states`` = (A (2, 3, 3), Phi (2,)) at that strain
+        past each of the two changes (``derived.states_after_changes``: the dense samples)."""
         if fit_from == 0:
             return self
         step = self.strain[1] - self.strain[0]
         k = fit_from / step
         shortest = min(self.rotate_at, self.period - self.rotate_at)
-        if not 0 < fit_from < shortest or abs(k - round(k)) > 1e-6:
-            raise ValueError(f"fit_from={fit_from!r} must be a multiple of the sampling step {step:g} inside each "
-                             "segment of constant direction")
+        on_grid = abs(k - round(k)) <= 1e-6
+        if not 0 < fit_from < shortest or not (on_grid or states is not None):
+            raise ValueError(f"fit_from={fit_from!r} must be a multiple of the sampling step {step:g}, or have dense "
+                             "samples in every cycle, inside each segment of constant direction")
         keep, restarts = [], []
-        for start, end, phi in ((0.0, self.rotate_at, 0.0), (self.rotate_at, self.period, self.theta_deg)):
-            first = int(np.argmin(np.abs(self.strain - (start + fit_from))))
-            inside = np.flatnonzero((self.strain >= self.strain[first] - 1e-9) & (self.strain < end - 1e-9))
+        segments = ((0.0, self.rotate_at, 0.0), (self.rotate_at, self.period, self.theta_deg))
+        for j, (start, end, phi) in enumerate(segments):
+            restart = start + fit_from
+            inside = np.flatnonzero((self.strain >= restart - 1e-9) & (self.strain < end - 1e-9))
             keep.append(inside)
-            restarts.append((float(self.strain[first]), float(end), float(phi), self.A[first], float(self.phi[first])))
+            if on_grid:
+                first = inside[0]
+                restarts.append((float(self.strain[first]), float(end), float(phi), self.A[first],
+                                 float(self.phi[first])))
+            else:
+                restarts.append((float(restart), float(end), float(phi), states[0][j], float(states[1][j])))
         idx = np.concatenate(keep)
         return dataclasses.replace(self, strain=self.strain[idx], A=self.A[idx], tau=self.tau[idx],
                                    A_scale=self.A_scale[idx], tau_scale=self.tau_scale[idx], phi=self.phi[idx],

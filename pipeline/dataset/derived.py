@@ -180,6 +180,25 @@ def run_cycle(run) -> dict:
                          spec["period_strain"], spec["sample_strain"], spec["n_cycles"])
 
 
+def states_after_changes(run, offset: float):
+    """Cycle means of A and Phi ``offset`` (nominal strain) past each of a period's two changes of direction
+    (at 0 and at ``rotate_at``), from every sample, the dense ones included: (A (2, 3, 3), Phi (2,)), or None
+    where some cycle has no sample there (a run without dense sampling at that strain)."""
+    spec, series = run.spec, run.series_all
+    strain = series["strain_nominal"]
+    fine = spec.get("dense_sample_strain", 0.0) if spec.get("dense_window_strain", 0.0) > offset else 0.0
+    tol = 0.25 * (fine if fine > 0 else spec["sample_strain"])
+    A, phi = [], []
+    for at in (0.0, spec["rotate_at_strain"]):
+        targets = np.arange(spec["n_cycles"]) * spec["period_strain"] + at + offset
+        idx = np.abs(strain[None, :] - targets[:, None]).argmin(axis=1)
+        if np.max(np.abs(strain[idx] - targets)) > tol:
+            return None
+        A.append(series["A"][idx].mean(axis=0))
+        phi.append(float(series["packing_fraction"][idx].mean()))
+    return np.array(A), np.array(phi)
+
+
 def resampled_cycle(run, rng: np.random.Generator, keys=("A", "tau_over_p", "packing_fraction")) -> dict:
     """The cycle means of ``keys`` over the run's cycles drawn with replacement (a bootstrap sample),
     on the grid of ``cycle_indices``."""

@@ -268,5 +268,54 @@ def test_the_restart_table_reads_its_options_and_marks_what_is_not_determined():
     row = {"fit_from": 0.005, "persistence_exponent": 0.75, "params": {n: 1.0 for n in names},
            "standard_errors": {n: 0.1 for n in names}, "status": {"m": "not determined"}, "misfit": 1.2,
            "chi2": 100.0, "chi2_share_after_changes": 0.05, "table2": {"relative_rise": 0.045, "quantiles": None}}
-    text = restart.markdown([row], "reduced")
-    assert "| 0.005 | 0.75 | +1 ± 0.1 | +1 ± 0.1 | +1 (open) |" in text and "+4.5% | n/a |" in text
+    text = restart.markdown([{**row, "runs": 9}], "reduced")
+    assert "| 0.005 | 0.75 | 9 | +1 ± 0.1 | +1 ± 0.1 | +1 (open) |" in text and "+4.5% | n/a |" in text
+
+
+def dense_fake_run(dense: bool = True):
+    """A run-like object with the dense samples' bookkeeping: A12 and Phi equal to the nominal strain."""
+    from types import SimpleNamespace
+
+    from dem.protocol import sample_strains
+
+    spec = {"n_cycles": 2, "period_strain": 1.4, "rotate_at_strain": 0.7, "sample_strain": 0.005, "pre_strain": 0.7,
+            "theta_deg": 180.0, "dense_sample_strain": 0.0005 if dense else 0.0, "dense_window_strain": 0.05}
+    strain = np.array(sample_strains(spec))
+    A = np.zeros((len(strain), 3, 3))
+    A[:, 0, 1] = A[:, 1, 0] = strain
+    series = {"strain_nominal": strain, "A": A, "packing_fraction": strain}
+    return SimpleNamespace(spec=spec, series_all=series)
+
+
+def test_states_past_each_change_are_cycle_means_of_the_dense_samples():
+    from pipeline.dataset.derived import states_after_changes
+
+    A, phi = states_after_changes(dense_fake_run(), 0.002)
+    # cycle means at 0.002 and 1.402 past the first change, 0.702 and 2.102 past the second
+    np.testing.assert_allclose(A[:, 0, 1], [0.702, 1.402])
+    np.testing.assert_allclose(phi, [0.702, 1.402])
+    assert states_after_changes(dense_fake_run(), 0.0023) is None  # no sample there
+    assert states_after_changes(dense_fake_run(dense=False), 0.002) is None
+    assert states_after_changes(dense_fake_run(dense=False), 0.005) is not None  # on the grid
+
+
+def test_a_cycle_restarts_between_grid_points_from_the_dense_state(tmp_path):
+    cycle = Cycle.from_run(synthetic_run(tmp_path, n_cycles=1).with_definitions(Definitions(strain="nominal")))
+    A = np.stack([np.eye(3) * 0.01, np.eye(3) * 0.02])
+    restarted = cycle.restarted(0.002, (A, np.array([0.61, 0.62])))
+    assert restarted.strain[0] == pytest.approx(0.005)  # the grid samples past the restart
+    assert restarted.restarts[0][0] == pytest.approx(0.002) and restarted.restarts[1][0] == pytest.approx(0.702)
+    np.testing.assert_array_equal(restarted.restarts[1][3], A[1])
+    assert restarted.restarts[1][4] == 0.62
+    with pytest.raises(ValueError, match="or have dense samples"):
+        cycle.restarted(0.002)
+
+
+def test_the_restart_table_fits_an_off_grid_gamma0_on_the_dense_runs_beside_the_grid_one():
+    from pipeline.calibration import restart
+
+    dense, grid_only = dense_fake_run(), dense_fake_run(dense=False)
+    rows = restart.settings([dense, grid_only], fit_from=(0.0, 0.002, 0.005), exponents=(0.5, 0.75))
+    assert [(g, k, len(r)) for g, k, r in rows] == [(0.0, 0.75, 2), (0.002, 0.75, 1), (0.005, 0.75, 1),
+                                                    (0.005, 0.75, 2), (0.005, 0.5, 2)]
+    assert rows[1][2] == [dense]
