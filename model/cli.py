@@ -6,6 +6,7 @@ import argparse
 import math
 import os
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -54,10 +55,22 @@ def result_table(result) -> np.ndarray:
     return np.column_stack(cols)
 
 
+MAX_PARAMS_BYTES = 65536  # a parameter file is a few hundred bytes
+
+
+def _theta(text: str) -> float:
+    value = _finite_float(text)
+    if not -180 <= value <= 180:
+        raise argparse.ArgumentTypeError(f"{text!r} must lie in [-180, 180] degrees (other angles repeat these)")
+    return value
+
+
 def check_output(path: Path) -> None:
-    """Refuse, before any work, an output that is a folder or lies under a file."""
-    if path.is_dir():
-        raise ParameterError(f"--out {path} is a folder: give a file name")
+    """Refuse, before any work, an output that is a folder, a device, a FIFO or anything but a regular file,
+    or that lies under a file."""
+    if path.exists() and not path.is_file():
+        kind = "a folder" if path.is_dir() else "not a regular file (a device, FIFO or socket)"
+        raise ParameterError(f"--out {path} is {kind}: give a file name")
     existing = next(p for p in path.parents if p.exists())
     if not existing.is_dir():
         raise ParameterError(f"--out {path}: {existing} is a file, not a folder")
@@ -69,7 +82,9 @@ def atomic_write(path: Path, write) -> None:
     same for the pipeline's outputs), so its command line keeps this one writer of its own."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    tmp = Path(name)
     try:
         write(tmp)
         tmp.replace(path)
@@ -81,9 +96,18 @@ def load_params(path: str | Path) -> Params:
     """Parameters from a JSON file (``python -m model params``'s format); a one-line ``ParameterError``."""
     path = Path(path)
     try:
-        text = path.read_text()
+        if not path.is_file():
+            raise ParameterError(f"{path}: not a regular file of parameters")
+        with path.open("rb") as f:
+            data = f.read(MAX_PARAMS_BYTES + 1)
     except OSError as exc:
         raise ParameterError(f"{path}: cannot read parameters ({exc.strerror})") from None
+    if len(data) > MAX_PARAMS_BYTES:
+        raise ParameterError(f"{path}: more than {MAX_PARAMS_BYTES} bytes, not a parameter file")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ParameterError(f"{path}: not UTF-8 text (byte {exc.start})") from None
     return Params.from_json(text, str(path))
 
 
@@ -120,7 +144,7 @@ def build_parser() -> argparse.ArgumentParser:
             "phi (packing fraction, Eq. 18), w_shear = tau:D' and w_vol = p Phi_dot/Phi per unit p*gamma_dot."
         ),
     )
-    pred.add_argument("--theta", type=_finite_float, required=True, metavar="DEG",
+    pred.add_argument("--theta", type=_theta, required=True, metavar="DEG",
                       help="rotation angle of the shear direction in degrees (paper: 30 ... 180)")
     pred.add_argument("--rotate-at", type=_positive_float, default=ROTATE_AT_STRAIN, metavar="STRAIN",
                       help="strain t*gamma_dot within the period at which the direction turns to theta "

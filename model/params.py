@@ -46,11 +46,17 @@ class Params:
         for f in fields(self):
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
-                problems.append(f"{f.name}={value!r} is not a number")
-            elif not math.isfinite(value):
+                problems.append(f"{f.name}={value!r:.40} is not a number")
+                continue
+            try:
+                value = float(value)
+            except OverflowError:
+                problems.append(f"{f.name}={str(value)[:20]}... is too large")
+                continue
+            if not math.isfinite(value):
                 problems.append(f"{f.name}={value!r} is not finite")
             else:
-                object.__setattr__(self, f.name, float(value))
+                object.__setattr__(self, f.name, value)
         if not problems:
             if self.persistence_exponent <= 0:
                 problems.append(f"persistence_exponent={self.persistence_exponent} must be > 0")
@@ -116,6 +122,10 @@ class Params:
             values = json.loads(text, object_pairs_hook=unique_keys)
         except json.JSONDecodeError as exc:
             raise ParameterError(f"{source}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+        except ParameterError:
+            raise
+        except (ValueError, RecursionError) as exc:  # e.g. an integer of more than 4300 digits, deep nesting
+            raise ParameterError(f"{source}: not a parameter file ({str(exc).splitlines()[0][:80]})") from None
         if isinstance(values, dict):
             values.pop("metadata", None)
         return cls.from_dict(values, source)

@@ -173,6 +173,11 @@ def test_make_compare_and_figures_refuse(tmp_path, main, args, fragment):
 
 
 # ---------------------------------------------------------------- python -m model
+def write_bytes(path, data: bytes):
+    path.write_bytes(data)
+    return path
+
+
 def params_file(folder, **changes):
     path = folder / "p.json"
     save_params(model.Params().replace(**changes), path)
@@ -182,7 +187,16 @@ def params_file(folder, **changes):
 @pytest.mark.parametrize("make_args, fragment", [  # bad numbers: tests/unit/test_cli.py
     (lambda d: ["--theta", "90", "--params", str(params_file(d, c3=5.0))], "packing fraction leaves (0, 1)"),
     (lambda d: ["--theta", "180", "--params", str(params_file(d, b2=35.0))], "parameters off Table 2: b2 = +35"),
-    (lambda d: ["--theta", "90", "--params", str(d / "none.json")], "cannot read parameters"),
+    (lambda d: ["--theta", "90", "--params", str(d / "none.json")], "not a regular file of parameters"),
+    (lambda d: ["--theta", "90", "--params", "/dev/zero"], "/dev/zero: not a regular file of parameters"),
+    (lambda d: ["--theta", "90", "--params", str(write_bytes(d / "b.json", b'{"C": \xff}'))], "not UTF-8 text"),
+    (lambda d: ["--theta", "90", "--params", str(write_bytes(d / "b.json", b" " * 70000))],
+     "more than 65536 bytes"),
+    (lambda d: ["--theta", "90", "--params", str(write_bytes(d / "b.json", b'{"C": 1' + b"0" * 5000 + b"}"))],
+     "not a parameter file (Exceeds the limit"),
+    (lambda d: ["--theta", "90", "--params", str(write_bytes(d / "b.json", model.Params().to_json().replace(
+        '"C": -5.6', '"C": 1' + "0" * 400).encode()))], "C=10000000000000000000... is too large"),
+    (lambda d: ["--theta", "1e300"], "'1e300' must lie in [-180, 180] degrees"),
 ])
 def test_python_m_model_refuses(tmp_path, make_args, fragment):
     args = make_args(tmp_path)
@@ -200,3 +214,25 @@ def test_python_m_model_refuses_a_duplicate_key_and_an_output_folder(tmp_path):
     proc = run_main(model_main, ["predict", "--theta", "90", "--out", str(tmp_path)])
     assert_refused(proc, "is a folder: give a file name")
     assert listing(tmp_path) == [(tmp_path / "dup.json").relative_to(tmp_path)]
+
+
+def test_python_m_model_writes_only_regular_files_through_unique_temporaries(tmp_path):
+    import os
+    import threading
+
+    os.mkfifo(tmp_path / "fifo")
+    proc = run_main(model_main, ["predict", "--theta", "90", "--out", str(tmp_path / "fifo")])
+    assert_refused(proc, "is not a regular file (a device, FIFO or socket)")
+    proc = run_main(model_main, ["predict", "--theta", "90", "--out", "/dev/null"])
+    assert_refused(proc, "/dev/null is not a regular file")
+    # four writers of one output: each through its own temporary, the file complete, none left behind
+    from model.cli import result_table, write_csv
+
+    table = result_table(model.predict(90))
+    threads = [threading.Thread(target=write_csv, args=(tmp_path / "out.csv", table)) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len((tmp_path / "out.csv").read_text().splitlines()) == len(table) + 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fifo", "out.csv"]
