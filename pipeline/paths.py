@@ -30,17 +30,27 @@ def check_folder_name(name: str, what: str = "preset") -> str:
 
 
 def first_existing(relative: Path, roots: tuple[Path, ...] = DATA_ROOTS) -> Path | None:
-    """``root / relative`` for the first root where it exists (results/ before the reference dataset)."""
-    return next((root / relative for root in roots if (root / relative).exists()), None)
+    """``root / relative`` for the first root where it exists (results/ before the reference dataset). A link
+    there that leads nowhere, or in a loop, is an error, not a reason to fall back to the next root."""
+    for root in roots:
+        path = root / relative
+        if path.is_symlink():
+            try:
+                path.resolve(strict=True)
+            except (OSError, RuntimeError):
+                raise PipelineError(f"{path} is a link that leads nowhere (or in a loop): remove or fix it") from None
+        if path.exists():
+            return path
+    return None
 
 
 def preset_files(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, variants: bool = True) -> list[Path]:
     """Every DEM file of ``preset`` (and, with ``variants``, of ``<preset>-<hash>``), one per relative path,
-    results/ first; sorted by folder and name."""
+    results/ first; sorted by folder and name. Hidden files (a writer's temporaries) are not runs."""
     check_folder_name(preset)
     patterns = [f"{preset}/dem/*.h5"] + ([f"{preset}-*/dem/*.h5"] if variants else [])
-    relative = sorted({p.relative_to(root) for root in roots for pattern in patterns for p in root.glob(pattern)},
-                      key=lambda r: r.parts)
+    relative = sorted({p.relative_to(root) for root in roots for pattern in patterns for p in root.glob(pattern)
+                       if not p.name.startswith(".")}, key=lambda r: r.parts)
     return [first_existing(r, roots) for r in relative]
 
 

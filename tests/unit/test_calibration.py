@@ -1,6 +1,7 @@
 """`python -m pipeline.calibration` (`make fit`): the stepwise and global calibration on synthetic runs."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -98,12 +99,41 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
                                     (reference, "p-9f9f", 180.0, {"overrides": {"friction_deg": 30}}),
                                     (reference, "p", 90.0, {})):
         (root / folder / "dem").mkdir(parents=True, exist_ok=True)
-        path = synthetic_file(root / folder / "dem", theta=theta, name=f"theta{int(theta):03d}", n_cycles=1, **kw)
+        path = synthetic_file(root / folder / "dem", theta=theta, name=f"theta{int(theta):03d}", n_cycles=1,
+                              preset="p", **kw)
         assert path.exists()
     roots = (results, reference)
     assert [r.path for r in lookup.reversal_seeds("p", roots)] == [results / "p/dem/theta180.h5",
                                                                    reference / "p-1a2b/dem/theta180.h5"]
     assert [r.path for r in lookup.other_angles(lookup.preset_runs("p", roots))] == [reference / "p/dem/theta090.h5"]
+    # a writer's hidden temporary is not a run
+    (results / "p/dem/.theta090.tmp123.h5").write_bytes(b"partial")
+    assert [r.path for r in lookup.preset_runs("p", roots)] == [reference / "p/dem/theta090.h5",
+                                                               results / "p/dem/theta180.h5"]
+
+
+@pytest.mark.parametrize("damage, message", [
+    ("dangling", "is a link that leads nowhere"),
+    ("loop", "is a link that leads nowhere (or in a loop)"),
+    ("other preset", "is a run of preset 'q' by its provenance, not of 'p': move it to results/q/dem/"),
+])
+def test_a_damaged_run_in_results_is_one_line_not_a_fallback_to_the_committed_one(tmp_path, damage, message):
+    from pipeline.errors import PipelineError
+
+    results, reference = tmp_path / "results", tmp_path / "reference"
+    for root in (results, reference):
+        (root / "p/dem").mkdir(parents=True)
+    synthetic_file(reference / "p/dem", name="theta180", n_cycles=1, preset="p")
+    target = results / "p/dem/theta180.h5"
+    if damage == "dangling":
+        target.symlink_to(tmp_path / "gone.h5")
+    elif damage == "loop":
+        target.symlink_to(results / "p/dem/other.h5")
+        (results / "p/dem/other.h5").symlink_to(target)
+    else:
+        synthetic_file(results / "p/dem", name="theta180", n_cycles=1, preset="q")
+    with pytest.raises(PipelineError, match=re.escape(message)):
+        lookup.fit_runs("p", (results, reference))
 
 
 @pytest.mark.slow
