@@ -7,11 +7,14 @@ then writes the self-describing HDF5 file ``results/<preset>/dem/<name>.h5`` ato
 
 from __future__ import annotations
 
+import ctypes
 import datetime as dt
 import fcntl
 import json
+import os
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 from pathlib import Path
@@ -40,22 +43,35 @@ def git_commit() -> str:
         return "unknown"
 
 
-def lock_run(spec: run_spec.DemSpec, results_dir: Path):
-    """Take the run's lock (``<name>.lock`` beside its folder), held until this process ends.
+def lock_run(spec: run_spec.DemSpec, results_dir: Path) -> int:
+    """Take the run's lock (``<name>.lock`` beside its folder); returns its file descriptor, held until this
+    process and the scene it starts (which inherits it) have both ended.
 
-    The lock comes before anything is created or deleted, so ``--fresh`` can never remove the
-    folder of a live run.
+    The lock comes before anything is created or deleted, so ``--fresh`` can never remove the folder of a
+    live run; a scene that outlives a killed launcher still holds it, so no second scene can start in the
+    same folder. The lock file is opened without following links; a lock or run folder of another kind
+    (a link, a folder, a device) is a one-line error.
     """
-    lock_path = run_spec.work_dir(spec, results_dir).with_suffix(".lock")
+    run_dir = run_spec.work_dir(spec, results_dir)
+    lock_path = run_dir.with_suffix(".lock")
     lock_path.parent.mkdir(parents=True, exist_ok=True)
-    lock = open(lock_path, "w")
+    if run_dir.is_symlink() or (run_dir.exists() and not run_dir.is_dir()):
+        raise SpecError(f"{run_dir} is not a folder (a link or a file): move it away, then rerun")
     try:
-        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fd = os.open(lock_path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
+    except OSError as exc:
+        raise SpecError(f"{lock_path} cannot be the run's lock ({exc.strerror}: a link or a folder?): move it "
+                        "away, then rerun") from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise SpecError(f"{lock_path} is not a regular file: move it away, then rerun")
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
-        lock.close()
-        raise SpecError(f"{lock_path.with_suffix('.run')} is in use by another run of the same spec"
-                                   " (FRESH=1 does not stop a live run)") from None
-    return lock
+        os.close(fd)
+        raise SpecError(f"{run_dir} is in use by another run of the same spec (or by its scene, still "
+                        "stopping; FRESH=1 does not stop a live run)") from None
+    return fd
 
 
 def stored_spec(h5: Path) -> dict | None:
@@ -97,9 +113,22 @@ def prepare(spec: run_spec.DemSpec, results_dir: Path, fresh: bool) -> Path:
 FORWARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
 
 
-def run_yade(run_dir: Path, threads: int, label: str) -> tuple[int, str]:
+def _die_with_parent() -> None:
+    """In the scene's process, before Yade starts: SIGTERM when the launcher dies (Linux's parent-death
+    signal), which stops the scene at its next checkpoint; at once if the launcher is already gone."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    if os.getppid() == 1:
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
+PR_SET_PDEATHSIG = 1
+
+
+def run_yade(run_dir: Path, threads: int, label: str, lock_fd: int) -> tuple[int, str]:
     """Run the scene, echoing its progress lines (prefixed by ``label``) and logging them to ``run_dir/log.txt``;
-    returns its exit status and its last error line."""
+    returns its exit status and its last error line. The scene inherits the run's lock (``lock_fd``) and gets
+    SIGTERM if this launcher dies."""
     try:
         command = yade.command("couette", run_dir)
     except yade.YadeMissing as exc:
@@ -108,7 +137,8 @@ def run_yade(run_dir: Path, threads: int, label: str) -> tuple[int, str]:
     with open(run_dir / "log.txt", "a", buffering=1) as log:
         log.write(f"# {dt.datetime.now().isoformat(timespec='seconds')} {' '.join(command)}\n")
         proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-                                cwd=run_dir, start_new_session=True)
+                                cwd=run_dir, start_new_session=True, pass_fds=(lock_fd,),
+                                preexec_fn=_die_with_parent)
 
         def forward(signum, _frame):
             proc.send_signal(signum)
@@ -138,7 +168,7 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
             raise SpecError(f"{out} holds a run of another spec ({why}): rerun with --fresh (FRESH=1) to replace it")
         print(f"{out} is up to date (FRESH=1 / --fresh reruns it)")
         return out
-    lock = lock_run(spec, results_dir)  # noqa: F841 - held until this process ends
+    lock_fd = lock_run(spec, results_dir)  # held until this process and the scene have ended
     run_dir = prepare(spec, results_dir, fresh)
     provenance_file = run_dir / "provenance.json"
     provenance = json.loads(provenance_file.read_text()) if provenance_file.exists() else {
@@ -148,7 +178,7 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
     io.write_json(provenance_file, provenance)
     (run_dir / FAILED).unlink(missing_ok=True)
     if not (run_dir / "raw.npz").exists():
-        status, error = run_yade(run_dir, threads, spec.label())
+        status, error = run_yade(run_dir, threads, spec.label(), lock_fd)
         if status in (2, 3):
             io.write_json(run_dir / FAILED, {"exit_status": status, "reason": error or f"exit status {status}",
                                              "at": dt.datetime.now().isoformat(timespec="seconds")})

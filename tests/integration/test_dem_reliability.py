@@ -5,6 +5,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -185,3 +186,62 @@ def test_a_scene_killed_by_a_signal_is_reported_and_resumes(tmp_path):
     again = subprocess.run(launcher("--theta", "90", "--preset", "tiny", results=tmp_path), cwd=ROOT,
                            capture_output=True, text=True)
     assert again.returncode == 0, again.stdout + again.stderr
+
+
+def test_a_killed_launcher_leaves_no_second_scene_and_the_run_resumes(tmp_path):
+    """kill -9 of the launcher (an OOM kill): its scene still holds the run's lock, so a rerun is refused
+    instead of starting a second scene in the same folder; the scene stops at its next checkpoint (the
+    parent-death signal), and the rerun then resumes the run to the end. The scene is held stopped
+    (SIGSTOP) around the kill so that it cannot finish first."""
+    from pipeline.runs.state import is_locked
+
+    args = ("--theta", "180", "--preset", "tiny", "--set", "seed=4")
+    run_dir = run_spec.work_dir(run_spec.resolve(*_theta_preset(args)), tmp_path)
+    proc = start(*args, results=tmp_path)
+    for line in proc.stdout:
+        if "strain" in line:
+            scenes = children(proc.pid)
+            for pid in scenes:
+                os.kill(pid, signal.SIGSTOP)
+            proc.kill()
+            break
+    proc.communicate()
+    assert scenes, "the scene had not started"
+    assert is_locked(run_dir)
+    rerun = subprocess.run(launcher(*args, results=tmp_path), cwd=ROOT, capture_output=True, text=True)
+    assert rerun.returncode == 2 and "Traceback" not in rerun.stderr
+    assert "is in use by another run of the same spec (or by its scene, still stopping" in rerun.stderr
+    for pid in scenes:
+        os.kill(pid, signal.SIGCONT)
+    for pid in scenes:  # the orphaned scene stops by itself, at its next checkpoint
+        for _ in range(600):
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                break
+            time.sleep(0.1)
+        else:
+            raise AssertionError(f"the orphaned scene {pid} did not stop")
+    assert not is_locked(run_dir)
+    again = subprocess.run(launcher(*args, results=tmp_path), cwd=ROOT, capture_output=True, text=True)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert load(output_of(tmp_path, *args)).spec["seed"] == 4
+
+
+@pytest.mark.parametrize("odd", ["lock-link", "lock-folder", "run-link"])
+def test_an_odd_lock_or_run_folder_is_one_line_and_no_link_is_followed(tmp_path, odd):
+    args = ("--theta", "90", "--preset", "tiny")
+    run_dir = run_spec.work_dir(run_spec.resolve(90, "tiny"), tmp_path)
+    run_dir.parent.mkdir(parents=True)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    if odd == "lock-link":
+        run_dir.with_suffix(".lock").symlink_to(victim)
+    elif odd == "lock-folder":
+        run_dir.with_suffix(".lock").mkdir()
+    else:
+        run_dir.symlink_to(tmp_path)
+    proc = subprocess.run(launcher(*args, results=tmp_path), cwd=ROOT, capture_output=True, text=True)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and "move it away, then rerun" in proc.stderr
+    assert victim.read_text() == "keep me"
