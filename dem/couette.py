@@ -34,7 +34,18 @@ import numpy as np
 
 from dem import active, checks, measure, protocol, schema
 from dem.contact import contact_constants, contact_engines, contact_material
-from dem.rawfile import save_npz, stack, write_raw, write_status
+from dem.rawfile import (
+    DISK_ERRORS,
+    DISK_FULL,
+    DiskError,
+    complete_gzip,
+    require_free,
+    save_npz,
+    stack,
+    sync,
+    write_raw,
+    write_status,
+)
 from dem.yade_lib import VERSION, O, PyRunner, Vector3, pack, utils
 
 STATUS = "status.json"  # the run's progress, read by pipeline.runs.state
@@ -313,16 +324,34 @@ def load_samples(run_dir, name):
 
 
 def checkpoint(run):
-    """Samples first (a new file), then the scene that names it; old sample files go last."""
+    """Samples first (a new file), then the scene that names it; old sample files go last. The disk's free
+    space is checked first (twice the last checkpoint and the samples), the new checkpoint is checked to be a
+    whole gzip stream and synced before it replaces the old one, and a disk error raises ``DiskError`` with the
+    previous checkpoint intact."""
     name = f"samples_{O.iter:012d}.npz"
     run_dir = run.scene.run_dir
-    save_npz(os.path.join(run_dir, name), stack(run.samples))
-    previous = run.state["samples_file"]
-    run.state["samples_file"] = name
-    O.tags["state"] = json.dumps(run.state)
+    columns = stack(run.samples)
+    last = os.path.getsize(run.scene.checkpoint) if os.path.exists(run.scene.checkpoint) else 0
+    require_free(run_dir, 2 * last + 2 * sum(a.nbytes for a in columns.values()), "a checkpoint")
     tmp = os.path.join(run_dir, "checkpoint.tmp.yade.gz")
-    O.save(tmp)
-    os.replace(tmp, run.scene.checkpoint)
+    try:
+        save_npz(os.path.join(run_dir, name), columns)
+        previous = run.state["samples_file"]
+        run.state["samples_file"] = name
+        O.tags["state"] = json.dumps(run.state)
+        O.save(tmp)
+        if not complete_gzip(tmp):
+            raise DiskError(f"the checkpoint written in {run_dir} is incomplete (a full disk?)")
+        sync(tmp)
+        os.replace(tmp, run.scene.checkpoint)
+        sync(run_dir)
+    except OSError as exc:
+        if exc.errno in DISK_ERRORS:
+            raise DiskError(f"cannot write in {run_dir} ({os.strerror(exc.errno)})") from None
+        raise
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
     if previous and previous != name:
         os.remove(os.path.join(run_dir, previous))
 
@@ -405,7 +434,7 @@ def run_until_stopped(run, stop):
     O.wait()
 
 
-def main(run_dir):
+def run_scene(run_dir):
     """Build or resume, then run; at every checkpoint save, reload and go on (see ``checkpoint_steps``).
 
     Every run, interrupted or not, continues from each checkpoint as freshly loaded, so resuming is
@@ -476,6 +505,25 @@ def main(run_dir):
         if stop["count"] >= 1:
             print(f"interrupted: checkpoint at iteration {O.iter}; rerun the same command to resume", flush=True)
             sys.exit(128 + stop["signal"])
+
+
+def main(run_dir):
+    """``run_scene``, with a disk that cannot take the run's files as one line and exit status 4 (the last
+    checkpoint intact: rerun to resume)."""
+    try:
+        last = os.path.join(run_dir, "checkpoint.yade.gz")
+        require_free(run_dir, 2 * (os.path.getsize(last) if os.path.exists(last) else 0) + 2**20, "the run")
+        run_scene(run_dir)
+    except DiskError as exc:
+        sys.stderr.write(f"error: {exc}: free space, then rerun the same command to resume from the last "
+                         "checkpoint\n")
+        sys.exit(DISK_FULL)
+    except OSError as exc:
+        if exc.errno not in DISK_ERRORS:
+            raise
+        sys.stderr.write(f"error: cannot write in {run_dir} ({os.strerror(exc.errno)}): free space, then rerun the "
+                         "same command to resume from the last checkpoint\n")
+        sys.exit(DISK_FULL)
 
 
 if __name__ == "__main__":

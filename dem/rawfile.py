@@ -7,8 +7,11 @@ own writer, not ``pipeline.io``'s: the scene runs under Debian's python3 with nu
 project's virtualenv and its packages.
 """
 
+import errno
+import gzip
 import json
 import os
+import zlib
 
 import numpy as np
 
@@ -34,13 +37,61 @@ def save_npz(path, arrays):
 
 
 def write_status(path, status):
-    """``status.json`` beside the run: its progress for ``make sweep-status`` and ``make runs`` (temp, then rename)."""
+    """``status.json`` beside the run: its progress for ``make sweep-status`` and ``make runs`` (temp, then rename).
+    Advisory: where it cannot be written (a full disk) it is left as it was; the checkpoints say so loudly."""
     tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "w") as fh:
-        json.dump(status, fh)
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "w") as fh:
+            json.dump(status, fh)
+        os.replace(tmp, path)
+    except OSError:
+        if os.path.exists(tmp):
+            os.remove(tmp)
 
 
 def write_raw(path, columns, meta):
     """``raw.npz``: the sample columns plus ``meta_json`` (spec, contact constants, time step, ...)."""
     save_npz(path, {**columns, "meta_json": np.array(json.dumps(meta))})
+
+
+#: errors of the disk rather than of the run: the run stops with one line and resumes once they are gone
+DISK_ERRORS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EIO)
+#: exit status of a run stopped by its disk (the scene's and the launcher's): resumable once space is back
+DISK_FULL = 4
+
+
+class DiskError(Exception):
+    """The run's disk cannot take a file (full, over quota, read-only): stop, keep the last checkpoint."""
+
+
+def free_bytes(folder):
+    st = os.statvfs(folder)
+    return st.f_bavail * st.f_frsize
+
+
+def require_free(folder, needed, what):
+    """A ``DiskError`` unless ``folder``'s disk has ``needed`` bytes free for ``what``."""
+    free = free_bytes(folder)
+    if free < needed:
+        raise DiskError(f"{folder} has {free / 2**20:.1f} MiB free, {what} needs about {needed / 2**20:.1f} MiB")
+
+
+def complete_gzip(path):
+    """Whether ``path`` is a whole gzip stream (Yade's ``O.save`` onto a full disk returns quietly with a
+    truncated file)."""
+    try:
+        with gzip.open(path, "rb") as fh:
+            while fh.read(1 << 22):
+                pass
+        return True
+    except (OSError, EOFError, zlib.error):
+        return False
+
+
+def sync(path):
+    """fsync a file or a folder, so that a rename after it survives a crash."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)

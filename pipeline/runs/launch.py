@@ -21,6 +21,8 @@ from pathlib import Path
 
 import h5py
 
+from dem.rawfile import DISK_ERRORS, DISK_FULL
+
 from .. import io
 from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import write_h5
@@ -222,9 +224,21 @@ def main(argv=None) -> int:
     if args.print_path:
         print(run_spec.output_path(spec, args.results))
         return 0
-    out = run(spec, args.results, args.fresh, args.threads)
+    try:
+        out = run(spec, args.results, args.fresh, args.threads)
+    except OSError as exc:
+        if not disk_error(exc):
+            raise
+        print(f"error: cannot write in {args.results} ({exc.strerror or exc}): free space, then rerun the same "
+              "command to resume (the run's folder keeps its checkpoint or samples)", file=sys.stderr)
+        return DISK_FULL
     print(f"wrote {out}")
     return 0
+
+
+def disk_error(exc: OSError) -> bool:
+    """A full, over-quota or read-only disk (h5py reports it in its message, without an errno)."""
+    return exc.errno in DISK_ERRORS or any(text in str(exc) for text in ("No space left", "Disk quota", "Read-only"))
 
 
 if __name__ == "__main__":

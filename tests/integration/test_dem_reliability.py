@@ -245,3 +245,46 @@ def test_an_odd_lock_or_run_folder_is_one_line_and_no_link_is_followed(tmp_path,
     assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and "move it away, then rerun" in proc.stderr
     assert victim.read_text() == "keep me"
+
+
+@pytest.fixture
+def disk(tmp_path):
+    """A 64 MiB tmpfs of its own (root, as the SLURM tests are), to fill."""
+    folder = tmp_path / "disk"
+    folder.mkdir()
+    subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64m", "tmpfs", str(folder)], check=True)
+    try:
+        yield folder
+    finally:
+        subprocess.run(["umount", "-l", str(folder)], check=False)
+
+
+def test_a_full_disk_stops_the_run_with_one_line_and_the_run_resumes_when_space_returns(disk):
+    """The disk fills during the run (a file takes all but 64 KiB once shearing starts): the scene stops at
+    the checkpoint it cannot hold, exit status 4 and one line; the last checkpoint is a whole gzip stream,
+    no temporary is left, the run is not marked failed; with the space back the same command resumes it."""
+    from dem.rawfile import complete_gzip, free_bytes
+
+    args = ("--theta", "180", "--preset", "tiny", "--set", "seed=6")
+    run_dir = run_spec.work_dir(run_spec.resolve(*_theta_preset(args)), disk)
+    proc = start(*args, results=disk)
+    lines = []
+    for line in proc.stdout:
+        lines.append(line)
+        if "strain" in line:
+            with open(disk / "filler", "wb") as fh:
+                os.posix_fallocate(fh.fileno(), 0, free_bytes(disk) - 64 * 1024)
+            break
+    text = "".join(lines) + proc.communicate()[0]
+    assert proc.returncode == 4, text
+    assert "Traceback" not in text
+    errors = [line for line in text.splitlines() if "error:" in line]
+    assert len(errors) == 1 and "free space, then rerun the same command to resume" in errors[0], text
+    checkpoint = run_dir / "checkpoint.yade.gz"
+    assert checkpoint.exists() and complete_gzip(checkpoint)
+    assert not list(run_dir.glob("*.tmp*")) and not (run_dir / "failed.json").exists()
+    (disk / "filler").unlink()
+    again = subprocess.run(launcher(*args, results=disk), cwd=ROOT, capture_output=True, text=True)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert "resumed from checkpoint" in again.stdout
+    assert load(output_of(disk, *args)).spec["seed"] == 6

@@ -118,3 +118,21 @@ def test_committed_version_1_files_read_the_same_as_when_they_were_written():
     changes = np.flatnonzero(np.diff(run.raw["direction_deg"])) + 1
     moved = np.flatnonzero(np.abs(steps) > 1e-9) + 1
     assert all(np.min(np.abs(changes - k)) <= 1 for k in moved) and 0.001 < steps.max() < 0.02
+
+
+def test_a_checkpoint_is_whole_only_if_its_gzip_stream_is(tmp_path):
+    """What the scene checks before a new checkpoint replaces the old one (Yade's O.save onto a full disk
+    returns quietly with a truncated file)."""
+    import gzip
+
+    from dem.rawfile import complete_gzip
+
+    whole = tmp_path / "c.yade.gz"
+    with gzip.open(whole, "wb") as fh:
+        fh.write(np.random.default_rng(0).bytes(300_000))
+    truncated = tmp_path / "t.yade.gz"
+    truncated.write_bytes(whole.read_bytes()[:-5000])
+    junk = tmp_path / "j.yade.gz"
+    junk.write_bytes(b"not gzip")
+    assert complete_gzip(whole) and not complete_gzip(truncated) and not complete_gzip(junk)
+    assert not complete_gzip(tmp_path / "missing.gz")
