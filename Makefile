@@ -31,13 +31,14 @@ FIT_FROM ?=
 STRAIN ?= nominal
 PHI ?= gap
 # make sweep PRESET=... THETAS="30 60 90" [ROTATE_ATS="0.1 0.2"] [SEEDS="1 2 3"] [SET=...] [LAUNCH=local|slurm]
-#            [SLURM="partition=... time_limit=HH:MM:SS ..."] [JOBS=2]
+#            [SLURM="partition=... time_limit=HH:MM:SS ..."] [JOBS=2] [MANY=1: more than 200 runs]
 THETAS ?=
 ROTATE_ATS ?=
 SEEDS ?=
 LAUNCH ?= local
 SLURM ?=
 JOBS ?=
+MANY ?=
 SWEEP ?=
 LOWER := a b c d e f g h i j k l m n o p q r s t u v w x y z
 UPPER := A B C D E F G H I J K L M N O P Q R S T U V W X Y Z
@@ -61,6 +62,7 @@ $(call check,PRESETS,$(NAME_CHARS) $(comma),a comma-separated list of presets)
 $(call check,PHI,$(LOWER),central or gap)
 $(call check,FRESH,$(NAME_CHARS),1 or empty)
 $(call check,ALLOW_INERTIAL,$(NAME_CHARS),1 or empty)
+$(call check,MANY,$(NAME_CHARS),1 or empty)
 $(call check,THETAS,$(NUMBER_CHARS),a list of numbers)
 $(call check,ROTATE_ATS,$(NUMBER_CHARS),a list of numbers)
 $(call check,SEEDS,$(DIGITS),a list of whole numbers)
@@ -163,7 +165,8 @@ dem: system venv ## one DEM run -> results/<preset>/dem/theta<THETA>.h5 (resumes
 sweep: system venv ## a sweep of runs (THETAS, ROTATE_ATS, SEEDS), LAUNCH=local (make -j) or slurm (a job array)
 	$(PY) -m pipeline.runs.sweep run --preset $(PRESET) --thetas "$(THETAS)" \
 	  $(if $(ROTATE_ATS),--rotate-ats "$(ROTATE_ATS)") $(if $(SEEDS),--seeds "$(SEEDS)") $(foreach s,$(SET),--set $(s)) \
-	  --launch $(LAUNCH) $(foreach s,$(SLURM),--slurm $(s)) $(if $(JOBS),--jobs $(JOBS))
+	  --launch $(LAUNCH) $(foreach s,$(SLURM),--slurm $(s)) $(if $(JOBS),--jobs $(JOBS)) \
+	  $(if $(filter 1 yes true,$(MANY)),--allow-many)
 
 runs: venv ## every DEM run here and committed: its folder, overrides, state (done, running, stopped, failed) and summary
 	$(PY) -m pipeline.runs.listing

@@ -14,7 +14,9 @@ status=0
 while kill -0 "$child" 2>/dev/null; do wait "$child"; status=$?; done
 case $status in
   0) echo "task $SLURM_ARRAY_TASK_ID: done"; exit 0 ;;
-  2|3) echo "task $SLURM_ARRAY_TASK_ID: failed (exit $status), not requeued"; exit "$status" ;;
+  130|137|138|143) ;;  # stopped by a signal (the time limit's USR1, a preemption): resumable, requeued below
+  *) echo "task $SLURM_ARRAY_TASK_ID: failed (exit $status), not requeued (see failed.json in the run folder)"
+     exit "$status" ;;
 esac
 if [ "${SLURM_RESTART_COUNT:-0}" -lt @MAX_REQUEUES@ ]; then
   echo "task $SLURM_ARRAY_TASK_ID: stopped (exit $status); requeued to resume from its checkpoint"

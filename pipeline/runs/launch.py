@@ -181,8 +181,9 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
     (run_dir / FAILED).unlink(missing_ok=True)
     if not (run_dir / "raw.npz").exists():
         status, error = run_yade(run_dir, threads, spec.label(), lock_fd)
-        if status in (2, 3):
-            io.write_json(run_dir / FAILED, {"exit_status": status, "reason": error or f"exit status {status}",
+        if status in (1, 2, 3):  # a crash, a damaged folder, a failed run: not resumable as it is
+            reason = error or f"exit status {status} (see {run_dir / 'log.txt'})"
+            io.write_json(run_dir / FAILED, {"exit_status": status, "reason": reason,
                                              "at": dt.datetime.now().isoformat(timespec="seconds")})
         if status != 0 and (run_dir / "raw.npz").exists():  # stopped after it had written its samples
             status = 0

@@ -46,3 +46,63 @@ def test_the_local_makefile_and_the_batch_script_run_the_launcher_of_make_dem(tm
     assert '-lt 5 ]' in script and "scontrol requeue" in script and f"--results {tmp_path}" in script
     with pytest.raises(SpecError, match="max_requeues='x' must be a whole number"):
         slurm.apply_overrides(config, ["max_requeues=x"], "slurm")
+
+
+def test_a_plan_with_runs_outside_results_or_too_many_runs_is_refused(tmp_path):
+    from pipeline.runs.sweep.plan import MAX_TASKS
+
+    sweep = plan("reduced", "90", results=tmp_path)
+    write_plan(sweep)
+    data = json.loads((sweep.folder / "plan.json").read_text())
+    data["tasks"][0]["output"] = "/etc/passwd.h5"
+    (sweep.folder / "plan.json").write_text(json.dumps(data))
+    with pytest.raises(PipelineError, match="names a run outside"):
+        read_plan(tmp_path)
+    many = " ".join(f"{1 + t / 10:g}" for t in range(MAX_TASKS + 1))
+    with pytest.raises(SpecError, match=f"has {MAX_TASKS + 1} runs, more than {MAX_TASKS}: MANY=1"):
+        plan("reduced", many, results=tmp_path)
+    assert len(plan("reduced", many, results=tmp_path, allow_many=True).tasks) == MAX_TASKS + 1
+
+
+def test_jobs_zero_is_refused_not_taken_as_the_default(tmp_path):
+    from pipeline.runs.sweep.__main__ import main
+    from tests.helpers import run_main
+
+    proc = run_main(main, ["run", "--preset", "tiny", "--thetas", "90", "--jobs", "0", "--results", str(tmp_path)])
+    assert proc.returncode == 2 and "jobs=0 must be >= 1" in proc.stderr
+    assert not (tmp_path / "sweeps").exists()
+
+
+def test_sweep_status_shows_damaged_runs_on_one_line_each(tmp_path):
+    sweep = plan("reduced", "30 60 90", results=tmp_path)
+    a, b, c = sweep.tasks
+    a.run_dir.mkdir(parents=True)
+    (a.run_dir / "failed.json").write_text("{not json")
+    b.run_dir.mkdir(parents=True)
+    (b.run_dir / "failed.json").write_text(json.dumps({"exit_status": 1}))
+    c.run_dir.with_suffix(".lock").mkdir(parents=True)  # a lock that is a folder
+    rows = status(sweep)
+    assert [r["state"] for r in rows] == ["failed", "failed", "not started"]
+    assert "is damaged" in rows[0]["detail"] and "failed.json is damaged" in rows[1]["detail"]
+
+
+def test_the_batch_script_quotes_its_log_path_and_requeues_only_what_can_resume(tmp_path):
+    folder = tmp_path / "a clone with spaces"
+    sweep = plan("reduced", "180", results=folder)
+    config = slurm.load_cluster_config()["slurm"]
+    script = slurm.job_script(sweep, config, [0])
+    assert f'#SBATCH --output="{sweep.folder}/logs/task-%a.out"' in script
+    assert "130|137|138|143) ;;" in script and "failed (exit $status), not requeued" in script
+    bad = plan("reduced", "180", results=tmp_path / 'say "hi"')
+    with pytest.raises(SpecError, match="double quote or a newline"):
+        slurm.job_script(bad, config, [0])
+
+
+def test_a_local_sweep_whose_runs_another_process_finished_reports_them_done(tmp_path, monkeypatch, capsys):
+    sweep = plan("reduced", "90 180", results=tmp_path)
+    for task in sweep.tasks:
+        task.output.parent.mkdir(parents=True, exist_ok=True)
+        task.output.write_bytes(b"")  # done by a concurrent sweep of the same plan
+    monkeypatch.setattr(local.subprocess, "call", lambda *a, **k: 2)  # this sweep's launches were refused
+    assert local.run_local(sweep, 2) == 0
+    assert "2 run(s) done" in capsys.readouterr().out

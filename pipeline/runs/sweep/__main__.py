@@ -9,7 +9,7 @@ from ...cli import Parser, one_line_errors
 from ...errors import SpecError
 from ...paths import RESULTS_DIR
 from .local import run_local
-from .plan import plan, read_plan, write_plan
+from .plan import MAX_TASKS, plan, read_plan, write_plan
 from .slurm import apply_overrides, check_slurm, load_cluster_config, submit
 from .status import format_status, status
 
@@ -27,6 +27,7 @@ def main(argv=None) -> int:
     run.add_argument("--launch", choices=("local", "slurm"), default="local")
     run.add_argument("--slurm", action="append", default=[], metavar="KEY=VALUE", help="override of [slurm]")
     run.add_argument("--jobs", type=int, help="runs side by side with LAUNCH=local (default: [local] jobs)")
+    run.add_argument("--allow-many", action="store_true", help=f"allow more than {MAX_TASKS} runs in one sweep")
     run.add_argument("--results", type=Path, default=RESULTS_DIR)
     st = sub.add_parser("status", help="the state of every run of a sweep (default: the latest)")
     st.add_argument("--sweep", help="the sweep's id (results/sweeps/<id>)")
@@ -43,13 +44,13 @@ def main(argv=None) -> int:
         print(read_plan(args.results, args.sweep).preset)
         return 0
     config = load_cluster_config()
-    sweep = plan(args.preset, args.thetas, args.rotate_ats, args.seeds, args.set, args.results)
+    jobs = args.jobs if args.jobs is not None else config["local"]["jobs"]
+    if jobs < 1:
+        raise SpecError(f"jobs={jobs} must be >= 1")
+    sweep = plan(args.preset, args.thetas, args.rotate_ats, args.seeds, args.set, args.results, args.allow_many)
     if args.launch == "slurm":
         slurm = apply_overrides(config["slurm"], args.slurm, "slurm")
         check_slurm(slurm, sweep, config["throughput"])
-    jobs = args.jobs or config["local"]["jobs"]
-    if jobs < 1:
-        raise SpecError(f"jobs={jobs} must be >= 1")
     write_plan(sweep)
     print(f"sweep {sweep.ident}: {len(sweep.tasks)} run(s) of preset {sweep.preset} "
           f"({sum(t.output.exists() for t in sweep.tasks)} done)")

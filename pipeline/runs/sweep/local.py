@@ -7,6 +7,7 @@ import subprocess
 
 from ... import io
 from ...paths import ROOT
+from ..state import run_state
 from .plan import Sweep, launcher_command
 
 
@@ -20,5 +21,17 @@ def local_makefile(sweep: Sweep) -> str:
 
 
 def run_local(sweep: Sweep, jobs: int) -> int:
+    """Make's exit status, but 0 when every run is done in the end (some perhaps by another sweep of the same
+    runs, whose launches this one's were refused): the status reports the runs, not the race."""
     makefile = io.write_text(sweep.folder / "runs.mk", local_makefile(sweep))
-    return subprocess.call(["make", "--no-print-directory", "-k", f"-j{jobs}", "-f", str(makefile), "all"])
+    status = subprocess.call(["make", "--no-print-directory", "-k", f"-j{jobs}", "-f", str(makefile), "all"])
+    if status == 0:
+        return 0
+    states = [run_state(t.run_dir, t.output)[0] for t in sweep.tasks]
+    if all(s in ("done", "running") for s in states):
+        elsewhere = states.count("running")
+        print(f"sweep {sweep.ident}: {states.count('done')} run(s) done" + (
+            f", {elsewhere} running in another process (follow with `make sweep-status`)" if elsewhere else
+            " (some by another process running the same runs)"))
+        return 0
+    return status

@@ -74,12 +74,20 @@ def _words(text: str | None) -> list[str]:
     return [] if not text else text.replace(",", " ").split()
 
 
+#: runs in one sweep above which it must be asked for (``--allow-many``, ``MANY=1``): a typo in THETAS or SEEDS
+#: should not queue a thousand runs
+MAX_TASKS = 200
+
+
 def plan(preset: str, thetas: str, rotate_ats: str | None = None, seeds: str | None = None,
-         overrides: list[str] = (), results: Path = RESULTS_DIR) -> Sweep:
+         overrides: list[str] = (), results: Path = RESULTS_DIR, allow_many: bool = False) -> Sweep:
     """Every run of the sweep, each validated as ``make dem`` would validate it."""
     theta_list = _words(thetas)
     if not theta_list:
         raise SpecError("THETAS is empty: give the angles to run, e.g. THETAS=\"30 60 90\"")
+    count = len(theta_list) * max(1, len(_words(rotate_ats))) * max(1, len(_words(seeds)))
+    if count > MAX_TASKS and not allow_many:
+        raise SpecError(f"the sweep has {count} runs, more than {MAX_TASKS}: MANY=1 (--allow-many) if you mean it")
     defaults = load_presets().get(preset, {})
     tasks = {}
     for theta in theta_list:
@@ -115,11 +123,18 @@ def read_plan(results: Path = RESULTS_DIR, ident: str | None = None) -> Sweep:
     except (OSError, ValueError):
         raise PipelineError(f"sweep {ident!r} has no readable plan ({path})") from None
     try:
-        tasks = tuple(Task(t["theta"], check_folder_name(t["preset"]), t["rotate_at"], tuple(t["overrides"]),
-                           Path(t["output"]), t["label"]) for t in data["tasks"])
-        return Sweep(data["id"], path.parent, check_folder_name(data["preset"]), tasks, Path(data["results"]))
-    except (KeyError, TypeError):
+        tasks = tuple(Task(str(t["theta"]), check_folder_name(t["preset"]), t["rotate_at"], tuple(t["overrides"]),
+                           Path(t["output"]), str(t["label"])) for t in data["tasks"])
+        sweep = Sweep(str(data["id"]), path.parent, check_folder_name(data["preset"]), tasks, Path(data["results"]))
+    except (KeyError, TypeError, AttributeError):
         raise PipelineError(f"sweep {ident!r}: {path} is not a plan of this version (make sweep again)") from None
+    root = results.resolve()
+    for task in sweep.tasks:
+        if not task.output.resolve().is_relative_to(root) or any(
+                not isinstance(x, str) for x in (task.rotate_at or "", *task.overrides)):
+            raise PipelineError(f"sweep {ident!r}: {path} names a run outside {results} or a bad value "
+                                f"({task.output}): make sweep again")
+    return dataclasses.replace(sweep, results=results)
 
 
 def launcher_command(task: Task, results: Path, threads: int = 1) -> list[str]:

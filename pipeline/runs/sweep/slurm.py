@@ -78,13 +78,16 @@ def check_slurm(config: dict, sweep: Sweep, throughput: dict) -> None:
 
 def job_script(sweep: Sweep, config: dict, indices: list[int]) -> str:
     """The batch script of the sweep's job array (tasks ``indices`` of the plan): ``config/slurm_job.sh`` with
-    its ``@NAME@`` fields filled, every path quoted for the shell."""
+    its ``@NAME@`` fields filled, every path quoted for the shell (and for ``#SBATCH``, in double quotes: a
+    path holding one, or a newline, is refused)."""
+    if any(c in str(sweep.folder) for c in '"\n'):
+        raise SpecError(f"{sweep.folder}: a path with a double quote or a newline cannot go into #SBATCH --output")
     threads = config["threads_per_run"]
     directives = [
         f"--job-name={sweep.job_name}", f"--array={','.join(map(str, indices))}", "--requeue",
         "--open-mode=append", f"--signal=B:USR1@{config['signal_lead_seconds']}", f"--time={config['time_limit']}",
         "--ntasks=1", f"--cpus-per-task={threads}", f"--mem={config['memory']}",
-        f"--output={sweep.folder / 'logs' / 'task-%a.out'}",
+        f"--output=\"{sweep.folder / 'logs' / 'task-%a.out'}\"",
     ]
     directives += [f"--{key}={config[key]}" for key in ("partition", "account") if config[key]]
     fields = {"DIRECTIVES": "\n".join(f"#SBATCH {d}" for d in directives), "SWEEP": sweep.ident,
