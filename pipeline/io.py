@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import tempfile
 from pathlib import Path
 
 from .errors import PipelineError
@@ -25,18 +26,34 @@ def atomic_paths(*paths: Path):
     with stack:
         temps = [stack.enter_context(_temporary(Path(p))) for p in paths]
         yield temps
+        for tmp in temps:
+            _sync(tmp)  # on disk before the renames: a crash leaves the old set or the new one
         for tmp, path in zip(temps, paths, strict=True):
             os.replace(tmp, path)
+        for folder in {Path(p).parent for p in paths}:
+            _sync(folder)
 
 
 @contextlib.contextmanager
 def _temporary(path: Path):
+    """A hidden temporary beside ``path``, unique to this call (several writers of one path never share it),
+    with ``path``'s suffix."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
+    fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.tmp", suffix=path.suffix)
+    os.close(fd)
+    tmp = Path(name)
     try:
         yield tmp
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def _sync(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
 
 
 def write_text(path: Path, text: str) -> Path:
