@@ -95,7 +95,7 @@ COMPARE_DIR := results/$(DATA_PRESET)/compare
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
 FORCE:
-.PHONY: FORCE help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-slurm model-cycles \
+.PHONY: FORCE help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-lammps system-slurm model-cycles \
 	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table jump stability profile-dem bench-dem compare figures demo-dem clean
 
 help: ## list the targets
@@ -106,13 +106,13 @@ demo: system venv model-cycles demo-dem ## set up everything, then run the pipel
 	@echo "demo done: model cycles in $(MODEL_DIR)/, DEM runs in results/quick/dem/, fit in results/quick/fit/, figures and report.md in results/quick/"
 
 # ---------------------------------------------------------------- tests and lint
-test: system system-slurm venv lint ## lint, then every test (the real Yade, a real one-node SLURM): what CI runs
+test: system system-lammps system-slurm venv lint ## lint, then every test (the real Yade and LAMMPS, a real one-node SLURM): what CI runs
 	$(PY) -m pytest -q
 
-test-unit: venv ## the fast unit tests (no Yade, no SLURM, nothing marked slow): under a minute of CPU
-	$(PY) -m pytest -q tests/unit -m "not slow and not yade and not slurm"
+test-unit: venv ## the fast unit tests (no Yade, LAMMPS or SLURM, nothing marked slow): under a minute of CPU
+	$(PY) -m pytest -q tests/unit -m "not slow and not yade and not lammps and not slurm"
 
-test-yade: system venv ## the tests that run the real Yade
+test-yade: system system-lammps venv ## the tests that run the real Yade (and LAMMPS)
 	$(PY) -m pytest -q tests/integration
 
 test-cluster: system system-slurm venv ## a sweep on a real one-node SLURM cluster started on this machine
@@ -141,6 +141,11 @@ $(VENV_STAMP): pyproject.toml | system-venv
 system-venv: ## Debian's python3-venv, for the project's virtualenv (apt-get; a fresh Debian has no ensurepip)
 	@if $(PYTHON) -c 'import ensurepip' 2>/dev/null; then echo "venv support present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) python3-venv; fi
+
+system-lammps: ## Debian's LAMMPS for Debian's python3 (apt-get: lammps, python3-lammps, liblammps-dev, OpenMPI)
+	@if /usr/bin/python3 -c 'import lammps; lammps.lammps(cmdargs=["-log", "none", "-screen", "none"]).close()' \
+	  2>/dev/null; then echo "lammps present"; else \
+	  $(SUDO) apt-get update -qq && $(APT_INSTALL) lammps python3-lammps liblammps-dev openmpi-bin; fi
 
 system-slurm: ## Debian's slurm-wlm and munge, for the cluster test (apt-get)
 	@if command -v slurmctld >/dev/null && command -v munged >/dev/null; then echo "slurm and munge present"; else \

@@ -36,3 +36,23 @@ def run_main(main, argv) -> subprocess.CompletedProcess:
                 err.write(exc.code + "\n")
             code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     return subprocess.CompletedProcess(list(argv), code, out.getvalue(), err.getvalue())
+
+
+def assert_contact_law(out: dict, spec: dict) -> None:
+    """The collision checks (``dem.collision``, ``dem.lammps_collision``) against the contact law of
+    ``dem/contact.py``: restitution of each pair from its reduced mass (0.5 for the mean pair), k_t/k_n,
+    k_n as designed, sliding at tan of the friction angle."""
+    import numpy as np
+    import pytest
+
+    from dem.contact import contact_constants, pair_reduced_mass, restitution
+
+    kn, _, cn, _ = contact_constants(spec)
+    assert out["mean"]["restitution"] == pytest.approx(spec["restitution"], abs=0.02)
+    for pair in out.values():
+        d = pair["diameter"]
+        assert pair["restitution"] == pytest.approx(restitution(kn, cn, pair_reduced_mass(d, d)), abs=0.02)
+        assert pair["kt_over_kn"] == pytest.approx(spec["kt_over_kn"], rel=1e-3)
+        assert pair["kn_over_design"] == pytest.approx(1.0, rel=1e-3)
+        assert pair["sliding_ratio"] == pytest.approx(np.tan(np.radians(spec["friction_deg"])), rel=1e-3)
+    assert out["smallest"]["restitution"] < out["mean"]["restitution"] < out["largest"]["restitution"]

@@ -9,11 +9,11 @@ import sys
 import numpy as np
 import pytest
 
-from dem.contact import contact_constants, pair_reduced_mass, restitution
 from pipeline.dataset.dem_file import SCHEMA, load
 from pipeline.paths import ROOT
 from pipeline.runs import spec as run_spec
 from pipeline.runs import yade as yade_command
+from tests.helpers import assert_contact_law
 
 pytestmark = pytest.mark.yade
 
@@ -43,16 +43,7 @@ def test_collisions_restitution_stiffness_ratio_and_sliding(tmp_path):
     (tmp_path / "spec.json").write_text(json.dumps(spec))
     subprocess.run(yade_command.command("collision", tmp_path / "spec.json", tmp_path / "out.json"), check=True,
                    capture_output=True, cwd=tmp_path, env=yade_command.environment())
-    out = json.loads((tmp_path / "out.json").read_text())
-    kn, _, cn, _ = contact_constants(spec)
-    assert out["mean"]["restitution"] == pytest.approx(0.5, abs=0.02)
-    for pair in out.values():
-        d = pair["diameter"]
-        assert pair["restitution"] == pytest.approx(restitution(kn, cn, pair_reduced_mass(d, d)), abs=0.02)
-        assert pair["kt_over_kn"] == pytest.approx(0.5, rel=1e-3)
-        assert pair["kn_over_design"] == pytest.approx(1.0, rel=1e-3)
-        assert pair["sliding_ratio"] == pytest.approx(np.tan(np.radians(24.0)), rel=1e-3)
-    assert out["smallest"]["restitution"] < out["mean"]["restitution"] < out["largest"]["restitution"]
+    assert_contact_law(json.loads((tmp_path / "out.json").read_text()), spec)
 
 
 def test_tiny_run_end_to_end_into_hdf5(tiny_run):

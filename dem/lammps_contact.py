@@ -1,0 +1,30 @@
+"""The contact law of ``dem/contact.py`` in LAMMPS (``pair_style granular``, GRANULAR package).
+
+Same constants: k_n = p d^2/delta, k_t = ``kt_over_kn`` k_n, constant dashpots c_n, c_t (the mean pair has
+the restitution ``restitution``), Coulomb friction tan(``friction_deg``), no rolling resistance, units
+d = p = rho = 1 (LAMMPS ``units lj``, grains of density 1). In LAMMPS's terms:
+
+    pair_coeff * * hooke k_n c_n tangential linear_history k_t (c_t/c_n) mu damping velocity limit_damping
+
+``hooke`` with ``damping velocity`` is F_n = k_n delta - c_n v_n with a constant c_n; ``limit_damping``
+keeps the normal force from pulling (Yade's contact carries no tension either); ``linear_history`` is a
+tangential spring k_t with a dashpot x_gamma_t c_n = c_t. Where the two engines differ: LAMMPS limits the
+tangential spring *and* dashpot together to mu F_n, Yade's ``ViscElPhys`` the whole tangential force too
+(its Coulomb test is on the spring force, the dashpot added after); ``dem.lammps_collision`` measures both.
+"""
+
+import math
+
+from dem.contact import contact_constants
+
+
+def pair_commands(spec):
+    """The LAMMPS commands of the contact law for one atom type."""
+    kn, kt, cn, ct = contact_constants(spec)
+    mu = math.tan(math.radians(spec["friction_deg"]))
+    return [
+        "pair_style granular",
+        f"pair_coeff * * hooke {kn!r} {cn!r} tangential linear_history {kt!r} {ct / cn!r} {mu!r} "
+        "damping velocity limit_damping",
+        "comm_modify vel yes",
+    ]
