@@ -106,3 +106,5 @@ def test_the_report_shows_the_fit_against_the_restart_in_standard_errors_from_ta
     lines = jump_lines([row, {**row, "persistence_exponent": 0.5}], paper)
     assert len([x for x in lines if x.startswith("| 0.005")]) == 1  # k = 3/4 rows only
     assert "-0.015 (+2.0)" in lines[-1] and "+4.5%" in lines[-1]
+    lines = jump_lines([{**row, "fit_from": 0.002, "runs": 3}, {**row, "runs": 17}], paper)
+    assert lines[-2].startswith("| 0.002 | 3 |") and lines[-1].startswith("| 0.005 | 17 |")
