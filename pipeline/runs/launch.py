@@ -180,6 +180,9 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
     io.write_json(provenance_file, provenance)
     (run_dir / FAILED).unlink(missing_ok=True)
     if not (run_dir / "raw.npz").exists():
+        c = run_spec.cost(spec)
+        print(f"{spec.label()}: {c['grains']} grains, about {c['steps'] / 1e6:.3g} M steps of shear, {c['samples']} "
+              f"samples (~{c['megabytes']:.2g} MB); progress and ETA follow", flush=True)
         status, error = run_yade(run_dir, threads, spec.label(), lock_fd)
         if status in (1, 2, 3):  # a crash, a damaged folder, a failed run: not resumable as it is
             reason = error or f"exit status {status} (see {run_dir / 'log.txt'})"

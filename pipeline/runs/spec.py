@@ -18,7 +18,7 @@ from decimal import Decimal
 from pathlib import Path
 
 from dem.contact import tangential_damping_number
-from dem.protocol import grain_count
+from dem.protocol import grain_count, sample_strains
 
 from ..config import PRESETS_FILE, load_presets
 from ..errors import SpecError
@@ -259,3 +259,22 @@ def output_path(spec: DemSpec, results_dir: Path = RESULTS_DIR) -> Path:
 def work_dir(spec: DemSpec, results_dir: Path = RESULTS_DIR) -> Path:
     """Scratch folder of a run (spec, checkpoints, raw samples, log) beside its HDF5 file."""
     return output_path(spec, results_dir).with_suffix(".run")
+
+
+#: numbers stored per sample: the scalars and tensors of the central region (about 60) and, per profile bin,
+#: velocity, packing fraction, stress, fabric and contacts (23)
+SAMPLE_NUMBERS_FIXED, SAMPLE_NUMBERS_PER_BIN = 60, 23
+
+
+def cost(spec: DemSpec) -> dict:
+    """What a run costs, from its spec alone: the steps of shear (the preceding half period and the cycles at
+    dt = dt_safety sqrt(m_min/k_n), m_min the smallest grain's mass), its samples, and their size in MB
+    (compaction adds a few per cent of steps, unknown before it ends)."""
+    d_min = spec.diameter_min_d
+    dt = spec.dt_safety * math.sqrt(math.pi / 6 * d_min**3 * spec.overlap_ratio)  # k_n = p d / delta = 1/ratio
+    strain = spec.pre_strain + spec.n_cycles * spec.period_strain
+    samples = len(sample_strains(spec.to_dict()))
+    bins = max(1, round(spec.gap_d / spec.profile_bin_d))
+    numbers = SAMPLE_NUMBERS_FIXED + SAMPLE_NUMBERS_PER_BIN * bins
+    return {"steps": strain / (spec.inertial_number * dt), "samples": samples,
+            "megabytes": samples * numbers * 8 / 1e6, "grains": grain_count(spec.to_dict())}

@@ -66,3 +66,17 @@ def test_malformed_override():
         run_spec.parse_overrides(["gap_d"])
     with pytest.raises(SpecError, match="gap_d='big' is not a number"):
         run_spec.parse_overrides(["gap_d=big"])
+
+
+def test_a_runs_cost_is_known_from_its_spec():
+    """Steps of shear = strain / (gamma_dot dt), dt = dt_safety sqrt(m_min / k_n); the samples of the protocol."""
+    from dem.protocol import sample_strains
+
+    spec = run_spec.resolve(180, "paper")
+    cost = run_spec.cost(spec)
+    dt = spec.dt_safety * math.sqrt(math.pi / 6 * spec.diameter_min_d**3 * spec.overlap_ratio)
+    assert cost["steps"] == pytest.approx((0.7 + 5 * 1.4) / (2.9e-4 * dt))
+    assert 2.2e7 < cost["steps"] < 2.4e7  # the paper's cell: about 23 M steps
+    assert cost["samples"] == len(sample_strains(spec.to_dict())) and cost["grains"] > 5000
+    faster = run_spec.cost(run_spec.resolve(180, "paper", overrides={"inertial_number": 1e-3}))
+    assert faster["steps"] == pytest.approx(cost["steps"] * 2.9e-4 / 1e-3)
