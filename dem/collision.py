@@ -6,11 +6,10 @@ the normal restitution of a head-on collision; k_t/k_n from a contact sheared at
 and the ratio |F_t|/|F_n| once the contact slides (Coulomb: tan of the friction angle).
 """
 
-import json
 import math
 import sys
 
-from dem.contact import contact_constants, contact_engines, contact_material
+from dem.contact import collision_report, contact_constants, contact_engines, contact_material
 from dem.yade_lib import O, Vector3, utils
 
 
@@ -71,16 +70,7 @@ def shear(spec, diameter, overlap_ratio=0.5):
 
 
 def main():
-    spec = json.load(open(sys.argv[1]))
-    d_mean = 0.5 * (spec["diameter_min_d"] + spec["diameter_max_d"])
-    out = {}
-    pairs = (("smallest", spec["diameter_min_d"]), ("mean", d_mean), ("largest", spec["diameter_max_d"]))
-    for label, diameter in pairs:
-        kt_over_kn, kn_ratio, sliding = shear(spec, diameter)
-        out[label] = {"diameter": diameter, "restitution": restitution(spec, diameter), "kt_over_kn": kt_over_kn,
-                      "kn_over_design": kn_ratio, "sliding_ratio": sliding}
-    with open(sys.argv[2], "w") as fh:
-        json.dump(out, fh, indent=1)
+    collision_report(sys.argv, restitution, shear)
 
 
 if __name__ == "__main__":

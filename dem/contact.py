@@ -98,3 +98,22 @@ def contact_engines():
                         [Law2_ScGeom_ViscElPhys_Basic()]),
         NewtonIntegrator(damping=0.0, gravity=(0, 0, 0)),
     ]
+
+
+def collision_report(argv, restitution_of, shear_of):
+    """The command line of an engine's contact check (``dem.collision``, ``dem.lammps_collision``): read the spec
+    ``argv[1]``, measure the smallest, mean and largest pairs with the engine's ``restitution_of(spec, d)`` and
+    ``shear_of(spec, d)`` (k_t/k_n, k_n against the design, sliding ratio), write them as JSON to ``argv[2]``."""
+    import json
+
+    with open(argv[1]) as fh:
+        spec = json.load(fh)
+    d_mean = 0.5 * (spec["diameter_min_d"] + spec["diameter_max_d"])
+    out = {}
+    for label, diameter in (("smallest", spec["diameter_min_d"]), ("mean", d_mean),
+                            ("largest", spec["diameter_max_d"])):
+        kt_over_kn, kn_ratio, sliding = shear_of(spec, diameter)
+        out[label] = {"diameter": diameter, "restitution": restitution_of(spec, diameter),
+                      "kt_over_kn": kt_over_kn, "kn_over_design": kn_ratio, "sliding_ratio": sliding}
+    with open(argv[2], "w") as fh:
+        json.dump(out, fh, indent=1)

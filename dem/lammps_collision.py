@@ -7,11 +7,10 @@ ratio |F_t|/|F_n| once the contact slides (Coulomb: tan of the friction angle). 
 ``dem.collision`` (Yade), so one test holds both engines to the same numbers.
 """
 
-import json
 import math
 import sys
 
-from dem.contact import contact_constants
+from dem.contact import collision_report, contact_constants
 from dem.lammps_contact import pair_commands
 from dem.lammps_lib import new_lammps
 
@@ -88,16 +87,7 @@ def shear(spec, diameter, overlap_ratio=0.5):
 
 
 def main():
-    spec = json.load(open(sys.argv[1]))
-    d_mean = 0.5 * (spec["diameter_min_d"] + spec["diameter_max_d"])
-    out = {}
-    for label, diameter in (("smallest", spec["diameter_min_d"]), ("mean", d_mean),
-                            ("largest", spec["diameter_max_d"])):
-        kt_over_kn, kn_ratio, sliding = shear(spec, diameter)
-        out[label] = {"diameter": diameter, "restitution": restitution(spec, diameter), "kt_over_kn": kt_over_kn,
-                      "kn_over_design": kn_ratio, "sliding_ratio": sliding}
-    with open(sys.argv[2], "w") as fh:
-        json.dump(out, fh, indent=1)
+    collision_report(sys.argv, restitution, shear)
 
 
 if __name__ == "__main__":
