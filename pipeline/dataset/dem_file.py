@@ -79,7 +79,9 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
         prov = f.create_group("provenance")
         prov.attrs.update(
             preset=spec["preset"], theta_deg=spec["theta_deg"], rotate_at_strain=spec["rotate_at_strain"],
-            seed=spec["seed"], yade_version=meta["yade_version"], git_commit=provenance.get("git_commit", "unknown"),
+            seed=spec["seed"], engine=meta.get("engine", "yade"),
+            engine_version=str(meta.get("engine_version", meta["yade_version"])), yade_version=meta["yade_version"],
+            git_commit=provenance.get("git_commit", "unknown"),
             started=provenance.get("started", ""), finished=provenance.get("finished", ""),
             sessions=json.dumps(provenance.get("sessions", [])), spec_json=json.dumps(spec, sort_keys=True),
             overrides=json.dumps(spec["overrides"], sort_keys=True),
