@@ -16,7 +16,9 @@ MODEL_DIR := results/model
 
 # ---------------------------------------------------------------- the user's variables, checked before any shell sees them
 # make dem THETA=90 [PRESET=quick] [ROTATE_AT=0.1] [SET="key=value ..."] [FRESH=1] [THREADS=1] [ALLOW_INERTIAL=1]
+#          [ENGINE=yade|lammps]
 THETA ?= 180
+ENGINE ?= yade
 ROTATE_AT ?=
 SET ?=
 FRESH ?=
@@ -56,6 +58,7 @@ $(call check,THETA,$(NUMBER_CHARS),a number)
 $(call check,ROTATE_AT,$(NUMBER_CHARS),a number)
 $(call check,FIT_FROM,$(NUMBER_CHARS),a number)
 $(call check,THREADS,$(DIGITS),a whole number)
+$(call check,ENGINE,$(LOWER),yade or lammps)
 $(call check,BOOT,$(DIGITS),a whole number)
 $(call check,STRAIN,$(LOWER),bulk or nominal)
 $(call check,PRESETS,$(NAME_CHARS) $(comma),a comma-separated list of presets)
@@ -81,7 +84,7 @@ AUTO_PRESET := $(shell $(PYTHON) -m pipeline.paths)
 DATA_PRESET := $(if $(filter undefined,$(origin PRESET)),$(AUTO_PRESET),$(PRESET))
 SAY_PRESET := @echo "preset $(DATA_PRESET)$(if $(filter undefined,$(origin PRESET)), (the most faithful one with a reversal run; PRESET=... to choose))"
 PRESET ?= quick
-DEM_ARGS = --preset $(PRESET) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
+DEM_ARGS = --preset $(PRESET) --engine $(ENGINE) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
 	$(if $(filter 1 yes true,$(FRESH)),--fresh) $(if $(filter 1 yes true,$(ALLOW_INERTIAL)),--allow-inertial) \
 	--threads $(THREADS)
 
@@ -164,14 +167,14 @@ model-cycles: $(foreach t,$(MODEL_THETAS),$(MODEL_DIR)/theta$(t).csv) ## model c
 $(MODEL_DIR)/theta%.csv: $(VENV_STAMP) model/*.py
 	$(PY) -m model predict --theta $* --out $@
 
-dem: system venv ## one DEM run -> results/<preset>/dem/theta<THETA>.h5 (resumes from its checkpoint; see README)
+dem: system $(if $(filter lammps,$(ENGINE)),system-lammps) venv ## one DEM run -> results/<preset>/dem/theta<THETA>.h5 (resumes from its checkpoint; see README)
 	$(PY) -m pipeline.runs run --theta $(THETA) $(DEM_ARGS)
 
-sweep: system venv ## a sweep of runs (THETAS, ROTATE_ATS, SEEDS), LAUNCH=local (make -j) or slurm (a job array)
+sweep: system $(if $(filter lammps,$(ENGINE)),system-lammps) venv ## a sweep of runs (THETAS, ROTATE_ATS, SEEDS), LAUNCH=local (make -j) or slurm (a job array)
 	$(PY) -m pipeline.runs.sweep run --preset $(PRESET) --thetas "$(THETAS)" \
 	  $(if $(ROTATE_ATS),--rotate-ats "$(ROTATE_ATS)") $(if $(SEEDS),--seeds "$(SEEDS)") $(foreach s,$(SET),--set $(s)) \
 	  --launch $(LAUNCH) $(foreach s,$(SLURM),--slurm $(s)) $(if $(JOBS),--jobs $(JOBS)) \
-	  $(if $(filter 1 yes true,$(MANY)),--allow-many)
+	  $(if $(filter 1 yes true,$(MANY)),--allow-many) --engine $(ENGINE)
 
 runs: venv ## every DEM run here and committed: its folder, overrides, state (done, running, stopped, failed) and summary
 	$(PY) -m pipeline.runs.listing

@@ -1,15 +1,34 @@
 """LAMMPS as a library of Debian's python3 (``python3-lammps``; ``liblammps-dev`` provides ``liblammps.so``)."""
 
+# lammps.constants' values, here so that this module imports without LAMMPS
+LMP_STYLE_GLOBAL, LMP_STYLE_LOCAL = 0, 2
+LMP_TYPE_VECTOR, LMP_TYPE_ARRAY = 1, 2
 
-def new_lammps(ranks_comm=None):
-    """A LAMMPS instance that writes no log file and nothing to the screen; a one-line ImportError naming
-    the packages when LAMMPS is missing."""
+
+def new_lammps(ranks_comm=None, log=None):
+    """A LAMMPS instance that writes nothing to the screen and appends its log to ``log`` (none by default); a
+    one-line ImportError naming the packages when LAMMPS is missing."""
     try:
         import lammps
     except ImportError:
         raise ImportError("LAMMPS's python module not found: run `make system-lammps` "
                           "(apt-get install lammps python3-lammps liblammps-dev)") from None
     try:
-        return lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"], comm=ranks_comm)
+        lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"], comm=ranks_comm)
     except OSError as exc:
         raise ImportError(f"LAMMPS's library cannot be loaded ({exc}): apt-get install liblammps-dev") from None
+    if log:
+        lmp.command(f"log {log} append")
+    return lmp
+
+
+def version():
+    """The version of the LAMMPS library (a date, e.g. 20210929), or None without LAMMPS."""
+    try:
+        lmp = new_lammps()
+    except ImportError:
+        return None
+    try:
+        return lmp.version()
+    finally:
+        lmp.close()

@@ -1,7 +1,8 @@
 """Run the DEM experiment: ``python -m pipeline.runs run --theta 90 --preset quick [...]`` (``make dem``).
 
-Validates everything before Yade starts, runs ``dem/couette.py`` under Debian's ``yade`` in the run
-folder ``results/<preset>/dem/<name>.run/`` (resuming from its checkpoint when there is one),
+Validates everything before the engine starts, runs the scene (``dem/couette.py`` for Yade, ``dem/lammps_scene.py``
+for LAMMPS) under Debian's python3 in the run folder ``results/<folder>/dem/<name>.run/`` (resuming from its
+checkpoint when there is one),
 then writes the self-describing HDF5 file ``results/<preset>/dem/<name>.h5`` atomically.
 """
 
@@ -100,8 +101,8 @@ def prepare(spec: run_spec.DemSpec, results_dir: Path, fresh: bool) -> Path:
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     spec_file = run_dir / "spec.json"
-    if spec_file.exists() and read_spec_file(spec_file) != spec.to_dict():
-        for leftover in ("checkpoint.yade.gz", "raw.npz"):
+    if spec_file.exists() and not run_spec.same_spec(read_spec_file(spec_file), spec):
+        for leftover in ("checkpoint.yade.gz", "checkpoint.json", "raw.npz"):
             if (run_dir / leftover).exists():
                 raise SpecError(f"{run_dir} holds a {leftover} of another spec: rerun with --fresh (FRESH=1)")
         spec_file.unlink()
@@ -127,12 +128,28 @@ def _die_with_parent() -> None:
 PR_SET_PDEATHSIG = 1
 
 
-def run_yade(run_dir: Path, threads: int, label: str, lock_fd: int) -> tuple[int, str]:
+#: the module each engine's scene runs (``python3 -m dem.<module> RUN_DIR``)
+SCENE_MODULES = {"yade": "couette", "lammps": "lammps_scene"}
+
+
+def engine_error(run_dir: Path, engine: str) -> str:
+    """The engine's own last error where it stopped the scene without one of ours: LAMMPS writes its errors to
+    its log (``lammps.log``) and exits."""
+    log = run_dir / "lammps.log"
+    if engine != "lammps" or not log.exists():
+        return ""
+    errors = [line.strip() for line in log.read_text(errors="replace").splitlines() if line.startswith("ERROR")]
+    return f"error: LAMMPS: {errors[-1]}" if errors else ""
+
+
+def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int) -> tuple[int, str]:
     """Run the scene, echoing its progress lines (prefixed by ``label``) and logging them to ``run_dir/log.txt``;
     returns its exit status and its last error line. The scene inherits the run's lock (``lock_fd``) and gets
     SIGTERM if this launcher dies."""
     try:
-        command = yade.command("couette", run_dir)
+        command = yade.command(SCENE_MODULES[engine], run_dir)
+        if engine == "lammps":
+            yade.require_lammps()
     except yade.YadeMissing as exc:
         raise SpecError(str(exc)) from None
     env = yade.environment(threads)
@@ -154,10 +171,15 @@ def run_yade(run_dir: Path, threads: int, label: str, lock_fd: int) -> tuple[int
                     error = line.strip()
                 if line.strip() and not line.startswith(YADE_NOISE):
                     print(f"{label}: {line}", end="", flush=True)
-            return proc.wait(), error
+            status = proc.wait()
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
+        if status != 0 and not error:
+            error = engine_error(run_dir, engine)
+            if error:
+                print(f"{label}: {error}", flush=True)
+        return status, error
 
 
 def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = False, threads: int = 1) -> Path:
@@ -165,7 +187,7 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
     out = run_spec.output_path(spec, results_dir)
     if out.exists() and not fresh:
         stored = stored_spec(out)
-        if stored != spec.to_dict():
+        if not run_spec.same_spec(stored, spec):
             why = "its file is unreadable" if stored is None else "its values differ"
             raise SpecError(f"{out} holds a run of another spec ({why}): rerun with --fresh (FRESH=1) to replace it")
         print(f"{out} is up to date (FRESH=1 / --fresh reruns it)")
@@ -183,7 +205,7 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
         c = run_spec.cost(spec)
         print(f"{spec.label()}: {c['grains']} grains, about {c['steps'] / 1e6:.3g} M steps of shear, {c['samples']} "
               f"samples (~{c['megabytes']:.2g} MB); progress and ETA follow", flush=True)
-        status, error = run_yade(run_dir, threads, spec.label(), lock_fd)
+        status, error = run_scene(run_dir, spec.engine, threads, spec.label(), lock_fd)
         if status in (1, 2, 3):  # a crash, a damaged folder, a failed run: not resumable as it is
             reason = error or f"exit status {status} (see {run_dir / 'log.txt'})"
             io.write_json(run_dir / FAILED, {"exit_status": status, "reason": reason,
@@ -216,13 +238,14 @@ def main(argv=None) -> int:
     p.add_argument("--fresh", action="store_true", help="discard the run's checkpoint and start again")
     p.add_argument("--allow-inertial", action="store_true", help="admit an inertial number past the "
                    "quasi-static regime (I > 1e-2)")
+    p.add_argument("--engine", default="yade", help="DEM engine: yade (the reference) or lammps (the fast one)")
     p.add_argument("--threads", type=int, default=1, help="Yade threads (default 1: reproducible, resumable "
                    "bit for bit)")
     p.add_argument("--results", type=Path, default=RESULTS_DIR, help="results folder (default: results/)")
     p.add_argument("--print-path", action="store_true", help="print the HDF5 path this run writes, then exit")
     args = parser.parse_args(argv)
     spec = run_spec.resolve(args.theta, args.preset, args.rotate_at, run_spec.parse_overrides(args.set),
-                            allow_inertial=args.allow_inertial)
+                            allow_inertial=args.allow_inertial, engine=args.engine)
     if not 1 <= args.threads <= 256:
         raise SpecError(f"threads={args.threads} must be between 1 and 256")
     if args.print_path:

@@ -25,6 +25,8 @@ from ..errors import SpecError
 from ..paths import RESULTS_DIR
 
 SPEC_VERSION = 1
+#: the DEM engines, the reference first (a spec without an ``engine`` entry, as every file before it had, is Yade's)
+ENGINES = ("yade", "lammps")
 
 INTEGER_KEYS = {"n_cycles", "control_every_steps", "checkpoint_steps", "seed"}
 #: keys that must be > 0 (everything else numeric must be >= 0 or is checked specifically)
@@ -191,6 +193,7 @@ class DemSpec:
     folder: str
     overrides: dict
     values: dict
+    engine: str = ENGINES[0]
 
     def __getattr__(self, key):
         values = self.__dict__.get("values", {})
@@ -200,24 +203,33 @@ class DemSpec:
 
     def to_dict(self) -> dict:
         """``spec.json``: what the scene reads (the identity first, then every value)."""
-        return {"spec_version": SPEC_VERSION, "preset": self.preset, "overrides": dict(self.overrides),
-                "theta_deg": self.theta_deg, "rotate_at_strain": self.rotate_at_strain, "name": self.name,
-                "folder": self.folder, **self.values}
+        return {"spec_version": SPEC_VERSION, "preset": self.preset, "engine": self.engine,
+                "overrides": dict(self.overrides), "theta_deg": self.theta_deg,
+                "rotate_at_strain": self.rotate_at_strain, "name": self.name, "folder": self.folder, **self.values}
 
     def label(self) -> str:
         """``<folder>/<name>``, as logs and listings name a run."""
         return f"{self.folder}/{self.name}"
 
 
+def same_spec(stored: dict | None, spec: DemSpec) -> bool:
+    """Whether a stored ``spec.json`` (or a run file's) is ``spec``'s; one written before specs named their engine
+    is Yade's."""
+    return stored is not None and {"engine": ENGINES[0], **stored} == spec.to_dict()
+
+
 def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | None = None,
-            presets_file: Path = PRESETS_FILE, allow_inertial: bool = False) -> DemSpec:
+            presets_file: Path = PRESETS_FILE, allow_inertial: bool = False, engine: str = ENGINES[0]) -> DemSpec:
     """Validate everything and return the run's :class:`DemSpec`; raises :class:`SpecError`.
 
     ``theta_deg``: rotation of the second half-period's shear direction about e2, in degrees
     (positive turns e1 towards e3). ``rotate_at``: strain within each period at which the direction
     turns from e1 to theta (default: half the period, Fig. 1). ``allow_inertial`` admits inertial
-    numbers past the quasi-static regime.
+    numbers past the quasi-static regime. ``engine``: the DEM engine (``ENGINES``); a run of another engine than
+    Yade goes to ``<preset>-<engine>[-<hash>]/``.
     """
+    if engine not in ENGINES:
+        raise SpecError(f"engine={engine!r} is not a DEM engine here (known: {', '.join(ENGINES)})")
     theta = parse_number("theta", theta_deg)
     if not -180 <= theta <= 180:
         raise SpecError(f"theta={theta_deg!r} must lie in [-180, 180] degrees (other angles repeat these)")
@@ -244,11 +256,12 @@ def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | 
     rotate_at = parse_number("rotate_at", rotate_at)
     if not 0 < rotate_at < period:
         raise SpecError(f"rotate_at={rotate_at!r} must lie strictly between 0 and period_strain={period}")
-    folder = preset
+    folder = preset if engine == ENGINES[0] else f"{preset}-{engine}"
     if overrides:
         digest = hashlib.sha1(json.dumps(overrides, sort_keys=True).encode()).hexdigest()[:8]
-        folder = f"{preset}-{digest}"
-    return DemSpec(preset, theta, rotate_at, run_name(theta, rotate_at, default_rotate_at), folder, overrides, values)
+        folder = f"{folder}-{digest}"
+    return DemSpec(preset, theta, rotate_at, run_name(theta, rotate_at, default_rotate_at), folder, overrides, values,
+                   engine)
 
 
 def output_path(spec: DemSpec, results_dir: Path = RESULTS_DIR) -> Path:

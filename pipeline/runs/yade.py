@@ -1,7 +1,8 @@
-"""How the project starts a Yade script: Debian's python3 running ``python3 -m dem.<module>``.
+"""How the project starts a scene script: Debian's python3 running ``python3 -m dem.<module>``.
 
 The scripts import Yade as a library (``dem/yade_lib.py``), so the ``yade`` launcher's remote
-consoles never start. The interpreter is the one Debian's ``yade`` launcher names in its first line.
+consoles never start. The interpreter is the one Debian's ``yade`` launcher names in its first line; LAMMPS's
+scene runs under it too (Debian's ``python3-lammps``, and Yade's grain cloud).
 """
 
 from __future__ import annotations
@@ -30,6 +31,15 @@ def yade_python() -> str:
         first = fh.readline()
     interpreter = first[2:].strip().split()[0] if first.startswith("#!") else "/usr/bin/python3"
     return interpreter if os.path.exists(interpreter) else "/usr/bin/python3"
+
+
+def require_lammps() -> None:
+    """Raise ``YadeMissing`` with LAMMPS's one-line message where Debian's python3 cannot start LAMMPS."""
+    proc = subprocess.run([yade_python(), "-c", "from dem.lammps_lib import new_lammps; new_lammps().close()"],
+                          capture_output=True, text=True, env=environment())
+    if proc.returncode != 0:
+        raise YadeMissing((proc.stderr.strip().splitlines() or ["LAMMPS cannot start"])[-1].removeprefix(
+            "ImportError: "))
 
 
 def command(module: str, *args: str) -> list[str]:

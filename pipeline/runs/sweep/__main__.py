@@ -28,6 +28,7 @@ def main(argv=None) -> int:
     run.add_argument("--slurm", action="append", default=[], metavar="KEY=VALUE", help="override of [slurm]")
     run.add_argument("--jobs", type=int, help="runs side by side with LAUNCH=local (default: [local] jobs)")
     run.add_argument("--allow-many", action="store_true", help=f"allow more than {MAX_TASKS} runs in one sweep")
+    run.add_argument("--engine", default="yade", help="DEM engine: yade or lammps")
     run.add_argument("--results", type=Path, default=RESULTS_DIR)
     st = sub.add_parser("status", help="the state of every run of a sweep (default: the latest)")
     st.add_argument("--sweep", help="the sweep's id (results/sweeps/<id>)")
@@ -47,7 +48,8 @@ def main(argv=None) -> int:
     jobs = args.jobs if args.jobs is not None else config["local"]["jobs"]
     if jobs < 1:
         raise SpecError(f"jobs={jobs} must be >= 1")
-    sweep = plan(args.preset, args.thetas, args.rotate_ats, args.seeds, args.set, args.results, args.allow_many)
+    sweep = plan(args.preset, args.thetas, args.rotate_ats, args.seeds, args.set, args.results, args.allow_many,
+                 args.engine)
     if args.launch == "slurm":
         slurm = apply_overrides(config["slurm"], args.slurm, "slurm")
         check_slurm(slurm, sweep, config["throughput"])

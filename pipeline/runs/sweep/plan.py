@@ -20,7 +20,7 @@ from .. import spec as run_spec
 @dataclass(frozen=True)
 class Task:
     """One run of a sweep, as data: the launcher's theta, preset, rotation strain (None: half the period) and
-    overrides (``key=value``), the HDF5 file it writes and a label."""
+    overrides (``key=value``), the HDF5 file it writes, a label and the DEM engine."""
 
     theta: str
     preset: str
@@ -28,11 +28,13 @@ class Task:
     overrides: tuple[str, ...]
     output: Path
     label: str
+    engine: str = run_spec.ENGINES[0]
 
     @property
     def args(self) -> tuple[str, ...]:
         """The launcher's arguments (``python -m pipeline.runs run ...``)."""
         args = ("--theta", self.theta, "--preset", self.preset)
+        args += ("--engine", self.engine) if self.engine != run_spec.ENGINES[0] else ()
         args += ("--rotate-at", self.rotate_at) if self.rotate_at is not None else ()
         return args + tuple(x for item in self.overrides for x in ("--set", item))
 
@@ -43,11 +45,12 @@ class Task:
     def spec(self) -> run_spec.DemSpec:
         """The run spec the launcher resolves from these arguments: what ``make dem`` with them would run."""
         overrides = run_spec.parse_overrides(list(self.overrides))
-        return run_spec.resolve(self.theta, self.preset, self.rotate_at, overrides)
+        return run_spec.resolve(self.theta, self.preset, self.rotate_at, overrides, engine=self.engine)
 
     def to_dict(self) -> dict:
         return {"theta": self.theta, "preset": self.preset, "rotate_at": self.rotate_at,
-                "overrides": list(self.overrides), "output": str(self.output), "label": self.label}
+                "overrides": list(self.overrides), "output": str(self.output), "label": self.label,
+                "engine": self.engine}
 
 
 @dataclass(frozen=True)
@@ -80,7 +83,8 @@ MAX_TASKS = 200
 
 
 def plan(preset: str, thetas: str, rotate_ats: str | None = None, seeds: str | None = None,
-         overrides: list[str] = (), results: Path = RESULTS_DIR, allow_many: bool = False) -> Sweep:
+         overrides: list[str] = (), results: Path = RESULTS_DIR, allow_many: bool = False,
+         engine: str = run_spec.ENGINES[0]) -> Sweep:
     """Every run of the sweep, each validated as ``make dem`` would validate it."""
     theta_list = _words(thetas)
     if not theta_list:
@@ -96,7 +100,7 @@ def plan(preset: str, thetas: str, rotate_ats: str | None = None, seeds: str | N
                 items = list(overrides)
                 if seed is not None and run_spec.parse_number("seed", seed) != defaults.get("seed"):
                     items.append(f"seed={seed}")
-                task = Task(theta, preset, rotate_at, tuple(items), Path(), "")
+                task = Task(theta, preset, rotate_at, tuple(items), Path(), "", engine)
                 spec = task.spec()
                 output = run_spec.output_path(spec, results)
                 tasks[output] = dataclasses.replace(task, output=output, label=spec.label())
@@ -124,7 +128,8 @@ def read_plan(results: Path = RESULTS_DIR, ident: str | None = None) -> Sweep:
         raise PipelineError(f"sweep {ident!r} has no readable plan ({path})") from None
     try:
         tasks = tuple(Task(str(t["theta"]), check_folder_name(t["preset"]), t["rotate_at"], tuple(t["overrides"]),
-                           Path(t["output"]), str(t["label"])) for t in data["tasks"])
+                           Path(t["output"]), str(t["label"]), str(t.get("engine", run_spec.ENGINES[0])))
+                      for t in data["tasks"])
         sweep = Sweep(str(data["id"]), path.parent, check_folder_name(data["preset"]), tasks, Path(data["results"]))
     except (KeyError, TypeError, AttributeError):
         raise PipelineError(f"sweep {ident!r}: {path} is not a plan of this version (make sweep again)") from None

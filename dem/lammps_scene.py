@@ -1,0 +1,326 @@
+"""LAMMPS's adapter of the Couette scene: the cell of ``dem/cell.py`` with the contact law of
+``dem/lammps_contact.py``, driven by ``dem/driver.py`` exactly as Yade's (``dem/couette.py``).
+
+Run by ``python -m pipeline.runs`` (``make dem ENGINE=lammps``) as ``python3 -m dem.lammps_scene RUN_DIR`` (Debian's
+python3 with ``python3-lammps``; LAMMPS's log goes to RUN_DIR/lammps.log). The grains, walls, time step, controller,
+protocol, sampling and measurement are the Yade scene's; what differs is how LAMMPS holds them:
+
+- the walls are two groups of spheres moved rigidly by ``fix move`` at velocities the controller sets (string
+  variables); wall-wall pairs are excluded from the neighbour lists; a wall's position is its spheres' mean
+  (unwrapped), as a Yade clump's;
+- the controller is ``fix python/invoke`` every ``control_every_steps`` steps at the end of the step (Yade's
+  PyRunner comes after its integrator too), and ``fix halt`` ends a run when the driver stops it;
+- contacts come from ``compute pair/local`` (neighbour pairs, kept where the spheres overlap): the normal force
+  ``fx fy fz`` and tangential force ``p1 p2 p3`` on atom i, and ``p10 p11 p12`` = x_i - x_j.
+
+Checkpoints: ``restart_<iteration>.lmp`` (``write_restart``: atoms, velocities, the contacts' tangential history)
+named by ``checkpoint.json`` (the spec, the driver's state, the restart's size and SHA-256), replaced atomically.
+Every run, interrupted or not, continues from each checkpoint as freshly read into a new LAMMPS instance, so a
+resumed run is bit-identical to an uninterrupted one. Exit statuses: ``dem/driver.py``.
+"""
+
+import hashlib
+import json
+import math
+import os
+import sys
+
+import numpy as np
+
+from dem import driver, protocol
+from dem.cell import ROUGH_HEIGHT, WALL_RADIUS, Y_BOTTOM, initial_cloud, wall_centres
+from dem.contact import contact_constants
+from dem.lammps_contact import pair_commands
+from dem.lammps_lib import LMP_STYLE_GLOBAL, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY, LMP_TYPE_VECTOR, new_lammps
+from dem.rawfile import sync
+
+CHECKPOINT = "checkpoint.json"
+CONTINUE = "--continue"  # argument of a run going on after its own checkpoint (``Scene.reload``)
+CONTROL = "dem_lammps_control"  # the function fix python/invoke calls, in __main__
+SKIN = 0.3  # neighbour skin (d)
+
+
+def cell_commands(width, box_height):
+    return ["units lj", "atom_style sphere", "atom_modify map array sort 0 0.0", "boundary p p p", "newton on",
+            f"region box block 0 {width} 0 {box_height!r} 0 {width}", "create_box 2 box"]
+
+
+def settings(spec, dt, restarted):
+    """Everything a restart file does not keep: neighbours, integration, the walls' motion, the computes the driver
+    reads, the controller and the halt; and the contact law, without ``pair_style`` when ``restarted`` (a restart
+    file keeps the pair style with its contacts' history, which a new ``pair_style`` would drop; its coefficients
+    are given again, since this LAMMPS restores the pair style with a zero cut-off)."""
+    every = int(spec["control_every_steps"])
+    law = pair_commands(spec)
+    commands = ([c for c in law if not c.startswith("pair_style")] if restarted else law) + [
+        f"neighbor {SKIN} bin", "neigh_modify delay 0 every 1 check yes exclude type 1 1", f"timestep {dt!r}",
+        "fix integrate grains nve/sphere",
+    ]
+    for wall in ("t", "b"):
+        for axis in "xyz":
+            commands += [f"variable {wall}v{axis} string 0.0", f"variable {wall}v{axis}e equal v_{wall}v{axis}"]
+    commands += [
+        "variable halt string 0", "variable halte equal v_halt",
+        "fix move_top top move variable NULL NULL NULL v_tvxe v_tvye v_tvze",
+        "fix move_bottom bottom move variable NULL NULL NULL v_bvxe v_bvye v_bvze",
+        "compute unwrapped all property/atom xu yu zu",
+        "compute top_force top reduce sum fx fy fz", "compute bottom_force bottom reduce sum fx fy fz",
+        "compute top_position top reduce ave c_unwrapped[1] c_unwrapped[2] c_unwrapped[3]",
+        "compute bottom_position bottom reduce ave c_unwrapped[1] c_unwrapped[2] c_unwrapped[3]",
+        "compute top_velocity top reduce ave vx vy vz", "compute bottom_velocity bottom reduce ave vx vy vz",
+        "compute pairs all pair/local dist fx fy fz p1 p2 p3 p10 p11 p12",
+        "compute pair_atoms all property/local patom1 patom2",
+        f"fix control all python/invoke {every} end_of_step {CONTROL}",
+        f"fix halt all halt {every} v_halte != 0 error continue message no",
+        "thermo 0",
+    ]
+    return commands
+
+
+def build(lmp, spec):
+    """The cell, walls and grains in ``lmp``; returns the driver's initial state."""
+    kn, kt, cn, ct = contact_constants(spec)
+    width = int(spec["width_d"])
+    n_grains = protocol.grain_count(spec)
+    cloud, y_top = initial_cloud(spec, n_grains, width, Y_BOTTOM)
+    bottom, top = wall_centres(Y_BOTTOM, +1, width), wall_centres(y_top, -1, width)
+    for command in cell_commands(width, 2 * (y_top + 2.0)):
+        lmp.command(command)
+    for x, y, z in bottom + top:
+        lmp.command(f"create_atoms 1 single {x!r} {y!r} {z!r} units box remap yes")
+    for (x, y, z), _ in cloud:
+        lmp.command(f"create_atoms 2 single {x!r} {y!r} {z!r} units box remap yes")
+    n_walls = len(bottom) + len(top)
+    lmp.command(f"set type 1 diameter {2 * WALL_RADIUS!r}")
+    for k, (_, r) in enumerate(cloud):
+        lmp.command(f"set atom {n_walls + k + 1} diameter {2 * r!r}")
+    lmp.command("set atom * density 1.0")
+    lmp.command(f"group bottom id 1:{len(bottom)}")
+    lmp.command(f"group top id {len(bottom) + 1}:{n_walls}")
+    lmp.command("group grains type 2")
+    m_min = min(math.pi / 6 * (2 * r) ** 3 for _, r in cloud)
+    centre = [np.mean(np.array(wall)[:, 1]) for wall in (bottom, top)]
+    return driver.initial_state(
+        spec, first_grain=n_walls + 1, n_grains=n_grains, n_wall_spheres=n_walls, dt=spec["dt_safety"]
+        * math.sqrt(m_min / kn), bottom_inner_offset=Y_BOTTOM + ROUGH_HEIGHT - centre[0],
+        top_inner_offset=y_top - ROUGH_HEIGHT - centre[1], kn=kn, kt=kt, cn=cn, ct=ct)
+
+
+class Run(driver.Protocol):
+    """The driver's protocol on a LAMMPS instance."""
+
+    def __init__(self, scene, lmp, state):
+        self.lmp = lmp
+        tag = lmp.numpy.extract_atom("id")
+        order = np.argsort(tag)
+        grains = order[tag[order] >= state["first_grain"]]
+        self.radius = lmp.numpy.extract_atom("radius")[grains].copy()
+        self.mass = lmp.numpy.extract_atom("rmass")[grains].copy()
+        super().__init__(scene.run_dir, scene.spec, state)
+        # the walls go on at the velocities they had (a restart file keeps the atoms', not the variables')
+        velocity = lmp.numpy.extract_atom("v")[order]
+        first_top = state["n_wall_spheres"] // 2
+        self.move_walls(velocity[first_top], velocity[0])
+
+    def iteration(self):
+        return int(self.lmp.extract_global("ntimestep"))
+
+    def time(self):
+        return self.iteration() * self.state["dt"]
+
+    def dt(self):
+        return self.state["dt"]
+
+    def vector(self, compute):
+        return self.lmp.numpy.extract_compute(compute, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR).tolist()
+
+    def wall_heights(self):
+        return self.vector("bottom_position")[1], self.vector("top_position")[1]
+
+    def wall_force(self):
+        return self.vector("top_force")
+
+    def move_walls(self, top, bottom):
+        for wall, v in (("t", top), ("b", bottom)):
+            if v is not None:
+                for axis, value in zip("xyz", v, strict=True):
+                    self.lmp.set_variable(f"{wall}v{axis}", repr(float(value)))
+
+    def wall_record(self):
+        return {f"{wall}_{what}": self.vector(f"{wall}_{what}") for what in ("position", "velocity", "force")
+                for wall in ("top", "bottom")}
+
+    def gather(self):
+        """Contact and grain arrays for ``dem.measure``: the overlapping pairs, normal from atom i to atom j, the
+        force on j, the contact point in the middle of the overlap (Yade's ``ScGeom``)."""
+        lmp = self.lmp
+        pairs = lmp.numpy.extract_compute("pairs", LMP_STYLE_LOCAL, LMP_TYPE_ARRAY)
+        atoms = lmp.numpy.extract_compute("pair_atoms", LMP_STYLE_LOCAL, LMP_TYPE_ARRAY)
+        pairs = np.zeros((0, 10)) if pairs is None else np.asarray(pairs).reshape(-1, 10)
+        atoms = np.zeros((0, 2), dtype=np.int64) if atoms is None else np.asarray(atoms).reshape(-1, 2).astype(np.int64)
+        tag = lmp.numpy.extract_atom("id")
+        order = np.argsort(tag)
+        x = lmp.numpy.extract_atom("x")[order]
+        v = lmp.numpy.extract_atom("v")[order]
+        radius = lmp.numpy.extract_atom("radius")[order]
+        i, j = atoms[:, 0], atoms[:, 1]
+        dist = pairs[:, 0]
+        overlap = radius[i - 1] + radius[j - 1] - dist
+        touching = overlap > 0
+        pairs, i, j, dist, overlap = pairs[touching], i[touching], j[touching], dist[touching], overlap[touching]
+        normal = -pairs[:, 7:10] / dist[:, None]
+        point = x[i - 1] + (radius[i - 1] - overlap / 2)[:, None] * normal
+        grains = slice(self.state["first_grain"] - 1, None)
+        contacts = {"id1": i, "id2": j, "normal": normal, "point": point, "force": -(pairs[:, 1:4] + pairs[:, 4:7]),
+                    "branch": dist}
+        return contacts, {"id": tag[order][grains].astype(np.int64), "pos": x[grains], "vel": v[grains],
+                          "radius": self.radius, "mass": self.mass}
+
+    def stop_after_this_step(self):
+        """``fix halt`` (after the controller in the same step) ends the run command once this step is done."""
+        self.lmp.set_variable("halt", "1")
+
+
+class Scene:
+    """The LAMMPS scene of one run folder (``driver.run_scene``'s scene)."""
+
+    def __init__(self, run_dir, continued=False):
+        self.run_dir = run_dir
+        self.continued = continued
+        with open(os.path.join(run_dir, "spec.json")) as fh:
+            self.spec = json.load(fh)
+        self.lmp = None
+        self.run = None
+        self.stop = {"count": 0}
+        import __main__
+
+        setattr(__main__, CONTROL, self.control)
+
+    def control(self, _ptr=None):
+        """``fix python/invoke``'s entry point; an exception stops the run with its message."""
+        try:
+            if self.stop["count"] >= 2:  # a second signal: stop now
+                self.run.stop_after_this_step()
+            self.run.control()
+        except Exception as exc:  # noqa: BLE001 - reported to the user and turned into exit status 3
+            self.run.fail(f"{type(exc).__name__}: {exc} (in the controller)")
+
+    def new_lammps(self):
+        self.lmp = new_lammps(log=os.path.join(self.run_dir, "lammps.log"))
+        return self.lmp
+
+    def attach(self, state, restarted):
+        lmp = self.lmp
+        for command in settings(self.spec, state["dt"], restarted):
+            lmp.command(command)
+        self.run = Run(self, lmp, state)
+        return self.run
+
+    def start(self):
+        """Resume from the checkpoint (refusing one that is damaged or of another spec), else build."""
+        if os.path.exists(os.path.join(self.run_dir, CHECKPOINT)):
+            run = self.read_checkpoint()
+            if not self.continued:
+                print(f"resumed from checkpoint at iteration {run.iteration()}", flush=True)
+            return run
+        state = build(self.new_lammps(), self.spec)
+        print(f"built: {state['n_grains']} grains, dt = {state['dt']:.4g}", flush=True)
+        return self.attach(state, restarted=False)
+
+    def advance(self, run, stop):
+        """Run to the next checkpoint iteration, or until the driver stops the run (``fix halt``)."""
+        self.stop = stop
+        self.lmp.command(f"run {run.state['next_checkpoint'] - run.iteration()}")
+
+    def checkpoint_bytes(self):
+        return sum(os.path.getsize(os.path.join(self.run_dir, name)) for name in os.listdir(self.run_dir)
+                   if name.startswith("restart_"))
+
+    def save(self, run):
+        """``write_restart`` to a new file, synced, then ``checkpoint.json`` naming it (atomically); the previous
+        restart file goes last."""
+        name = f"restart_{run.iteration():012d}.lmp"
+        path = os.path.join(self.run_dir, name)
+        self.lmp.command("run 0 post no")  # atoms back in the box, neighbour lists and contact history current
+        self.lmp.command(f"write_restart {path} noinit")
+        sync(path)
+        previous = self.checkpoint_record().get("restart") if os.path.exists(
+            os.path.join(self.run_dir, CHECKPOINT)) else None
+        record = {"spec": self.spec, "state": run.state, "restart": name, "bytes": os.path.getsize(path),
+                  "sha256": file_sha256(path)}
+        tmp = os.path.join(self.run_dir, f"{CHECKPOINT}.tmp{os.getpid()}")
+        try:
+            with open(tmp, "w") as fh:
+                json.dump(record, fh)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, os.path.join(self.run_dir, CHECKPOINT))
+            sync(self.run_dir)
+        finally:
+            if os.path.exists(tmp):
+                os.remove(tmp)
+        if previous and previous != name and os.path.exists(os.path.join(self.run_dir, previous)):
+            os.remove(os.path.join(self.run_dir, previous))
+
+    def checkpoint_record(self):
+        path = os.path.join(self.run_dir, CHECKPOINT)
+        try:
+            with open(path) as fh:
+                record = json.load(fh)
+            record["state"], record["restart"]  # noqa: B018 - the keys a checkpoint must have
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            driver.damaged(f"checkpoint {path} cannot be read ({type(exc).__name__})")
+        return record
+
+    def reload(self):
+        """Go on from the checkpoint just written in a new process (``exec``: the same process id, run lock and
+        output), which reads it as a resumed run does. A LAMMPS instance of this build that reads a restart file
+        after another instance ran in the same process can fail in its next run's set-up; a process that holds
+        one instance at a time does not. When the driver is about to stop, the run stays as it is."""
+        if self.stop["count"]:
+            return self.run
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os.execv(sys.executable, [sys.executable, "-m", "dem.lammps_scene", self.run_dir, CONTINUE])
+
+    def read_checkpoint(self):
+        """A LAMMPS instance from the checkpoint, checked first: its spec, the restart file's size and hash."""
+        record = self.checkpoint_record()
+        if record.get("spec") != self.spec:
+            driver.damaged(f"checkpoint {os.path.join(self.run_dir, CHECKPOINT)} belongs to another spec")
+        restart = os.path.join(self.run_dir, record["restart"])
+        if (not os.path.isfile(restart) or os.path.getsize(restart) != record.get("bytes")
+                or file_sha256(restart) != record.get("sha256")):
+            driver.damaged(f"restart file {restart} is missing or damaged")
+        lmp = self.new_lammps()
+        lmp.command("atom_modify map array sort 0 0.0")
+        lmp.command(f"read_restart {restart}")
+        try:
+            return self.attach(record["state"], restarted=True)
+        except (OSError, ValueError, KeyError, EOFError) as exc:
+            driver.damaged(f"the samples of the checkpoint cannot be read ({type(exc).__name__})")
+
+    def meta(self):
+        from dem.yade_lib import VERSION as YADE_VERSION  # the grains' cloud is Yade's
+
+        return {"engine": "lammps", "engine_version": self.lmp.version(), "yade_version": YADE_VERSION,
+                "n_wall_spheres": self.run.state["n_wall_spheres"]}
+
+
+def file_sha256(path):
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def main(run_dir, continued=False):
+    last = sum(os.path.getsize(os.path.join(run_dir, n)) for n in os.listdir(run_dir) if n.startswith("restart_"))
+    driver.main(run_dir, lambda path: Scene(path, continued), last)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) not in (2, 3) or sys.argv[2:] not in ([], [CONTINUE]):
+        sys.exit("usage: python3 -m dem.lammps_scene RUN_DIR")
+    main(sys.argv[1], continued=sys.argv[2:] == [CONTINUE])
