@@ -89,7 +89,8 @@ DEM_ARGS = --preset $(PRESET) --engine $(ENGINE) $(if $(ROTATE_AT),--rotate-at $
 	--threads $(THREADS)
 
 RUN_FILES = $(wildcard $(foreach r,results data/reference,$(r)/$(1)/dem/*.h5 $(r)/$(1)-*/dem/*.h5))
-FIT_DIR := results/$(DATA_PRESET)/fit
+DATA_SET := $(DATA_PRESET)$(if $(filter-out yade,$(ENGINE)),-$(ENGINE))
+FIT_DIR := results/$(DATA_SET)/fit
 COMPARE_DIR := results/$(DATA_PRESET)/compare
 # every writer renames its outputs into place when they are complete: an interrupted step keeps the previous set,
 # which Make must not delete either
@@ -202,7 +203,7 @@ $(FIT_DIR)/options.txt: FORCE
 $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(call RUN_FILES,$(DATA_PRESET)) $(VENV_STAMP) \
 		$(DATASET_CODE) $(wildcard pipeline/calibration/*.py) $(FIT_DIR)/options.txt
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) $(FIT_OPTIONS)
+	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --engine $(ENGINE) $(FIT_OPTIONS)
 
 fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 refits, minutes) -> results/<P>/fit-bootstrap/
 	$(SAY_PRESET)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import load
-from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
+from ..dataset.lookup import engine_folder, other_angles, preset_runs, reversal_seeds
 from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
@@ -24,6 +24,8 @@ from .text import print_report
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration", description=__doc__.splitlines()[0])
     parser.add_argument("--preset", help="preset whose runs to fit (default: the most faithful one with runs)")
+    parser.add_argument("--engine", default="yade", help="the DEM engine whose runs to fit: yade (default) or lammps "
+                        "(results/<preset>-lammps/fit)")
     parser.add_argument("--runs", nargs="*", type=Path, help="reversal DEM files to fit instead of the preset's")
     parser.add_argument("--window", type=float, default=0.05, help="Savitzky-Golay window in strain (default 0.05)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<preset>/fit)")
@@ -51,9 +53,12 @@ def main(argv=None) -> int:
         preset = args.preset or default_preset()
         if args.preset is None:
             print(f"preset: {preset} (the most faithful one with a reversal run; --preset / PRESET= to choose)")
-        out = args.out or preset_output(preset, "fit")
-        every = preset_runs(preset)
-        reversals, cross = reversal_seeds(preset), tuple(other_angles(every))
+        out = args.out or preset_output(engine_folder(preset, args.engine), "fit")
+        every = preset_runs(preset, engine=args.engine)
+        reversals, cross = reversal_seeds(preset, engine=args.engine), tuple(other_angles(every))
+        if not reversals:
+            raise CalibrationError(f"no {args.engine} reversal run of preset {preset}: run `make dem THETA=180 "
+                                   f"PRESET={preset} ENGINE={args.engine}` first")
         left_out = tuple(r for r in every if not r.default_rotation)
     print(f"definitions: {settings.definitions.label()}")
     report = fit(reversals, out, cross, left_out, **vars(settings))

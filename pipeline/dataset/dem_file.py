@@ -130,6 +130,11 @@ class DemRun:
         return self.spec["theta_deg"]
 
     @property
+    def engine(self) -> str:
+        """The DEM engine that ran it (a file from before specs named their engine is Yade's)."""
+        return self.spec.get("engine", "yade")
+
+    @property
     def is_reversal(self) -> bool:
         """The second half period turns the shear direction by 180 degrees (the paper's reversal)."""
         return math.isclose(abs(self.spec["theta_deg"]), 180.0, abs_tol=1e-9)

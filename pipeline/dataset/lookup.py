@@ -6,6 +6,7 @@ from pathlib import Path
 
 from ..errors import PipelineError
 from ..paths import DATA_ROOTS, preset_files
+from ..runs.spec import ENGINES
 from .dem_file import DemRun, load
 
 
@@ -19,16 +20,27 @@ def load_of_preset(path: Path, preset: str) -> DemRun:
     return run
 
 
-def preset_runs(preset: str, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
-    """The runs of ``preset`` as it is (``<preset>/dem/*.h5``), every angle and rotation."""
-    return [load_of_preset(p, preset) for p in preset_files(preset, roots, variants=False)]
+def engine_folder(preset: str, engine: str = ENGINES[0]) -> str:
+    """The folder of a preset's runs in ``engine`` (``<preset>``, or ``<preset>-<engine>`` for another than Yade)."""
+    if engine not in ENGINES:
+        raise PipelineError(f"engine={engine!r} is not a DEM engine here (known: {', '.join(ENGINES)})")
+    return preset if engine == ENGINES[0] else f"{preset}-{engine}"
 
 
-def reversal_seeds(preset: str, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
-    """The preset's reversals (theta = 180, default rotation): the preset's own and every
-    ``<preset>-<hash>`` variant whose only override is the seed."""
-    runs = [load_of_preset(p, preset) for p in preset_files(preset, roots) if p.name == "theta180.h5"]
-    return [r for r in runs if r.is_reversal and r.default_rotation and set(r.overrides) <= {"seed"}]
+def preset_runs(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, engine: str = ENGINES[0]) -> list[DemRun]:
+    """The runs of ``preset`` as it is (``<preset>/dem/*.h5``; another engine's in ``<preset>-<engine>/``), every
+    angle and rotation."""
+    runs = [load_of_preset(p, preset) for p in preset_files(engine_folder(preset, engine), roots, variants=False)]
+    return [r for r in runs if r.engine == engine]
+
+
+def reversal_seeds(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, engine: str = ENGINES[0]) -> list[DemRun]:
+    """The preset's reversals in ``engine`` (theta = 180, default rotation): the preset's own and every
+    ``<folder>-<hash>`` variant whose only override is the seed."""
+    runs = [load_of_preset(p, preset) for p in preset_files(engine_folder(preset, engine), roots)
+            if p.name == "theta180.h5"]
+    return [r for r in runs if r.engine == engine and r.is_reversal and r.default_rotation
+            and set(r.overrides) <= {"seed"}]
 
 
 def other_angles(runs: list[DemRun]) -> list[DemRun]:
@@ -36,6 +48,6 @@ def other_angles(runs: list[DemRun]) -> list[DemRun]:
     return [r for r in runs if not r.is_reversal and r.default_rotation]
 
 
-def fit_runs(preset: str, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
+def fit_runs(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, engine: str = ENGINES[0]) -> list[DemRun]:
     """What the global fit uses: the preset's reversal seeds, then its other angles at the default rotation."""
-    return [*reversal_seeds(preset, roots), *other_angles(preset_runs(preset, roots))]
+    return [*reversal_seeds(preset, roots, engine), *other_angles(preset_runs(preset, roots, engine))]

@@ -79,7 +79,8 @@ def jump_cycle(theta_deg: float, params: model.Params, jump: float, iterations: 
 def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles: int = 2, noise: float = 0.0,
                   seed: int = 0, gamma_dot: float = 1e-3, bulk_ratio: float = 1.0,
                   overrides: dict | None = None, correlation_strain: float = 0.0,
-                  a_tau_correlation: float = 0.0, jump: float = 0.0, preset: str = "synthetic") -> tuple[dict, dict]:
+                  a_tau_correlation: float = 0.0, jump: float = 0.0, preset: str = "synthetic",
+                  engine: str = "yade") -> tuple[dict, dict]:
     """Raw samples and metadata of a synthetic run (rotation at half the period, Fig. 1) of ``preset``; with
     ``jump`` > 0 the fabric loses that fraction of itself at each change of direction (``jump_cycle``)."""
     params = params or model.Params()
@@ -117,8 +118,8 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
         "profile_fabric": A[:, None], "profile_contacts": np.full((n, 1), 1000),
     }
     check_row(raw)
-    spec = {"preset": preset, "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2, "seed": seed,
-            "width_d": WIDTH,
+    spec = {"preset": preset, "engine": engine, "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2,
+            "seed": seed, "width_d": WIDTH,
             "overrides": dict(overrides or {}), "period_strain": PERIOD, "sample_strain": STEP, "n_cycles": n_cycles,
             "pre_strain": PRE, "inertial_number": gamma_dot, "noise": noise, "model_params": params.to_dict()}
     meta = {"spec": spec, "yade_version": "none (synthetic, made by the model)", "dt": 1.0, "kn": 0.0, "kt": 0.0,

@@ -1,10 +1,16 @@
-"""Debian's LAMMPS (python3-lammps, in Debian's python3): the contact law matched to Yade's."""
+"""Debian's LAMMPS (python3-lammps, in Debian's python3): the contact law matched to Yade's, and the Couette scene
+behind the same driver, spec and files as Yade's."""
 
 import json
+import signal
 import subprocess
+import sys
 
+import numpy as np
 import pytest
 
+from pipeline.dataset.dem_file import load
+from pipeline.paths import ROOT
 from pipeline.runs import spec as run_spec
 from pipeline.runs import yade as yade_command
 from tests.helpers import assert_contact_law
@@ -22,3 +28,99 @@ def test_lammps_collisions_match_the_contact_law_as_yade_does(tmp_path):
                           env=yade_command.environment())
     assert proc.returncode == 0, "LAMMPS is missing? `make system-lammps` installs it\n" + proc.stderr
     assert_contact_law(json.loads((tmp_path / "out.json").read_text()), spec)
+
+
+def launcher(*args, results):
+    return [sys.executable, "-m", "pipeline.runs", "run", *args, "--results", str(results)]
+
+
+def run_launcher(*args, results):
+    return subprocess.run(launcher(*args, results=results), cwd=ROOT, capture_output=True, text=True)
+
+
+TINY = ("--theta", "180", "--preset", "tiny", "--set", "seed=3")
+
+
+def tiny_spec(engine):
+    return run_spec.resolve(180, "tiny", overrides={"seed": 3.0}, engine=engine)
+
+
+@pytest.fixture(scope="module")
+def both_engines(tmp_path_factory):
+    """The same tiny spec run by each engine, uninterrupted."""
+    results = tmp_path_factory.mktemp("engines")
+    for engine in run_spec.ENGINES:
+        proc = run_launcher(*TINY, "--engine", engine, results=results)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+    return results, {engine: load(run_spec.output_path(tiny_spec(engine), results)) for engine in run_spec.ENGINES}
+
+
+def test_both_engines_run_one_spec_into_files_the_pipeline_reads_alike(both_engines):
+    """Same samples, same fields and units, each file naming its engine; the same grains (one cloud generator), and
+    both hold the wall stress at p through the run."""
+    _, runs = both_engines
+    yade, lammps = runs["yade"], runs["lammps"]
+    assert (yade.engine, lammps.engine) == ("yade", "lammps")
+    assert lammps.provenance["engine"] == "lammps" and str(lammps.provenance["engine_version"]).isdigit()
+    assert yade.units == lammps.units and set(yade.raw_all) == set(lammps.raw_all)
+    for key in yade.raw_all:  # profiles: bins of about profile_bin_d across each run's own gap
+        same = 1 if key.startswith("profile") else None
+        assert yade.raw_all[key].shape[:same] == lammps.raw_all[key].shape[:same], key
+    np.testing.assert_allclose(yade.raw_all["strain"], lammps.raw_all["strain"], atol=1e-3)
+    np.testing.assert_array_equal(yade.grain_diameter, lammps.grain_diameter)
+    for run in (yade, lammps):
+        assert np.all(np.isfinite(run.raw["stress_contact"])) and np.all(np.isfinite(run.raw["fabric"]))
+        assert np.all(np.abs(run.raw["wall_stress_error_mean"]) < run.spec["stress_alarm"])
+        assert 0.5 < np.mean(run.raw["packing_fraction"]) < 0.7
+        # the Love-Weber pressure of the central region against the wall's p = 1 (a 4d cell: loose agreement)
+        p = -np.trace(run.raw["stress_contact"], axis1=1, axis2=2) / 3
+        assert 0.5 < np.median(p) < 1.5
+
+
+def test_an_interrupted_lammps_run_resumes_bit_identical_to_an_uninterrupted_one(both_engines, tmp_path):
+    """SIGINT stops the scene at its next checkpoint (exit 130); the same command resumes it; every sample equals
+    the uninterrupted run's, bit for bit (each run reads each of its checkpoints back in a new process)."""
+    results, runs = both_engines
+    proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=tmp_path), cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    for line in proc.stdout:
+        if "strain" in line:
+            proc.send_signal(signal.SIGINT)
+            break
+    rest = proc.communicate()[0]
+    assert proc.returncode == 130, rest
+    assert "rerun the same command to resume" in rest
+    run_dir = run_spec.work_dir(tiny_spec("lammps"), tmp_path)
+    assert (run_dir / "checkpoint.json").exists() and list(run_dir.glob("restart_*.lmp"))
+    again = run_launcher(*TINY, "--engine", "lammps", results=tmp_path)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert "resumed from checkpoint" in again.stdout
+    resumed = load(run_spec.output_path(tiny_spec("lammps"), tmp_path))
+    for key, value in runs["lammps"].raw_all.items():
+        np.testing.assert_array_equal(resumed.raw_all[key], value, err_msg=key)
+    assert not list(run_dir.glob("restart_*")) and not (run_dir / "checkpoint.json").exists()
+
+
+@pytest.mark.parametrize("damage, fragment", [
+    ("restart-truncated", "is missing or damaged"),
+    ("record-junk", "checkpoint.json cannot be read"),
+])
+def test_a_damaged_lammps_checkpoint_is_a_one_line_error_that_suggests_fresh(tmp_path, damage, fragment):
+    proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=tmp_path), cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    for line in proc.stdout:
+        if "strain" in line:
+            proc.send_signal(signal.SIGINT)
+            break
+    proc.communicate()
+    run_dir = run_spec.work_dir(tiny_spec("lammps"), tmp_path)
+    if damage == "restart-truncated":
+        restart = next(run_dir.glob("restart_*.lmp"))
+        restart.write_bytes(restart.read_bytes()[:1000])
+    else:
+        (run_dir / "checkpoint.json").write_text("{junk")
+    again = run_launcher(*TINY, "--engine", "lammps", results=tmp_path)
+    text = again.stdout + again.stderr
+    errors = [line for line in text.splitlines() if "error:" in line]
+    assert again.returncode == 2 and "Traceback" not in text
+    assert len(errors) == 1 and fragment in errors[0] and "FRESH=1" in errors[0], text

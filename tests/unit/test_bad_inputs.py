@@ -236,3 +236,16 @@ def test_python_m_model_writes_only_regular_files_through_unique_temporaries(tmp
         t.join()
     assert len((tmp_path / "out.csv").read_text().splitlines()) == len(table) + 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fifo", "out.csv"]
+
+
+def test_an_engine_that_is_not_installed_is_one_line_naming_its_packages():
+    """The project's venv has no LAMMPS (Debian's python3 does, after ``make system-lammps``): asking it for one is
+    the one-line message a user without LAMMPS sees."""
+    import importlib.util
+
+    from dem.lammps_lib import new_lammps
+
+    assert importlib.util.find_spec("lammps") is None, "the venv is meant to be without LAMMPS"
+    with pytest.raises(ImportError) as err:
+        new_lammps()
+    assert "make system-lammps" in str(err.value) and "\n" not in str(err.value)

@@ -14,7 +14,7 @@ from pipeline.calibration.stepwise import dilatancy_estimate
 from pipeline.dataset import lookup
 from pipeline.dataset.cycle import Cycle
 from pipeline.dataset.derived import Definitions, cycle_D_dev
-from pipeline.errors import CalibrationError
+from pipeline.errors import CalibrationError, PipelineError
 from pipeline.io import read_params
 from tests.helpers import synthetic_file, synthetic_run
 
@@ -110,6 +110,27 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
     (results / "p/dem/.theta090.tmp123.h5").write_bytes(b"partial")
     assert [r.path for r in lookup.preset_runs("p", roots)] == [reference / "p/dem/theta090.h5",
                                                                results / "p/dem/theta180.h5"]
+
+
+def test_each_engines_runs_are_found_apart():
+    """A LAMMPS run sits in ``<preset>-lammps[-<hash>]/``, which the Yade lookup's ``<preset>-*`` variants also
+    match: each engine's lookup keeps its own runs only."""
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        for folder, engine, kw in (("p", "yade", {}), ("p-1a2b", "yade", {"overrides": {"seed": 2}}),
+                                   ("p-lammps", "lammps", {}), ("p-lammps-3c4d", "lammps", {"overrides": {"seed": 2}})):
+            (root / folder / "dem").mkdir(parents=True)
+            synthetic_file(root / folder / "dem", name="theta180", n_cycles=1, preset="p", engine=engine, **kw)
+        yade = lookup.reversal_seeds("p", (root,))
+        lammps = lookup.reversal_seeds("p", (root,), engine="lammps")
+        assert [r.path.parts[-3] for r in yade] == ["p", "p-1a2b"] and {r.engine for r in yade} == {"yade"}
+        assert [r.path.parts[-3] for r in lammps] == ["p-lammps", "p-lammps-3c4d"]
+        assert [r.path.parts[-3] for r in lookup.preset_runs("p", (root,), engine="lammps")] == ["p-lammps"]
+        with pytest.raises(PipelineError, match="engine='foo' is not a DEM engine"):
+            lookup.reversal_seeds("p", (root,), engine="foo")
 
 
 @pytest.mark.parametrize("damage, message", [

@@ -80,3 +80,16 @@ def test_a_runs_cost_is_known_from_its_spec():
     assert cost["samples"] == len(sample_strains(spec.to_dict())) and cost["grains"] > 5000
     faster = run_spec.cost(run_spec.resolve(180, "paper", overrides={"inertial_number": 1e-3}))
     assert faster["steps"] == pytest.approx(cost["steps"] * 2.9e-4 / 1e-3)
+
+
+def test_the_engine_names_the_folder_and_a_spec_without_one_is_yades():
+    yade, lammps = resolve(90, "reduced"), resolve(90, "reduced", engine="lammps")
+    assert (yade.folder, lammps.folder) == ("reduced", "reduced-lammps")
+    assert resolve(90, "reduced", overrides={"seed": 2.0}, engine="lammps").folder.startswith("reduced-lammps-")
+    assert lammps.to_dict()["engine"] == "lammps" and lammps.to_dict()["seed"] == yade.to_dict()["seed"]
+    older = {k: v for k, v in yade.to_dict().items() if k != "engine"}  # a spec.json written before engines
+    assert run_spec.same_spec(older, yade) and not run_spec.same_spec(older, lammps)
+    assert not run_spec.same_spec(None, yade)
+    with pytest.raises(SpecError) as err:
+        resolve(90, "reduced", engine="foo")
+    assert str(err.value) == "engine='foo' is not a DEM engine here (known: yade, lammps)"

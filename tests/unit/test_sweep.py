@@ -34,6 +34,18 @@ def test_a_plan_is_every_combination_once_and_reads_back_as_written(tmp_path):
         plan("reduced", " ", results=tmp_path)
 
 
+def test_a_lammps_sweep_plans_lammps_runs_and_reads_back_as_written(tmp_path):
+    sweep = plan("reduced", "90 180", seeds="1 2", results=tmp_path, engine="lammps")
+    assert all(t.engine == "lammps" and t.spec().engine == "lammps" for t in sweep.tasks)
+    assert all(t.output.parts[-3].startswith("reduced-lammps") for t in sweep.tasks)
+    assert sweep.tasks[0].args[:6] == ("--theta", "90", "--preset", "reduced", "--engine", "lammps")
+    assert sweep.ident != plan("reduced", "90 180", seeds="1 2", results=tmp_path).ident
+    write_plan(sweep)
+    assert read_plan(tmp_path) == sweep
+    with pytest.raises(SpecError, match="engine='foo' is not a DEM engine"):
+        plan("reduced", "90", results=tmp_path, engine="foo")
+
+
 def test_the_local_makefile_and_the_batch_script_run_the_launcher_of_make_dem(tmp_path):
     sweep = plan("reduced", "180", results=tmp_path)
     makefile = local.local_makefile(sweep)
