@@ -100,7 +100,7 @@ DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config
 
 FORCE:
 .PHONY: FORCE help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-lammps system-slurm model-cycles \
-	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table jump stability profile-dem bench-dem compare figures demo-dem clean
+	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table engines jump stability profile-dem bench-dem compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -235,6 +235,9 @@ fidelity-table: venv ## results/fidelity/ from the committed summaries and the r
 
 profile-dem: venv ## where Yade's time goes, per engine (PRESETS=reduced,paper; THREADS=1) -> results/bench/dem_profile.md
 	$(PY) -m pipeline.studies.profile_dem --presets $(or $(PRESETS),reduced$(comma)paper) --threads $(THREADS)
+
+engines: venv ## Yade against LAMMPS on the same preset (PRESET=reduced), seeds of each -> results/engines/
+	$(PY) -m pipeline.studies.engines --preset $(if $(filter undefined,$(origin PRESET)),reduced,$(PRESET))
 
 jump: venv ## the reversal jump: fabric and wall stress right after each change of direction, every run -> results/jump/
 	$(PY) -m pipeline.studies.jump

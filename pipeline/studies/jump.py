@@ -39,16 +39,16 @@ WALL_WINDOW = 0.01
 TOLERANCE = 1e-4
 
 
-def change_profile(series: dict, change: float) -> dict:
-    """The fabric fraction, the band's strain ratio at each gamma of ``GAMMAS`` that a sample resolves (NaN
-    where none does), and the lowest wall stress over p within ``WALL_WINDOW`` after ``change``."""
+def change_profile(series: dict, change: float, gammas=GAMMAS) -> dict:
+    """The fabric fraction, the band's strain ratio at each of ``gammas`` that a sample resolves (NaN where none
+    does), and the lowest wall stress over p within ``WALL_WINDOW`` after ``change``."""
     strain = series["strain_nominal"]
     before = int(np.flatnonzero(strain < change - 1e-9)[-1])
     at = int(np.argmin(np.abs(strain - change)))
     s_old = model.shear_direction(series["direction_deg"][before])
     shear = np.einsum("i,nij,j->n", s_old, series["A"], np.array([0.0, 1.0, 0.0]))
     fabric, band = [], []
-    for g in GAMMAS:
+    for g in gammas:
         k = int(np.argmin(np.abs(strain - change - g)))
         near = abs(strain[k] - change - g) < TOLERANCE
         fabric.append(float(shear[k] / shear[before]) if near else np.nan)
@@ -59,20 +59,22 @@ def change_profile(series: dict, change: float) -> dict:
     return {"change": change, "fabric": fabric, "band": band, "wall_min": wall}
 
 
-def run_profiles(run) -> list[dict]:
+def run_profiles(run, gammas=GAMMAS) -> list[dict]:
     """``change_profile`` at every change of direction of a run (the one ending the preceding half period too)."""
     series = {**run.series_all, "direction_deg": run.raw_all["direction_deg"],
               "wall_stress_error": run.raw_all["wall_stress_error_mean"]}
-    return [change_profile(series, c) for c in direction_changes(run.spec)]
+    return [change_profile(series, c, gammas) for c in direction_changes(run.spec)]
 
 
 def setting_label(run) -> str:
-    """The run's preset and its overrides but the seed (runs of one setting differ only by their seed), and
-    whether it has dense samples (its band strain right after a change is resolved; on the 0.005 grid alone
-    the trapezoid over the first interval averages the old and the new direction's flow)."""
+    """The run's preset, its engine where it is not Yade, its overrides but the seed (runs of one setting differ
+    only by their seed), and whether it has dense samples (its band strain right after a change is resolved; on
+    the 0.005 grid alone the trapezoid over the first interval averages the old and the new direction's flow)."""
     rest = {k: v for k, v in sorted(run.overrides.items()) if k != "seed"}
     dense = run.spec.get("dense_window_strain", 0) > 0
-    return run.spec["preset"] + "".join(f" {k}={v:g}" for k, v in rest.items()) + (" (dense)" if dense else "")
+    engine = "" if run.engine == "yade" else f" {run.engine}"
+    return (run.spec["preset"] + engine + "".join(f" {k}={v:g}" for k, v in rest.items())
+            + (" (dense)" if dense else ""))
 
 
 def mean_and_error(values) -> tuple[float, float, int]:

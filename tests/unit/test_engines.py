@@ -1,0 +1,32 @@
+"""The engines' cross-validation table on synthetic runs of known truth: the same model seen by two engines agrees,
+a shifted one is flagged."""
+
+import math
+
+import model
+from pipeline.studies import engines
+from tests.helpers import synthetic_run
+
+
+def test_the_same_physics_agrees_and_a_shifted_one_does_not(tmp_path):
+    def runs(engine, params, seeds):
+        folder = tmp_path / engine
+        folder.mkdir(exist_ok=True)
+        return [synthetic_run(folder, 180.0, name=f"s{seed}", params=params, seed=seed, noise=0.01, n_cycles=1,
+                              engine=engine) for seed in seeds]
+
+    yade = runs("yade", model.PAPER, (1, 2, 3, 4))
+    same = runs("lammps", model.PAPER, (5, 6, 7, 8))
+    summary = engines.summarise({"180": {"yade": yade, "lammps": same}}, fits=False)
+    rows = {r["quantity"]: r for r in summary["groups"]["180"]["rows"]}
+    assert rows["τ12/p"]["yade"]["n"] == 4 and rows["τ12/p"]["lammps"]["n"] == 4
+    tested = [r["agree"] for r in rows.values() if r["agree"] is not None]
+    assert len(tested) >= 10 and sum(tested) >= len(tested) - 1  # one in twenty may fall outside by chance
+    assert abs(rows["τ12/p"]["lammps"]["mean"] - rows["τ12/p"]["yade"]["mean"]) < 0.01
+    assert 2.4 < rows["τ12/p"]["critical"] < 4.4  # Welch's t* at 3 to 6 degrees of freedom
+    stronger = runs("lammps_shifted", model.PAPER.replace(C=model.PAPER.C * 1.2), (9, 10, 11, 12))
+    shifted = engines.summarise({"180": {"yade": yade, "lammps": stronger}}, fits=False)
+    mu = next(r for r in shifted["groups"]["180"]["rows"] if r["quantity"] == "τ12/p")
+    assert mu["agree"] is False and math.isfinite(mu["z"]) and abs(mu["z"]) > 2
+    assert "| τ12/p |" in engines.markdown({"preset": "x", **shifted}) and "**no**" in engines.markdown(
+        {"preset": "x", **shifted})
