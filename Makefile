@@ -25,7 +25,8 @@ FRESH ?=
 THREADS ?= 1
 BOOT ?= 100
 ALLOW_INERTIAL ?=
-# make profile-dem [PRESETS=reduced,paper] [THREADS=1]; make bench-dem [PRESETS=quick,reduced,paper]
+# make profile-dem [PRESETS=reduced,paper] [THREADS=1]; make bench-dem [PRESETS=quick,reduced,paper] [ENGINES=yade,lammps]
+ENGINES ?= yade
 PRESETS ?=
 # make fit [FIT_FROM=0.005]: the model restarted from the DEM's state that far past each change of direction
 FIT_FROM ?=
@@ -59,6 +60,7 @@ $(call check,ROTATE_AT,$(NUMBER_CHARS),a number)
 $(call check,FIT_FROM,$(NUMBER_CHARS),a number)
 $(call check,THREADS,$(DIGITS),a whole number)
 $(call check,ENGINE,$(LOWER),yade or lammps)
+$(call check,ENGINES,$(LOWER) $(comma),yade or yade$(comma)lammps)
 $(call check,BOOT,$(DIGITS),a whole number)
 $(call check,STRAIN,$(LOWER),bulk or nominal)
 $(call check,PRESETS,$(NAME_CHARS) $(comma),a comma-separated list of presets)
@@ -130,8 +132,9 @@ bench: system venv ## benchmarks: model numerics, the material-point update, DEM
 	$(PY) -m pipeline.studies.bench_update --out results/bench
 	$(PY) -m pipeline.studies.bench_dem --out results/bench
 
-bench-dem: system venv ## DEM steps/s, bare and production loop (PRESETS=quick,reduced,paper) -> results/bench/dem_throughput.json
-	$(PY) -m pipeline.studies.bench_dem --presets $(or $(PRESETS),quick$(comma)reduced$(comma)paper) --out results/bench
+bench-dem: system $(if $(findstring lammps,$(ENGINES)),system-lammps) venv ## DEM steps/s, bare and production loop (PRESETS=quick,reduced,paper; ENGINES=yade,lammps) -> results/bench/
+	$(PY) -m pipeline.studies.bench_dem --presets $(or $(PRESETS),quick$(comma)reduced$(comma)paper) --engines $(ENGINES) \
+	  --out results/bench
 
 # ---------------------------------------------------------------- set-up
 venv: $(VENV_STAMP) ## the project virtualenv from pyproject.toml

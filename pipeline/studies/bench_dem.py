@@ -8,6 +8,11 @@ part of an hour once). The timings interleave bare and full runs of the same ste
 state, best of the repeats. Writes ``dem_throughput.json`` (one record per preset: grains, wall spheres,
 steps/s and particle-steps/s of the bare and the full loop, Yade's engine timers in each, the cost of our
 Python in the production loop) and ``dem_throughput.md``.
+
+With ``--engines yade,lammps`` (``make bench-dem ENGINES=yade,lammps``) each preset is also run by LAMMPS's scene
+(``dem/lammps_bench.py``: the same spec, the same driver, from its own compaction) right after Yade's, and
+``dem_engines.md`` and ``dem_engines.json`` give both engines' steps/s and their ratio, measured in this one
+invocation.
 """
 
 from __future__ import annotations
@@ -34,6 +39,26 @@ def bench(preset: str, repeats: int, cache: Path) -> dict:
     cache.parent.mkdir(parents=True, exist_ok=True)
     return yade.run_script("bench", spec, (STEPS.get(preset, 30000), repeats, yade.OUT, cache),
                            what=f"benchmark of preset {preset}")
+
+
+def bench_lammps(preset: str, repeats: int) -> dict:
+    spec = run_spec.resolve(180, preset, engine="lammps")
+    return yade.run_script("lammps_bench", spec, (STEPS.get(preset, 30000), repeats, yade.OUT),
+                           what=f"LAMMPS benchmark of preset {preset}")
+
+
+def engines_report(pairs: list[tuple[dict, dict]]) -> str:
+    lines = ["# DEM engines side by side (`make bench-dem ENGINES=yade,lammps`)", "",
+             "One core each, one after the other in one invocation, best of the repeats; full: the production loop "
+             "(the same driver: wall controller every 10 steps, sampling); bare: the engine's loop alone.", "",
+             "| preset | grains + wall spheres | Yade bare / full steps/s | LAMMPS bare / full steps/s "
+             "| LAMMPS / Yade, full | LAMMPS full M particle-steps/s |", "|---|---|---|---|---|---|"]
+    for y, lmp in pairs:
+        ys, ls = y["steps_per_second"], lmp["steps_per_second"]
+        lines.append(f"| {y['preset']} | {y['grains']} + {y['wall_spheres']} | {ys['bare']:.0f} / {ys['full']:.0f} "
+                     f"| {ls['bare']:.0f} / {ls['full']:.0f} | {ls['full'] / ys['full']:.1f}× "
+                     f"| {lmp['particle_steps_per_second']['full'] / 1e6:.2f} |")
+    return "\n".join(lines) + "\n"
 
 
 def throughput_record(r: dict) -> dict:
@@ -91,22 +116,36 @@ def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.studies.bench_dem", description=__doc__.splitlines()[0])
     parser.add_argument("--presets", default="quick,reduced,paper")
     parser.add_argument("--repeats", type=int, default=REPEATS)
+    parser.add_argument("--engines", default="yade", help="yade, or yade,lammps for both side by side")
     parser.add_argument("--out", type=Path, default=RESULTS_DIR / "bench")
     args = parser.parse_args(argv)
     presets = check_presets([p.strip() for p in args.presets.split(",")])
     if args.repeats < 1:
         raise PipelineError(f"--repeats {args.repeats} must be at least 1")
+    engines = [e.strip() for e in args.engines.split(",")]
+    if engines not in (["yade"], ["yade", "lammps"]):
+        raise PipelineError(f"--engines {args.engines!r}: yade, or yade,lammps")
     try:
-        yade.yade_python()  # a one-line error now if Yade is missing
+        yade.yade_python()  # a one-line error now if Yade (or LAMMPS, when asked for) is missing
+        if "lammps" in engines:
+            yade.require_lammps()
     except yade.YadeMissing as exc:
         raise PipelineError(str(exc)) from None
     out = io.check_writable_dir(args.out)
-    rows = []
+    rows, pairs = [], []
     for preset in presets:
         print(f"benchmarking {preset} (a paper cell's first compaction takes long) ...", flush=True)
         rows.append(bench(preset, args.repeats, out / "cache" / f"{preset}.yade.gz"))
         sps = rows[-1]["steps_per_second"]
         print(f"  bare {sps['bare']:.0f} steps/s, full {sps['full']:.0f} steps/s", flush=True)
+        if "lammps" in engines:
+            pairs.append((rows[-1], bench_lammps(preset, args.repeats)))
+            sps = pairs[-1][1]["steps_per_second"]
+            print(f"  LAMMPS: bare {sps['bare']:.0f} steps/s, full {sps['full']:.0f} steps/s", flush=True)
+    if pairs:
+        io.write_json(out / "dem_engines.json", [{"yade": throughput_record(y), "lammps": lmp} for y, lmp in pairs])
+        io.write_text(out / "dem_engines.md", engines_report(pairs))
+        print(engines_report(pairs))
     records = [throughput_record(r) for r in rows]
     io.write_json(out / "dem_throughput.json", records)
     io.write_text(out / "dem_throughput.md", throughput_report(records))

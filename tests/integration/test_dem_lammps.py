@@ -124,3 +124,16 @@ def test_a_damaged_lammps_checkpoint_is_a_one_line_error_that_suggests_fresh(tmp
     errors = [line for line in text.splitlines() if "error:" in line]
     assert again.returncode == 2 and "Traceback" not in text
     assert len(errors) == 1 and fragment in errors[0] and "FRESH=1" in errors[0], text
+
+
+def test_the_engines_benchmark_times_both_engines_on_one_preset(tmp_path):
+    from pipeline.studies.bench_dem import main as bench_main
+
+    assert bench_main(["--presets", "tiny", "--engines", "yade,lammps", "--repeats", "1", "--out", str(tmp_path)]) == 0
+    (record,) = json.loads((tmp_path / "dem_engines.json").read_text())
+    for engine in ("yade", "lammps"):
+        sps = record[engine]["steps_per_second"]
+        assert sps["bare"] > 0 and sps["full"] > 0, engine
+    assert record["lammps"]["grains"] == record["yade"]["grains"]
+    assert record["lammps"]["wall_spheres"] == record["yade"]["wall_spheres"]
+    assert "| tiny | 54 + 48 |" in (tmp_path / "dem_engines.md").read_text()

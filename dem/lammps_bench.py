@@ -1,0 +1,56 @@
+"""LAMMPS benchmark: steps/s of the bare and of the production loop of the LAMMPS scene.
+
+``python3 -m dem.lammps_bench RUN_DIR STEPS REPEATS OUT.json`` (Debian's python3 with LAMMPS) builds the scene of
+RUN_DIR/spec.json, compacts it and shears it STEPS steps (no checkpoint), then times STEPS steps of shear in two
+modes, REPEATS times each, interleaved (best time kept): ``bare`` (the controller's ``fix python/invoke`` and
+``fix halt`` removed: LAMMPS alone, the walls at the velocity they had) and ``full`` (the controller and the
+in-situ sampling, as in production). Unlike ``dem/bench.py`` the runs follow one another rather than restart from
+one kept state (LAMMPS reads a restart file back in one process only once, see ``dem/lammps_scene.py``): each
+repeat shears on, in the same steady state.
+"""
+
+import json
+import sys
+import time
+
+from dem import lammps_scene
+
+
+def main():
+    steps, repeats, out = int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+    scene = lammps_scene.Scene(sys.argv[1])
+    run = scene.start()
+    run.state["next_checkpoint"] = 1 << 62
+    lmp = scene.lmp
+    while run.state["phase"] == "compaction":
+        lmp.command(f"run {steps}")
+    lmp.command(f"run {steps}")
+    every = int(scene.spec["control_every_steps"])
+    times = {"bare": [], "full": []}
+    for _ in range(repeats):
+        for mode in times:
+            if mode == "bare":
+                lmp.command("unfix halt")
+                lmp.command("unfix control")
+            tic = time.perf_counter()
+            lmp.command(f"run {steps}")
+            times[mode].append(time.perf_counter() - tic)
+            if mode == "bare":
+                lmp.command(f"fix control all python/invoke {every} end_of_step {lammps_scene.CONTROL}")
+                lmp.command(f"fix halt all halt {every} v_halte != 0 error continue message no")
+            if run.state["phase"] != "shear":
+                raise RuntimeError(f"the benchmark left the shear phase: {run.state['phase']} {run.failure}")
+    best = {mode: min(t) for mode, t in times.items()}
+    bodies = run.state["n_grains"] + run.state["n_wall_spheres"]
+    result = {"engine": "lammps", "engine_version": lmp.version(), "preset": scene.spec["preset"],
+              "grains": run.state["n_grains"], "wall_spheres": run.state["n_wall_spheres"], "steps": steps,
+              "repeats": repeats, "dt": run.dt(), "seconds": best,
+              "steps_per_second": {mode: steps / t for mode, t in best.items()},
+              "particle_steps_per_second": {mode: steps * bodies / t for mode, t in best.items()},
+              "spread_percent": {mode: 100 * (max(t) / best[mode] - 1) for mode, t in times.items()}}
+    with open(out, "w") as fh:
+        json.dump(result, fh, indent=1)
+
+
+if __name__ == "__main__":
+    main()
