@@ -229,12 +229,12 @@ fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=bu
 	$(PY) -m pipeline.calibration.profile --preset $(DATA_PRESET) --strain $(STRAIN) --phi $(PHI)
 
 fidelity: venv ## the fidelity ladder (config/fidelity.toml): make its missing DEM runs (JOBS=2), then results/fidelity/
-	$(PY) -m pipeline.studies.fidelity --run --jobs $(or $(JOBS),2)
-	$(PY) -m pipeline.figures.fidelity
+	$(PY) -m pipeline.studies.fidelity --run --jobs $(or $(JOBS),2) --engine $(ENGINE)
+	$(PY) -m pipeline.figures.fidelity --table results/fidelity$(if $(filter-out yade,$(ENGINE)),-$(ENGINE))/table.json
 
 fidelity-table: venv ## results/fidelity/ from the committed summaries and the runs present, no DEM (under a minute)
-	$(PY) -m pipeline.studies.fidelity
-	$(PY) -m pipeline.figures.fidelity
+	$(PY) -m pipeline.studies.fidelity --engine $(ENGINE)
+	$(PY) -m pipeline.figures.fidelity --table results/fidelity$(if $(filter-out yade,$(ENGINE)),-$(ENGINE))/table.json
 
 profile-dem: venv ## where Yade's time goes, per engine (PRESETS=reduced,paper; THREADS=1) -> results/bench/dem_profile.md
 	$(PY) -m pipeline.studies.profile_dem --presets $(or $(PRESETS),reduced$(comma)paper) --threads $(THREADS)

@@ -43,6 +43,10 @@ def test_a_run_with_a_summary_or_a_file_is_not_run_again_and_the_rest_is_a_sweep
 
     for task, rung in zip(sweep.tasks, todo, strict=True):  # the launcher's arguments make exactly that run
         assert output_path(task.spec(), results) == results / rung.relative
+    lammps = ladder.rungs(ladder.load(), "lammps")  # the same ladder in LAMMPS: its own runs, a LAMMPS sweep
+    assert len(lammps) == len(rungs) and all(r.relative.parts[0].startswith("reduced-lammps") for r in lammps)
+    for task, rung in zip(ladder.sweep_of(lammps[:3], "reduced", results).tasks, lammps[:3], strict=True):
+        assert task.engine == "lammps" and output_path(task.spec(), results) == results / rung.relative
 
 
 def test_the_summary_recovers_the_models_steady_values_and_the_runs_own_fit(tmp_path):

@@ -84,12 +84,15 @@ def main(argv=None) -> int:
     parser.add_argument("--run", action="store_true", help="make the ladder's missing DEM runs first")
     parser.add_argument("--jobs", type=int, default=2, help="runs side by side (default 2)")
     parser.add_argument("--launch", choices=("local", "slurm"), default="local")
-    parser.add_argument("--out", type=Path, default=OUT_DIR)
+    parser.add_argument("--engine", default="yade", help="the DEM engine of the ladder's runs: yade or lammps")
+    parser.add_argument("--out", type=Path, help="default results/fidelity (results/fidelity-lammps for LAMMPS)")
     args = parser.parse_args(argv)
+    if args.out is None:
+        args.out = OUT_DIR if args.engine == "yade" else OUT_DIR.with_name(f"fidelity-{args.engine}")
     if args.jobs < 1:
         parser.error(f"--jobs {args.jobs} must be at least 1")
     spec = ladder.load()
-    rungs = ladder.rungs(spec)
+    rungs = ladder.rungs(spec, args.engine)
     out = io.check_writable_dir(args.out)
     missing = ladder.missing(rungs)
     if args.run and missing:

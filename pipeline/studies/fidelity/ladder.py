@@ -51,8 +51,9 @@ def load(path: Path = LADDER_FILE) -> dict:
     return ladder
 
 
-def rungs(ladder: dict) -> list[Rung]:
-    """Every rung, each validated as ``make dem`` would (a bad value is an error before anything runs)."""
+def rungs(ladder: dict, engine: str = run_spec.ENGINES[0]) -> list[Rung]:
+    """Every rung in ``engine``, each validated as ``make dem`` would (a bad value is an error before anything
+    runs)."""
     preset = ladder["preset"]
     defaults = load_presets()[preset]
     out = []
@@ -61,7 +62,7 @@ def rungs(ladder: dict) -> list[Rung]:
             overrides = {k: float(v) for k, v in value.items() if float(v) != defaults.get(k)}
             for theta in entry.get("thetas", ladder["thetas"]):
                 try:
-                    spec = run_spec.resolve(theta, preset, overrides=overrides)
+                    spec = run_spec.resolve(theta, preset, overrides=overrides, engine=engine)
                 except SpecError as exc:
                     raise SpecError(f"{LADDER_FILE.name}, axis {axis}, {value}: {exc}") from None
                 out.append(Rung(axis, {k: float(v) for k, v in value.items()}, float(theta), spec))
@@ -88,5 +89,5 @@ def missing(all_rungs: list[Rung], summaries: Path = SUMMARY_DIR, roots: tuple[P
 def sweep_of(to_run: list[Rung], preset: str, results: Path = RESULTS_DIR) -> Sweep:
     """The runs to make as a sweep (``pipeline.runs.sweep``): its plan, folder and local or SLURM launch."""
     tasks = [Task(f"{r.theta_deg:g}", preset, None, tuple(f"{k}={v:g}" for k, v in sorted(r.spec.overrides.items())),
-                  run_spec.output_path(r.spec, results), r.spec.label()) for r in to_run]
+                  run_spec.output_path(r.spec, results), r.spec.label(), r.spec.engine) for r in to_run]
     return make_sweep("fidelity", preset, tasks, results)
