@@ -9,7 +9,7 @@ from pathlib import Path
 
 FAILED = "failed.json"  # in the run folder: why the last attempt stopped for good (exit 2 or 3)
 STATUS = "status.json"  # in the run folder: the scene's progress (dem/couette.py)
-CHECKPOINT = "checkpoint.yade.gz"
+CHECKPOINTS = ("checkpoint.yade.gz", "checkpoint.json")  # Yade's scene, LAMMPS's
 
 
 def is_locked(run_dir: Path) -> bool:
@@ -55,6 +55,6 @@ def run_state(run_dir: Path, output: Path) -> tuple[str, str]:
         return "failed", str(failure.get("reason", f"{run_dir / FAILED} is damaged"))
     if is_locked(run_dir):
         return "running", progress(run_dir)
-    if (run_dir / CHECKPOINT).exists():
+    if any((run_dir / name).exists() for name in CHECKPOINTS):
         return "stopped", "resumable from its checkpoint: rerun the same command"
     return "not started", ""

@@ -15,6 +15,9 @@ def test_each_state_is_read_from_the_files_a_run_leaves(tmp_path):
     run_dir.mkdir()
     out = dem / "theta090_rot0.10.h5"
     assert run_state(run_dir, out) == ("not started", "")
+    (run_dir / "checkpoint.json").write_text("{}")  # LAMMPS's checkpoint
+    assert run_state(run_dir, out)[0] == "stopped"
+    (run_dir / "checkpoint.json").unlink()
     (run_dir / "checkpoint.yade.gz").write_bytes(b"x")
     assert run_state(run_dir, out)[0] == "stopped"
     write_status(run_dir / "status.json", {"percent": 41.6, "steps_per_second": 1800.4, "eta_seconds": 725.0})
