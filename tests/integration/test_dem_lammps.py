@@ -45,6 +45,18 @@ def tiny_spec(engine):
     return run_spec.resolve(180, "tiny", overrides={"seed": 3.0}, engine=engine)
 
 
+def interrupt_at_first_sample(results):
+    """The tiny LAMMPS run, sent SIGINT at its first progress line: (exit status, what it printed after)."""
+    proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=results), cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    for line in proc.stdout:
+        if "strain" in line:
+            proc.send_signal(signal.SIGINT)
+            break
+    rest = proc.communicate()[0]
+    return proc.returncode, rest
+
+
 @pytest.fixture(scope="module")
 def both_engines(tmp_path_factory):
     """The same tiny spec run by each engine, uninterrupted."""
@@ -81,14 +93,8 @@ def test_an_interrupted_lammps_run_resumes_bit_identical_to_an_uninterrupted_one
     """SIGINT stops the scene at its next checkpoint (exit 130); the same command resumes it; every sample equals
     the uninterrupted run's, bit for bit (each run reads each of its checkpoints back in a new process)."""
     results, runs = both_engines
-    proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=tmp_path), cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    for line in proc.stdout:
-        if "strain" in line:
-            proc.send_signal(signal.SIGINT)
-            break
-    rest = proc.communicate()[0]
-    assert proc.returncode == 130, rest
+    status, rest = interrupt_at_first_sample(tmp_path)
+    assert status == 130, rest
     assert "rerun the same command to resume" in rest
     run_dir = run_spec.work_dir(tiny_spec("lammps"), tmp_path)
     assert (run_dir / "checkpoint.json").exists() and list(run_dir.glob("restart_*.lmp"))
@@ -106,13 +112,7 @@ def test_an_interrupted_lammps_run_resumes_bit_identical_to_an_uninterrupted_one
     ("record-junk", "checkpoint.json cannot be read"),
 ])
 def test_a_damaged_lammps_checkpoint_is_a_one_line_error_that_suggests_fresh(tmp_path, damage, fragment):
-    proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=tmp_path), cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    for line in proc.stdout:
-        if "strain" in line:
-            proc.send_signal(signal.SIGINT)
-            break
-    proc.communicate()
+    interrupt_at_first_sample(tmp_path)
     run_dir = run_spec.work_dir(tiny_spec("lammps"), tmp_path)
     if damage == "restart-truncated":
         restart = next(run_dir.glob("restart_*.lmp"))
