@@ -57,8 +57,8 @@ def main(argv=None) -> int:
         every = preset_runs(preset, engine=args.engine)
         reversals, cross = reversal_seeds(preset, engine=args.engine), tuple(other_angles(every))
         if not reversals:
-            raise CalibrationError(f"no {args.engine} reversal run of preset {preset}: run `make dem THETA=180 "
-                                   f"PRESET={preset} ENGINE={args.engine}` first")
+            raise CalibrationError(f"no reversal run found of preset {preset} in {args.engine}: run `make dem "
+                                   f"THETA=180 PRESET={preset} ENGINE={args.engine}` first")
         left_out = tuple(r for r in every if not r.default_rotation)
     print(f"definitions: {settings.definitions.label()}")
     report = fit(reversals, out, cross, left_out, **vars(settings))
