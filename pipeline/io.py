@@ -40,12 +40,22 @@ def _temporary(path: Path):
     with ``path``'s suffix."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.tmp", suffix=path.suffix)
+    os.fchmod(fd, 0o666 & ~_UMASK)  # the file a plain open() would make, not mkstemp's owner-only one
     os.close(fd)
     tmp = Path(name)
     try:
         yield tmp
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_UMASK = _umask()
 
 
 def _sync(path: Path) -> None:

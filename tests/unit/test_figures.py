@@ -108,3 +108,16 @@ def test_the_report_shows_the_fit_against_the_restart_in_standard_errors_from_ta
     assert "-0.015 (+2.0)" in lines[-1] and "+4.5%" in lines[-1]
     lines = jump_lines([{**row, "fit_from": 0.002, "runs": 3}, {**row, "runs": 17}], paper)
     assert lines[-2].startswith("| 0.002 | 3 |") and lines[-1].startswith("| 0.005 | 17 |")
+
+
+def test_atomic_writes_leave_files_as_readable_as_a_plain_write(tmp_path):
+    """The temporary each atomic write renames into place has the permissions a plain ``open`` would give (the
+    umask's), not ``mkstemp``'s owner-only ones: results on a shared disk stay readable by the group."""
+    import os
+
+    from pipeline import io
+
+    plain = tmp_path / "plain.txt"
+    plain.write_text("x")
+    written = io.write_text(tmp_path / "atomic.txt", "x")
+    assert os.stat(written).st_mode & 0o777 == os.stat(plain).st_mode & 0o777
