@@ -7,12 +7,14 @@ measures (``pipeline.studies.fidelity.summary``): the steady values before each 
 ``mu``, |A|, A12 as ``A_aligned``, Phi of the central band and of the gap), the central band's strain per nominal
 strain, the fabric's shear component after each change as a fraction of its value before it (``make jump``'s
 measure) at gamma = 0.0005 ... 0.5 (below 0.005 from the runs with dense samples), and, for the reversals, the
-global fit on the run alone in the paper's definitions. Each quantity's mean over an engine's runs, its standard
-error from their scatter (seeds are independent), and the difference in combined standard errors, ``z = (LAMMPS - Yade) / sqrt(se_Y^2 + se_L^2)``.
-With a few seeds per engine z is a Welch t statistic, not a normal one: the engines agree on a quantity when |z|
-is below Welch's two-sided 95 % critical value at the Welch-Satterthwaite degrees of freedom (about 2.2 with six
-seeds each, 4.3 with two and two). Of twenty quantities that truly agree, about one falls outside by chance.
-Writes ``engines.md`` and ``engines.json``.
+global fit on the run alone in the paper's definitions.
+
+Each quantity's mean over an engine's runs, its standard error from their scatter (seeds are independent), and
+the difference in combined standard errors, ``z = (LAMMPS - Yade) / sqrt(se_Y^2 + se_L^2)``. With a few seeds per
+engine z is a Welch t statistic, not a normal one: the engines agree on a quantity when |z| is below Welch's
+two-sided 95 % critical value at the Welch-Satterthwaite degrees of freedom (about 2.2 with six seeds each, 4.3
+with two and two). Of twenty quantities that truly agree, about one falls outside by chance. Writes
+``engines.md`` and ``engines.json``.
 """
 
 from __future__ import annotations
