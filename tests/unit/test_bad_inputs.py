@@ -70,6 +70,7 @@ DEM_CASES = [
     (["--theta", "90", "--rotate-at", "abc"], "rotate_at='abc' is not a number"),
     (["--theta", "90", "--threads", "0"], "threads=0 must be between 1 and 256"),
     (["--theta", "90", "--threads", "x"], "argument --threads: invalid int value: 'x'"),
+    (["--theta", "90", "--engine", "foo"], "engine='foo' is not a DEM engine here (known: yade, lammps)"),
 ]
 
 
@@ -89,6 +90,7 @@ MAKE_CASES = [
     ("THREADS=1 && touch INJECTED", "THREADS='1 && touch INJECTED' is not a whole number"),
     ("ROTATE_AT=`touch INJECTED`", "ROTATE_AT='`touch INJECTED`' is not a number"),
     ("BOOT=0|touch INJECTED", "BOOT='0|touch INJECTED' is not a whole number"),
+    ("ENGINE=lammps;touch INJECTED", "ENGINE='lammps;touch INJECTED' is not yade or lammps"),
 ]
 
 
