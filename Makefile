@@ -16,9 +16,10 @@ MODEL_DIR := results/model
 
 # ---------------------------------------------------------------- the user's variables, checked before any shell sees them
 # make dem THETA=90 [PRESET=quick] [ROTATE_AT=0.1] [SET="key=value ..."] [FRESH=1] [THREADS=1] [ALLOW_INERTIAL=1]
-#          [ENGINE=yade|lammps]
+#          [ENGINE=yade|lammps] [RANKS=1: MPI ranks of a LAMMPS run]
 THETA ?= 180
 ENGINE ?= yade
+RANKS ?= 1
 ROTATE_AT ?=
 SET ?=
 FRESH ?=
@@ -60,6 +61,7 @@ $(call check,ROTATE_AT,$(NUMBER_CHARS),a number)
 $(call check,FIT_FROM,$(NUMBER_CHARS),a number)
 $(call check,THREADS,$(DIGITS),a whole number)
 $(call check,ENGINE,$(LOWER),yade or lammps)
+$(call check,RANKS,$(DIGITS),a whole number)
 $(call check,ENGINES,$(LOWER) $(comma),yade or yade$(comma)lammps)
 $(call check,BOOT,$(DIGITS),a whole number)
 $(call check,STRAIN,$(LOWER),bulk or nominal)
@@ -88,7 +90,7 @@ SAY_PRESET := @echo "preset $(DATA_PRESET)$(if $(filter undefined,$(origin PRESE
 PRESET ?= quick
 DEM_ARGS = --preset $(PRESET) --engine $(ENGINE) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
 	$(if $(filter 1 yes true,$(FRESH)),--fresh) $(if $(filter 1 yes true,$(ALLOW_INERTIAL)),--allow-inertial) \
-	--threads $(THREADS)
+	--threads $(THREADS) $(if $(filter-out 1,$(RANKS)),--ranks $(RANKS))
 
 RUN_FILES = $(wildcard $(foreach r,results data/reference,$(r)/$(1)/dem/*.h5 $(r)/$(1)-*/dem/*.h5))
 DATA_SET := $(DATA_PRESET)$(if $(filter-out yade,$(ENGINE)),-$(ENGINE))

@@ -46,7 +46,11 @@ def initial_state(spec, **engine_state):
 class Protocol:
     """The running experiment. Everything persistent lives in ``self.state`` (saved with each checkpoint); an
     engine's subclass provides ``iteration``, ``time``, ``dt``, ``wall_heights``, ``wall_force``, ``move_walls``,
-    ``wall_record``, ``gather`` and ``stop_after_this_step``, and sets ``radius`` and ``mass`` (the grains')."""
+    ``wall_record``, ``gather`` and ``stop_after_this_step``, and sets ``radius`` and ``mass`` (the grains').
+    Where several processes run one scene (MPI ranks), each drives the same protocol on the same gathered data
+    and only the ``writer`` writes files."""
+
+    writer = True
 
     def __init__(self, run_dir, spec, state):
         self.run_dir = run_dir
@@ -173,9 +177,10 @@ class Protocol:
         print(f"[{done:4.0%}] strain {strain:+.3f} / {protocol.end_strain(self.spec):.2f}  "
               f"sigma_wall/p - 1 = {row['wall_stress_error_mean']:+.2%}  tau12/p = {row['stress_contact'][0, 1]:+.3f}  "
               f"{rate:.0f} steps/s  ETA {format_seconds(eta)}", flush=True)
-        write_status(os.path.join(self.run_dir, STATUS), {
-            "percent": round(100 * done, 1), "strain": strain, "steps_per_second": round(rate, 1),
-            "eta_seconds": eta if math.isfinite(eta) else None, "updated": time.time()})
+        if self.writer:
+            write_status(os.path.join(self.run_dir, STATUS), {
+                "percent": round(100 * done, 1), "strain": strain, "steps_per_second": round(rate, 1),
+                "eta_seconds": eta if math.isfinite(eta) else None, "updated": time.time()})
         self.last_print = (now, self.iteration())
 
     def fail(self, message):
@@ -214,14 +219,15 @@ def checkpoint(run, scene):
                  "a checkpoint")
     previous = run.state["samples_file"]
     try:
-        save_npz(os.path.join(run.run_dir, name), columns)
+        if run.writer:
+            save_npz(os.path.join(run.run_dir, name), columns)
         run.state["samples_file"] = name
         scene.save(run)
     except OSError as exc:
         if exc.errno in DISK_ERRORS:
             raise DiskError(f"cannot write in {run.run_dir} ({os.strerror(exc.errno)})") from None
         raise
-    if previous and previous != name:
+    if previous and previous != name and run.writer:
         os.remove(os.path.join(run.run_dir, previous))
 
 
@@ -247,7 +253,9 @@ def damaged(message):
 
 def stop_on_signals(describe_stop):
     """Count SIGINT/SIGTERM/SIGUSR1 into the returned dict (``count``, ``signal``); the first one prints
-    ``describe_stop()``. SIGUSR1 (a scheduler's warning before a time limit) only ever asks for the checkpoint stop."""
+    ``describe_stop()``. SIGUSR1 (a scheduler's warning before a time limit) only ever asks for the checkpoint stop;
+    SIGUSR2 asks for the stop at once (the second signal, as the launcher passes it through ``mpirun``, which would
+    kill its ranks on SIGINT or SIGTERM)."""
     stop = {"count": 0, "signal": 0}
 
     def on_signal(signum, _frame):
@@ -263,7 +271,13 @@ def stop_on_signals(describe_stop):
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    def on_usr2(signum, frame):
+        if stop["count"] == 0:
+            on_signal(signum, frame)
+        stop["count"] = max(stop["count"], 2)
+
     signal.signal(signal.SIGUSR1, on_usr1)
+    signal.signal(signal.SIGUSR2, on_usr2)
     return stop
 
 
@@ -290,10 +304,12 @@ def run_scene(scene):
         if phase == "done":
             for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1):  # the work is complete: no stop now
                 signal.signal(signum, signal.SIG_IGN)
-            write_run_raw(run, scene.meta())
-            for name in os.listdir(run_dir):
-                if name.startswith(SCRATCH_PREFIXES):
-                    os.remove(os.path.join(run_dir, name))
+            meta = scene.meta()
+            if run.writer:
+                write_run_raw(run, meta)
+                for name in os.listdir(run_dir):
+                    if name.startswith(SCRATCH_PREFIXES):
+                        os.remove(os.path.join(run_dir, name))
             print(f"done: {len(run.samples)} samples, {run.iteration()} steps", flush=True)
             return
         regular = run.iteration() == run.state["next_checkpoint"]

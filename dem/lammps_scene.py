@@ -34,14 +34,26 @@ from dem.lammps_contact import pair_commands
 from dem.lammps_lib import LMP_STYLE_GLOBAL, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY, LMP_TYPE_VECTOR, new_lammps
 from dem.rawfile import sync
 
+#: MPI ranks of this run (``mpirun -np N``, ``RANKS=N``): each drives the same protocol on data gathered from all
+RANKS = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))
+if RANKS > 1:
+    from mpi4py import MPI
+
+    COMM, RANK = MPI.COMM_WORLD, MPI.COMM_WORLD.rank
+else:
+    COMM, RANK = None, 0
+
 CHECKPOINT = "checkpoint.json"
 CONTINUE = "--continue"  # argument of a run going on after its own checkpoint (``Scene.reload``)
 CONTROL = "dem_lammps_control"  # the function fix python/invoke calls, in __main__
 SKIN = 0.3  # neighbour skin (d)
+#: atoms kept in creation order (no sorting: the same order for a resumed run) and MPI ranks side by side across the
+#: cell's period, none split along e2 (the box is twice the gap tall, half of it empty)
+DOMAIN = ("atom_modify map array sort 0 0.0", "processors * 1 *")
 
 
 def cell_commands(width, box_height):
-    return ["units lj", "atom_style sphere", "atom_modify map array sort 0 0.0", "boundary p p p", "newton on",
+    return ["units lj", "atom_style sphere", *DOMAIN, "boundary p p p", "newton on",
             f"region box block 0 {width} 0 {box_height!r} 0 {width}", "create_box 2 box"]
 
 
@@ -106,19 +118,32 @@ def build(lmp, spec):
         top_inner_offset=y_top - ROUGH_HEIGHT - centre[1], kn=kn, kt=kt, cn=cn, ct=ct)
 
 
+def gathered(local):
+    """A per-rank array joined over every rank in rank order, the same on each (itself with one rank)."""
+    if COMM is None:
+        return local
+    return np.concatenate(COMM.allgather(np.ascontiguousarray(local)))
+
+
+def atoms(lmp, *names):
+    """Per-atom arrays of every atom (all ranks), ordered by atom id (1, 2, ...)."""
+    tag = gathered(lmp.numpy.extract_atom("id"))
+    order = np.argsort(tag)
+    return [tag[order]] + [gathered(lmp.numpy.extract_atom(name))[order] for name in names]
+
+
 class Run(driver.Protocol):
     """The driver's protocol on a LAMMPS instance."""
 
+    writer = RANK == 0
+
     def __init__(self, scene, lmp, state):
         self.lmp = lmp
-        tag = lmp.numpy.extract_atom("id")
-        order = np.argsort(tag)
-        grains = order[tag[order] >= state["first_grain"]]
-        self.radius = lmp.numpy.extract_atom("radius")[grains].copy()
-        self.mass = lmp.numpy.extract_atom("rmass")[grains].copy()
+        tag, radius, mass, velocity = atoms(lmp, "radius", "rmass", "v")
+        grains = tag >= state["first_grain"]
+        self.radius, self.mass = radius[grains].copy(), mass[grains].copy()
         super().__init__(scene.run_dir, scene.spec, state)
         # the walls go on at the velocities they had (a restart file keeps the atoms', not the variables')
-        velocity = lmp.numpy.extract_atom("v")[order]
         first_top = state["n_wall_spheres"] // 2
         self.move_walls(velocity[first_top], velocity[0])
 
@@ -155,15 +180,12 @@ class Run(driver.Protocol):
         force on j, the contact point in the middle of the overlap (Yade's ``ScGeom``)."""
         lmp = self.lmp
         pairs = lmp.numpy.extract_compute("pairs", LMP_STYLE_LOCAL, LMP_TYPE_ARRAY)
-        atoms = lmp.numpy.extract_compute("pair_atoms", LMP_STYLE_LOCAL, LMP_TYPE_ARRAY)
-        pairs = np.zeros((0, 10)) if pairs is None else np.asarray(pairs).reshape(-1, 10)
-        atoms = np.zeros((0, 2), dtype=np.int64) if atoms is None else np.asarray(atoms).reshape(-1, 2).astype(np.int64)
-        tag = lmp.numpy.extract_atom("id")
-        order = np.argsort(tag)
-        x = lmp.numpy.extract_atom("x")[order]
-        v = lmp.numpy.extract_atom("v")[order]
-        radius = lmp.numpy.extract_atom("radius")[order]
-        i, j = atoms[:, 0], atoms[:, 1]
+        ends = lmp.numpy.extract_compute("pair_atoms", LMP_STYLE_LOCAL, LMP_TYPE_ARRAY)
+        pairs = gathered(np.zeros((0, 10)) if pairs is None else np.asarray(pairs, dtype=float).reshape(-1, 10))
+        ends = gathered(np.zeros((0, 2)) if ends is None else np.asarray(ends, dtype=float).reshape(-1, 2))
+        ends = ends.astype(np.int64)
+        tag, x, v, radius = atoms(lmp, "x", "v", "radius")
+        i, j = ends[:, 0], ends[:, 1]
         dist = pairs[:, 0]
         overlap = radius[i - 1] + radius[j - 1] - dist
         touching = overlap > 0
@@ -173,7 +195,7 @@ class Run(driver.Protocol):
         grains = slice(self.state["first_grain"] - 1, None)
         contacts = {"id1": i, "id2": j, "normal": normal, "point": point, "force": -(pairs[:, 1:4] + pairs[:, 4:7]),
                     "branch": dist}
-        return contacts, {"id": tag[order][grains].astype(np.int64), "pos": x[grains], "vel": v[grains],
+        return contacts, {"id": tag[grains].astype(np.int64), "pos": x[grains], "vel": v[grains],
                           "radius": self.radius, "mass": self.mass}
 
     def stop_after_this_step(self):
@@ -199,6 +221,8 @@ class Scene:
     def control(self, _ptr=None):
         """``fix python/invoke``'s entry point; an exception stops the run with its message."""
         try:
+            if COMM is not None:  # every rank stops together, whichever got the signal first
+                self.stop["count"] = COMM.allreduce(self.stop["count"], op=MPI.MAX)
             if self.stop["count"] >= 2:  # a second signal: stop now
                 self.run.stop_after_this_step()
             self.run.control()
@@ -206,7 +230,7 @@ class Scene:
             self.run.fail(f"{type(exc).__name__}: {exc} (in the controller)")
 
     def new_lammps(self):
-        self.lmp = new_lammps(log=os.path.join(self.run_dir, "lammps.log"))
+        self.lmp = new_lammps(COMM, log=os.path.join(self.run_dir, "lammps.log"))
         return self.lmp
 
     def attach(self, state, restarted):
@@ -231,18 +255,23 @@ class Scene:
         """Run to the next checkpoint iteration, or until the driver stops the run (``fix halt``)."""
         self.stop = stop
         self.lmp.command(f"run {run.state['next_checkpoint'] - run.iteration()}")
+        if COMM is not None:
+            stop["count"] = COMM.allreduce(stop["count"], op=MPI.MAX)
+            stop["signal"] = COMM.allreduce(stop["signal"], op=MPI.MAX)
 
     def checkpoint_bytes(self):
         return sum(os.path.getsize(os.path.join(self.run_dir, name)) for name in os.listdir(self.run_dir)
                    if name.startswith("restart_"))
 
     def save(self, run):
-        """``write_restart`` to a new file, synced, then ``checkpoint.json`` naming it (atomically); the previous
-        restart file goes last."""
+        """``write_restart`` to a new file (every rank), synced, then ``checkpoint.json`` naming it (atomically); the
+        previous restart file goes last."""
         name = f"restart_{run.iteration():012d}.lmp"
         path = os.path.join(self.run_dir, name)
         self.lmp.command("run 0 post no")  # atoms back in the box, neighbour lists and contact history current
         self.lmp.command(f"write_restart {path} noinit")
+        if not run.writer:
+            return
         sync(path)
         previous = self.checkpoint_record().get("restart") if os.path.exists(
             os.path.join(self.run_dir, CHECKPOINT)) else None
@@ -276,8 +305,10 @@ class Scene:
         """Go on from the checkpoint just written in a new process (``exec``: the same process id, run lock and
         output), which reads it as a resumed run does. A LAMMPS instance of this build that reads a restart file
         after another instance ran in the same process can fail in its next run's set-up; a process that holds
-        one instance at a time does not. When the driver is about to stop, the run stays as it is."""
-        if self.stop["count"]:
+        one instance at a time does not. When the driver is about to stop, and with MPI ranks (``mpirun`` cannot
+        be ``exec``ed into), the run goes on as it is: a resumed run of several ranks is then not bit-identical to an
+        uninterrupted one."""
+        if self.stop["count"] or COMM is not None:
             return self.run
         sys.stdout.flush()
         sys.stderr.flush()
@@ -293,7 +324,8 @@ class Scene:
                 or file_sha256(restart) != record.get("sha256")):
             driver.damaged(f"restart file {restart} is missing or damaged")
         lmp = self.new_lammps()
-        lmp.command("atom_modify map array sort 0 0.0")
+        for command in DOMAIN:
+            lmp.command(command)
         lmp.command(f"read_restart {restart}")
         try:
             return self.attach(record["state"], restarted=True)
@@ -316,6 +348,9 @@ def file_sha256(path):
 
 
 def main(run_dir, continued=False):
+    if RANK > 0:  # one voice: rank 0 prints; the others' errors go to rank<k>.log
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - for the life of the process
+        sys.stderr = open(os.path.join(run_dir, f"rank{RANK}.log"), "a", buffering=1)  # noqa: SIM115
     last = sum(os.path.getsize(os.path.join(run_dir, n)) for n in os.listdir(run_dir) if n.startswith("restart_"))
     driver.main(run_dir, lambda path: Scene(path, continued), last)
 

@@ -142,12 +142,24 @@ def engine_error(run_dir: Path, engine: str) -> str:
     return f"error: LAMMPS: {errors[-1]}" if errors else ""
 
 
-def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int) -> tuple[int, str]:
+def mpi_command(ranks: int) -> list[str]:
+    """``mpirun -np RANKS`` (Debian's OpenMPI), allowed to run as root where this is root; none for one rank."""
+    if ranks == 1:
+        return []
+    mpirun = shutil.which("mpirun")
+    if mpirun is None:
+        raise SpecError("mpirun not found: run `make system-lammps` (apt-get install openmpi-bin)")
+    return [mpirun, "-np", str(ranks), *(["--allow-run-as-root"] if os.geteuid() == 0 else [])]
+
+
+def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int, ranks: int = 1) -> tuple[int, str]:
     """Run the scene, echoing its progress lines (prefixed by ``label``) and logging them to ``run_dir/log.txt``;
     returns its exit status and its last error line. The scene inherits the run's lock (``lock_fd``) and gets
-    SIGTERM if this launcher dies."""
+    SIGTERM if this launcher dies. With ``ranks`` > 1 it runs under ``mpirun``, which kills its ranks on SIGINT or
+    SIGTERM and passes SIGUSR1 and SIGUSR2 on: the first signal reaches the scene as SIGUSR1 (stop at the next
+    checkpoint), a second as SIGUSR2 (stop at once)."""
     try:
-        command = yade.command(SCENE_MODULES[engine], run_dir)
+        command = mpi_command(ranks) + yade.command(SCENE_MODULES[engine], run_dir)
         if engine == "lammps":
             yade.require_lammps()
     except yade.YadeMissing as exc:
@@ -159,7 +171,12 @@ def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int
                                 cwd=run_dir, start_new_session=True, pass_fds=(lock_fd,),
                                 preexec_fn=_die_with_parent)
 
+        received = []
+
         def forward(signum, _frame):
+            received.append(signum)
+            if ranks > 1:
+                signum = signal.SIGUSR1 if len(received) == 1 or signum == signal.SIGUSR1 else signal.SIGUSR2
             proc.send_signal(signum)
 
         previous = {s: signal.signal(s, forward) for s in FORWARDED}
@@ -182,8 +199,12 @@ def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int
         return status, error
 
 
-def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = False, threads: int = 1) -> Path:
-    """Run (or resume) one DEM run and write its HDF5 file; returns the file's path."""
+def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = False, threads: int = 1,
+        ranks: int = 1) -> Path:
+    """Run (or resume) one DEM run and write its HDF5 file; returns the file's path. ``ranks``: MPI ranks of a
+    LAMMPS run."""
+    if ranks != 1 and spec.engine != "lammps":
+        raise SpecError(f"ranks={ranks}: MPI ranks are for ENGINE=lammps (Yade runs on threads: THREADS=)")
     out = run_spec.output_path(spec, results_dir)
     if out.exists() and not fresh:
         stored = stored_spec(out)
@@ -198,14 +219,14 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
     provenance = json.loads(provenance_file.read_text()) if provenance_file.exists() else {
         "started": dt.datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(), "sessions": []}
     provenance["sessions"].append({"command": " ".join(sys.argv), "at": dt.datetime.now().isoformat(timespec="seconds"),
-                                   "threads": threads})
+                                   "threads": threads, "ranks": ranks})
     io.write_json(provenance_file, provenance)
     (run_dir / FAILED).unlink(missing_ok=True)
     if not (run_dir / "raw.npz").exists():
         c = run_spec.cost(spec)
         print(f"{spec.label()}: {c['grains']} grains, about {c['steps'] / 1e6:.3g} M steps of shear, {c['samples']} "
               f"samples (~{c['megabytes']:.2g} MB); progress and ETA follow", flush=True)
-        status, error = run_scene(run_dir, spec.engine, threads, spec.label(), lock_fd)
+        status, error = run_scene(run_dir, spec.engine, threads, spec.label(), lock_fd, ranks)
         if status in (1, 2, 3):  # a crash, a damaged folder, a failed run: not resumable as it is
             reason = error or f"exit status {status} (see {run_dir / 'log.txt'})"
             io.write_json(run_dir / FAILED, {"exit_status": status, "reason": reason,
@@ -241,6 +262,7 @@ def main(argv=None) -> int:
     p.add_argument("--engine", default="yade", help="DEM engine: yade (the reference) or lammps (the fast one)")
     p.add_argument("--threads", type=int, default=1, help="Yade threads (default 1: reproducible, resumable "
                    "bit for bit)")
+    p.add_argument("--ranks", type=int, default=1, help="MPI ranks of a LAMMPS run (default 1; each rank a core)")
     p.add_argument("--results", type=Path, default=RESULTS_DIR, help="results folder (default: results/)")
     p.add_argument("--print-path", action="store_true", help="print the HDF5 path this run writes, then exit")
     args = parser.parse_args(argv)
@@ -248,11 +270,13 @@ def main(argv=None) -> int:
                             allow_inertial=args.allow_inertial, engine=args.engine)
     if not 1 <= args.threads <= 256:
         raise SpecError(f"threads={args.threads} must be between 1 and 256")
+    if not 1 <= args.ranks <= 1024:
+        raise SpecError(f"ranks={args.ranks} must be between 1 and 1024")
     if args.print_path:
         print(run_spec.output_path(spec, args.results))
         return 0
     try:
-        out = run(spec, args.results, args.fresh, args.threads)
+        out = run(spec, args.results, args.fresh, args.threads, args.ranks)
     except OSError as exc:
         if not disk_error(exc):
             raise

@@ -137,3 +137,29 @@ def test_the_engines_benchmark_times_both_engines_on_one_preset(tmp_path):
     assert record["lammps"]["grains"] == record["yade"]["grains"]
     assert record["lammps"]["wall_spheres"] == record["yade"]["wall_spheres"]
     assert "| tiny | 54 + 48 |" in (tmp_path / "dem_engines.md").read_text()
+
+
+def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_path):
+    """RANKS=2 under Debian's OpenMPI: SIGINT reaches the ranks as SIGUSR1 through mpirun (which would kill them on
+    SIGINT), they stop together at the next checkpoint (exit 138) and the same command resumes the run to the end;
+    its file has every sample (not bit-identical to one rank's: the sums run in another order)."""
+    _, runs = both_engines
+    args = (*TINY, "--engine", "lammps", "--ranks", "2")
+    proc = subprocess.Popen(launcher(*args, results=tmp_path), cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    for line in proc.stdout:
+        if "strain" in line:
+            proc.send_signal(signal.SIGINT)
+            break
+    rest = proc.communicate()[0]
+    assert proc.returncode == 138, rest
+    assert (run_spec.work_dir(tiny_spec("lammps"), tmp_path) / "checkpoint.json").exists()
+    again = run_launcher(*args, results=tmp_path)
+    assert again.returncode == 0, again.stdout + again.stderr
+    two = load(run_spec.output_path(tiny_spec("lammps"), tmp_path))
+    one = runs["lammps"]
+    assert json.loads(two.provenance["sessions"])[-1]["ranks"] == 2
+    np.testing.assert_allclose(two.raw_all["strain"], one.raw_all["strain"], atol=1e-3)
+    assert np.all(np.abs(two.raw["wall_stress_error_mean"]) < two.spec["stress_alarm"])
+    refused = run_launcher("--theta", "90", "--preset", "tiny", "--ranks", "2", results=tmp_path)
+    assert refused.returncode == 2 and "MPI ranks are for ENGINE=lammps" in refused.stderr
