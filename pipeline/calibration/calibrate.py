@@ -181,12 +181,15 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
     arrays = {"reversal": [r["arrays"] for r in per_run_full], "cross_check": [c["arrays"] for c in cross_full]}
     per_run = [{k: v for k, v in r.items() if k != "arrays"} for r in per_run_full]
     cross = [{k: v for k, v in c.items() if k != "arrays"} for c in cross_full]
-    refined = dilatancy = boot = noise = identifiable = jack = None
+    refined = dilatancy = boot = noise = identifiable = jack = undetermined_dilatancy = None
     next_runs = []
     if refine:
         data, noise = global_fit.prepare([*reversals, *cross_runs], settings.fit_from)
         refined = global_fit.refine(data, start, free, noise=noise)
-        dilatancy = global_fit.refine_dilatancy(data, refined.params)
+        try:
+            dilatancy = global_fit.refine_dilatancy(data, refined.params)
+        except CalibrationError as exc:  # e.g. reversals alone: Phi_c runs off to a bound along c2_coef
+            undetermined_dilatancy = str(exc)
         identifiable = identifiability.summary(refined, data, hold, measured=noise.measured)
         if not hold and noise.measured:
             rotations = [(r.spec["theta_deg"], r.spec["rotate_at_strain"]) for r in left_out]
@@ -210,7 +213,11 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
             raise CalibrationError(f"the stepwise calibration gives no valid parameters ({exc})") from None
         stepwise = None
         notes.append(f"the stepwise estimates are no valid parameter set ({exc}): no params_stepwise.json")
-    return Calibration(settings, stepwise if refined is None else dilatancy.params, stepwise, per_run, cross,
+    if undetermined_dilatancy:
+        notes.append(f"Eq. 18's c2_coef and Phi_c are not determined by these runs ({undetermined_dilatancy}): "
+                     "params.json keeps their defaults (Table 2's); runs at other angles fix them")
+    result = stepwise if refined is None else (refined.params if dilatancy is None else dilatancy.params)
+    return Calibration(settings, result, stepwise, per_run, cross,
                        estimates, sensitivity(reversals), refined, dilatancy, noise, identifiable, next_runs, boot,
                        jack, [str(r.path) for r in (*reversals, *cross_runs)] if refine else [], notes, arrays)
 

@@ -28,7 +28,10 @@ def print_global(report: dict) -> None:
         text = "[none]" if band is None else f"[{band[0]:+.4g}, {band[1]:+.4g}]"
         print(f"{name:>8s} = {p['value']:+.4g}  68 % {text:>24s}  {p['status']}")
     d = report["dilatancy"]
-    for name, value, se in zip(d["free"], d["values"], d["standard_errors"], strict=True):
+    if d is None:
+        print("c2_coef, phi_c: not determined by these runs (Eq. 18's fit does not converge or sits at a bound); "
+              "params.json keeps Table 2's")
+    for name, value, se in zip(*(() if d is None else (d["free"], d["values"], d["standard_errors"])), strict=True):
         print(f"{name:>8s} = {value:+.4g} ± {se:.2g} (Eq. 18 on Phi; its scatter taken as white)")
     for label, items in (("fixed best", ident["strongest"]), ("fixed least", ident["weakest"])):
         if ident["noise_measured"]:

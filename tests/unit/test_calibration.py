@@ -370,3 +370,19 @@ def test_the_restart_table_fits_an_off_grid_gamma0_on_the_dense_runs_beside_the_
     assert [(g, k, len(r)) for g, k, r in rows] == [(0.0, 0.75, 2), (0.002, 0.75, 1), (0.005, 0.75, 1),
                                                     (0.005, 0.75, 2), (0.005, 0.5, 2)]
     assert rows[1][2] == [dense]
+
+
+@pytest.mark.slow
+def test_reversals_alone_leave_the_dilatancy_undetermined_and_say_so(tmp_path, capsys):
+    """Eq. 18 on reversals alone: Phi_c runs off along c2_coef (committed data, two seeds). The fit goes on, writes
+    no dilatancy, keeps Table 2's c2_coef and Phi_c in params.json and says so, instead of failing."""
+    from pipeline.paths import ROOT
+
+    runs = [str(ROOT / f"data/reference/{folder}/dem/theta180.h5") for folder in ("reduced", "reduced-df0432d3")]
+    assert fit_main(["--runs", *runs, "--out", str(tmp_path / "fit")]) == 0
+    report = json.loads((tmp_path / "fit" / "fit.json").read_text())
+    assert report["dilatancy"] is None
+    assert any("c2_coef and Phi_c are not determined" in note for note in report["notes"])
+    params = read_params(tmp_path / "fit" / "params.json")
+    assert (params.c2_coef, params.phi_c) == (model.PAPER.c2_coef, model.PAPER.phi_c)
+    assert "c2_coef, phi_c: not determined by these runs" in capsys.readouterr().out
