@@ -3,7 +3,7 @@
 ``python3 -m dem.lammps_bench RUN_DIR STEPS REPEATS OUT.json`` (Debian's python3 with LAMMPS) builds the scene of
 RUN_DIR/spec.json, compacts it and shears it STEPS steps (no checkpoint), then times STEPS steps of shear in two
 modes, REPEATS times each, interleaved (best time kept): ``bare`` (the controller's ``fix python/invoke`` and
-``fix halt`` removed: LAMMPS alone, the walls at the velocity they had) and ``full`` (the controller and the
+``fix halt`` removed: LAMMPS alone, the walls at their shear velocity with the gap held) and ``full`` (the controller and the
 in-situ sampling, as in production). Unlike ``dem/bench.py`` the runs follow one another rather than restart from
 one kept state (LAMMPS reads a restart file back in one process only once, see ``dem/lammps_scene.py``): each
 repeat shears on, in the same steady state.
@@ -29,9 +29,10 @@ def main():
     times = {"bare": [], "full": []}
     for _ in range(repeats):
         for mode in times:
-            if mode == "bare":
+            if mode == "bare":  # the walls go on at their shear velocity, the gap held (as dem/bench.py's)
                 lmp.command("unfix halt")
                 lmp.command("unfix control")
+                lmp.set_variable("tvy", "0.0")
             tic = time.perf_counter()
             lmp.command(f"run {steps}")
             times[mode].append(time.perf_counter() - tic)
