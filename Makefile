@@ -241,8 +241,9 @@ fidelity-table: venv ## results/fidelity/ from the committed summaries and the r
 profile-dem: venv ## where Yade's time goes, per engine (PRESETS=reduced,paper; THREADS=1) -> results/bench/dem_profile.md
 	$(PY) -m pipeline.studies.profile_dem --presets $(or $(PRESETS),reduced$(comma)paper) --threads $(THREADS)
 
-engines: venv ## Yade against LAMMPS on the same preset (PRESET=reduced), seeds of each -> results/engines/
-	$(PY) -m pipeline.studies.engines --preset $(if $(filter undefined,$(origin PRESET)),reduced,$(PRESET))
+engines: venv ## Yade against LAMMPS on one preset (the fit's default; PRESET=...), seeds of each -> results/engines/
+	$(SAY_PRESET)
+	$(PY) -m pipeline.studies.engines --preset $(DATA_PRESET)
 
 jump: venv ## the reversal jump: fabric and wall stress right after each change of direction, every run -> results/jump/
 	$(PY) -m pipeline.studies.jump
