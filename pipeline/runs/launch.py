@@ -143,13 +143,15 @@ def engine_error(run_dir: Path, engine: str) -> str:
 
 
 def mpi_command(ranks: int) -> list[str]:
-    """``mpirun -np RANKS`` (Debian's OpenMPI), allowed to run as root where this is root; none for one rank."""
+    """``mpirun -np RANKS`` (Debian's OpenMPI), allowed to run as root where this is root and more ranks than cores
+    where asked for (OpenMPI refuses both by default); none for one rank."""
     if ranks == 1:
         return []
     mpirun = shutil.which("mpirun")
     if mpirun is None:
         raise SpecError("mpirun not found: run `make system-lammps` (apt-get install openmpi-bin)")
-    return [mpirun, "-np", str(ranks), *(["--allow-run-as-root"] if os.geteuid() == 0 else [])]
+    return [mpirun, "-np", str(ranks), *(["--allow-run-as-root"] if os.geteuid() == 0 else []),
+            *(["--oversubscribe"] if ranks > (os.cpu_count() or 1) else [])]
 
 
 def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int, ranks: int = 1) -> tuple[int, str]:
