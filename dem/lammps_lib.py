@@ -21,14 +21,3 @@ def new_lammps(ranks_comm=None, log=None):
         lmp.command(f"log {log} append")
     return lmp
 
-
-def version():
-    """The version of the LAMMPS library (a date, e.g. 20210929), or None without LAMMPS."""
-    try:
-        lmp = new_lammps()
-    except ImportError:
-        return None
-    try:
-        return lmp.version()
-    finally:
-        lmp.close()
