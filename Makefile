@@ -1,5 +1,6 @@
 # Entry point. `make help` lists the targets. The pipeline is a DAG of files:
-#   results/<P>/dem/*.h5 -> results/<P>/fit/params.json -> results/<P>/compare/metrics.json -> results/<P>/report.md
+#   results/<D>/dem/*.h5 -> results/<D>/fit/params.json -> results/<D>/compare/metrics.json -> results/<D>/report.md
+#   (<D>: the folder of the data set, see DATA_CHOICE below)
 # and each step reruns only when what it reads has changed.
 SHELL := /bin/bash
 .DEFAULT_GOAL := help
@@ -82,24 +83,31 @@ ifneq ($(origin PRESET),undefined)
 $(call check,PRESET,$(NAME_CHARS),a preset name (letters, digits, _ . -))
 endif
 
-# `make dem` defaults to the small `quick` preset; fit, compare and figures default to the most faithful
-# preset with a reversal run in results/ or the committed data (paper, then reduced, then quick)
-AUTO_PRESET := $(shell $(PYTHON) -m pipeline.paths)
-DATA_PRESET := $(if $(filter undefined,$(origin PRESET)),$(AUTO_PRESET),$(PRESET))
-SAY_PRESET := @echo "preset $(DATA_PRESET)$(if $(filter undefined,$(origin PRESET)), (the most faithful one with a reversal run; PRESET=... to choose))"
+# `make dem` defaults to the small `quick` preset. fit, compare and figures read a data set
+# (pipeline/dataset/selection.py): the most faithful preset with a reversal run in results/ or the committed data
+# (paper, then reduced, then quick) unless PRESET is given, in the engine and with the overrides config/datasets.toml
+# declares for it unless ENGINE or SET is given; their outputs go to results/<the data set's folder>/.
+DATA_CHOICE := $(shell $(PYTHON) -m pipeline.dataset.selection $(if $(filter undefined,$(origin PRESET)),,--preset $(PRESET)) \
+	$(if $(filter undefined,$(origin ENGINE)),,--engine $(ENGINE)) $(foreach s,$(SET),--set $(s)) 2>/dev/null)
+DATA_PRESET := $(or $(word 1,$(DATA_CHOICE)),$(PRESET),quick)
+DATA_SET := $(or $(word 2,$(DATA_CHOICE)),$(DATA_PRESET))
+DATA_ARGS := --preset $(DATA_PRESET) $(if $(DATA_CHOICE),--engine $(word 3,$(DATA_CHOICE)) \
+	$(foreach s,$(wordlist 4,$(words $(DATA_CHOICE)),$(DATA_CHOICE)),--set $(s)),$(if $(filter undefined,$(origin ENGINE)),,--engine $(ENGINE)) \
+	$(foreach s,$(SET),--set $(s)))
+SAY_PRESET := @echo "data set $(DATA_SET) (preset $(DATA_PRESET)$(if $(filter undefined,$(origin PRESET)),$(comma) \
+	the most faithful one with a reversal run; PRESET=... to choose))"
 PRESET ?= quick
 DEM_ARGS = --preset $(PRESET) --engine $(ENGINE) $(if $(ROTATE_AT),--rotate-at $(ROTATE_AT)) $(foreach s,$(SET),--set $(s)) \
 	$(if $(filter 1 yes true,$(FRESH)),--fresh) $(if $(filter 1 yes true,$(ALLOW_INERTIAL)),--allow-inertial) \
 	--threads $(THREADS) $(if $(filter-out 1,$(RANKS)),--ranks $(RANKS))
 
 RUN_FILES = $(wildcard $(foreach r,results data/reference,$(r)/$(1)/dem/*.h5 $(r)/$(1)-*/dem/*.h5))
-DATA_SET := $(DATA_PRESET)$(if $(filter-out yade,$(ENGINE)),-$(ENGINE))
 FIT_DIR := results/$(DATA_SET)/fit
-COMPARE_DIR := results/$(DATA_PRESET)/compare
+COMPARE_DIR := results/$(DATA_SET)/compare
 # every writer renames its outputs into place when they are complete: an interrupted step keeps the previous set,
 # which Make must not delete either
 .PRECIOUS: $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 $(COMPARE_DIR)/metrics.json \
-	$(COMPARE_DIR)/compare.h5 results/$(DATA_PRESET)/report.md
+	$(COMPARE_DIR)/compare.h5 results/$(DATA_SET)/report.md
 DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config/raw_schema.toml)
 
 FORCE:
@@ -198,7 +206,7 @@ demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 
 demo-dem-%: | $(VENV_STAMP)
 	$(PY) -m pipeline.runs run --theta $* --preset quick
 
-fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs [FIT_FROM=0.005] -> results/<PRESET>/fit/params.json, fit.json, fit.h5
+fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs [FIT_FROM=0.005] -> results/<data set>/fit/params.json, fit.json, fit.h5
 
 FIT_OPTIONS := $(if $(FIT_FROM),--fit-from $(FIT_FROM))
 # the options of the last fit: a fit with other options is a new fit
@@ -208,27 +216,27 @@ $(FIT_DIR)/options.txt: FORCE
 $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(call RUN_FILES,$(DATA_PRESET)) $(VENV_STAMP) \
 		$(DATASET_CODE) $(wildcard pipeline/calibration/*.py) $(FIT_DIR)/options.txt
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --engine $(ENGINE) $(FIT_OPTIONS)
+	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS)
 
-fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 refits, minutes) -> results/<P>/fit-bootstrap/
+fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 refits, minutes) -> results/<data set>/fit-bootstrap/
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --bootstrap $(BOOT) --out results/$(DATA_PRESET)/fit-bootstrap
+	$(PY) -m pipeline.calibration $(DATA_ARGS) --bootstrap $(BOOT) --out results/$(DATA_SET)/fit-bootstrap
 
-fit-jackknife: venv ## the fit plus a jackknife over the reversal seeds (a refit per seed) -> results/<P>/fit-jackknife/
+fit-jackknife: venv ## the fit plus a jackknife over the reversal seeds (a refit per seed) -> results/<data set>/fit-jackknife/
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration --preset $(DATA_PRESET) --jackknife --out results/$(DATA_PRESET)/fit-jackknife
+	$(PY) -m pipeline.calibration $(DATA_ARGS) --jackknife --out results/$(DATA_SET)/fit-jackknife
 
-fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<PRESET>/fit/definitions.md
+fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<data set>/fit/definitions.md
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration.definitions --preset $(DATA_PRESET)
+	$(PY) -m pipeline.calibration.definitions $(DATA_ARGS)
 
 fit-from: venv ## the fit past the reversal jump: gamma0 = 0, 0.005, 0.01 and a profile of k -> fit/fit_from.md
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration.restart --preset $(DATA_PRESET)
+	$(PY) -m pipeline.calibration.restart $(DATA_ARGS)
 
 fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=bulk PHI=central] (minutes) -> fit/profiles*.json
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration.profile --preset $(DATA_PRESET) --strain $(STRAIN) --phi $(PHI)
+	$(PY) -m pipeline.calibration.profile $(DATA_ARGS) --strain $(STRAIN) --phi $(PHI)
 
 fidelity: venv ## the fidelity ladder (config/fidelity.toml): make its missing DEM runs (JOBS=2), then results/fidelity/
 	$(PY) -m pipeline.studies.fidelity --run --jobs $(or $(JOBS),2) --engine $(ENGINE)
@@ -251,17 +259,17 @@ jump: venv ## the reversal jump: fabric and wall stress right after each change 
 stability: venv ## the DEM on stiff and extreme cases, small cells (about 15 min) -> results/fidelity/stability.md
 	$(PY) -m pipeline.studies.stability
 
-compare: $(COMPARE_DIR)/metrics.json ## the model against the preset's runs -> results/<PRESET>/compare/
+compare: $(COMPARE_DIR)/metrics.json ## the model against the preset's runs -> results/<data set>/compare/
 
 $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 &: $(FIT_DIR)/params.json $(FIT_DIR)/fit.h5 \
 		$(call RUN_FILES,$(DATA_PRESET)) $(DATASET_CODE) $(wildcard pipeline/comparison/*.py)
-	$(PY) -m pipeline.comparison --preset $(DATA_PRESET)
+	$(PY) -m pipeline.comparison $(DATA_ARGS)
 
-figures: results/$(DATA_PRESET)/report.md ## Figs. 3-9 and report.md -> results/<PRESET>/figures/, report.md
+figures: results/$(DATA_SET)/report.md ## Figs. 3-9 and report.md -> results/<data set>/figures/, report.md
 
-results/$(DATA_PRESET)/report.md: $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 $(FIT_DIR)/fit.json \
+results/$(DATA_SET)/report.md: $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 $(FIT_DIR)/fit.json \
 		$(FIT_DIR)/fit.h5 $(wildcard pipeline/figures/*.py)
-	$(PY) -m pipeline.figures --preset $(DATA_PRESET)
+	$(PY) -m pipeline.figures $(DATA_ARGS)
 
 clean: ## remove generated results (keeps the venv and the DEM runs under results/<preset>/dem/)
 	rm -rf results/model results/bench results/fidelity results/jump results/*/fit results/*/fit-* results/*/compare results/*/figures results/*/report.md

@@ -57,20 +57,3 @@ def preset_files(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, variants: bo
 def preset_output(preset: str, *parts: str) -> Path:
     """``results/<preset>/<parts...>``, the preset name checked first."""
     return RESULTS_DIR.joinpath(check_folder_name(preset), *parts)
-
-
-#: presets from the most faithful to the paper's cell down
-PRESETS_BY_FIDELITY = ("paper", "reduced", "quick")
-
-
-def most_faithful_preset(roots: tuple[Path, ...] = DATA_ROOTS) -> str:
-    """The most faithful preset with a reversal run (a ``theta180.h5``) in results/ or the committed data;
-    ``quick`` (the demo's) when there is none. Make asks this (``python3 -m pipeline.paths``)."""
-    for preset in PRESETS_BY_FIDELITY:
-        if any(p.name == "theta180.h5" for p in preset_files(preset, roots)):
-            return preset
-    return "quick"
-
-
-if __name__ == "__main__":
-    print(most_faithful_preset())

@@ -1,8 +1,10 @@
 """``make fit``: calibrate the model on a preset's DEM runs and write ``results/<preset>/fit/``.
 
-``python -m pipeline.calibration [--preset P] [--runs a.h5 ...] [--window 0.05] [--fit-from 0.005] [--out DIR]
-[--bootstrap N] [--jackknife] [--hold NAME=VALUE]``. Without ``--preset``, the most faithful preset that has a
-reversal run is used, and named. The work is ``calibrate.calibrate``; outputs ``calibrate.write``.
+``python -m pipeline.calibration [--preset P] [--engine E] [--set K=V] [--runs a.h5 ...] [--window 0.05]
+[--fit-from 0.005] [--out DIR] [--bootstrap N] [--jackknife] [--hold NAME=VALUE]``. Without ``--preset``, the
+most faithful preset that has a reversal run is used, and named; the runs are the preset's data set
+(``pipeline.dataset.selection``), the outputs go to ``results/<its folder>/fit``. The work is
+``calibrate.calibrate``; outputs ``calibrate.write``.
 """
 
 from __future__ import annotations
@@ -11,21 +13,20 @@ import sys
 from pathlib import Path
 
 from ..cli import Parser, one_line_errors
+from ..dataset import selection
 from ..dataset.dem_file import load
-from ..dataset.lookup import engine_folder, other_angles, preset_runs, reversal_seeds
+from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
 from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
-from .calibrate import Settings, default_preset, fit, parse_hold
+from .calibrate import Settings, fit, parse_hold
 from .text import print_report
 
 
 @one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration", description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", help="preset whose runs to fit (default: the most faithful one with runs)")
-    parser.add_argument("--engine", default="yade", help="the DEM engine whose runs to fit: yade (default) or lammps "
-                        "(results/<preset>-lammps/fit)")
+    selection.add_arguments(parser, "preset whose runs to fit")
     parser.add_argument("--runs", nargs="*", type=Path, help="reversal DEM files to fit instead of the preset's")
     parser.add_argument("--window", type=float, default=0.05, help="Savitzky-Golay window in strain (default 0.05)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<preset>/fit)")
@@ -50,15 +51,15 @@ def main(argv=None) -> int:
         reversals, cross, left_out = [load(p) for p in args.runs], (), ()
         out = args.out or preset_output(check_folder_name(args.preset or "custom"), "fit")
     else:
-        preset = args.preset or default_preset()
-        if args.preset is None:
-            print(f"preset: {preset} (the most faithful one with a reversal run; --preset / PRESET= to choose)")
-        out = args.out or preset_output(engine_folder(preset, args.engine), "fit")
-        every = preset_runs(preset, engine=args.engine)
-        reversals, cross = reversal_seeds(preset, engine=args.engine), tuple(other_angles(every))
+        chosen = selection.from_arguments(args)
+        print(f"runs: {chosen.label}")
+        out = args.out or preset_output(chosen.folder, "fit")
+        every = preset_runs(chosen)
+        reversals, cross = reversal_seeds(chosen), tuple(other_angles(every))
         if not reversals:
-            raise CalibrationError(f"no reversal run found of preset {preset} in {args.engine}: run `make dem "
-                                   f"THETA=180 PRESET={preset} ENGINE={args.engine}` first")
+            given = f' SET="{" ".join(chosen.settings)}"' if chosen.settings else ""
+            raise CalibrationError(f"no reversal run of {chosen.label}: run `make dem THETA=180 "
+                                   f"PRESET={chosen.preset} ENGINE={chosen.engine}{given}` first")
         left_out = tuple(r for r in every if not r.default_rotation)
     print(f"definitions: {settings.definitions.label()}")
     report = fit(reversals, out, cross, left_out, **vars(settings))

@@ -21,9 +21,7 @@ import model
 
 from .. import io
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
-from ..dataset.lookup import reversal_seeds
 from ..errors import CalibrationError
-from ..paths import most_faithful_preset
 from . import design, global_fit, identifiability
 from .stepwise import calibrate_run, combine, cross_check_run, fitted_params, sensitivity, stepwise_bootstrap
 
@@ -263,11 +261,3 @@ def fit(reversals: list, out_dir: Path, cross_runs: tuple = (), left_out: tuple 
     cal = calibrate(reversals, tuple(cross_runs), tuple(left_out), chosen, refine)
     write(cal, out_dir)
     return cal.to_dict()
-
-
-def default_preset() -> str:
-    """The most faithful preset with a reversal run, in results/ or the committed data."""
-    preset = most_faithful_preset()
-    if not reversal_seeds(preset):
-        raise CalibrationError("no reversal run of any preset: run `make dem THETA=180` first")
-    return preset

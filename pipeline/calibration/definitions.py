@@ -1,9 +1,9 @@
 """The global fit under every definition the paper leaves open, side by side (``make fit-definitions``).
 
-``python -m pipeline.calibration.definitions [--preset P] [--out DIR]`` refits the preset's runs with
-each strain measure (bulk, nominal) x packing fraction (central, gap) x pressure (target, wall) and
-writes ``definitions.md`` and ``definitions.json`` beside the fit: the parameters with their standard
-errors from the DEM's noise (measured under each definition), the misfit, and Table 2 tested as a
+``python -m pipeline.calibration.definitions [--preset P] [--engine E] [--set K=V] [--out DIR]`` refits the
+preset's runs (its data set) with each strain measure (bulk, nominal) x packing fraction (central, gap) x
+pressure (target, wall) and writes ``definitions.md`` and ``definitions.json`` beside the fit: the parameters
+with their standard errors from the DEM's noise (measured under each definition), the misfit, and Table 2 tested as a
 hypothesis on the same data (its chi^2 rise and whether it lies in the joint 95 % region).
 """
 
@@ -19,10 +19,11 @@ import model
 
 from .. import io
 from ..cli import Parser, one_line_errors
+from ..dataset import selection
 from ..dataset.derived import Definitions
 from ..dataset.lookup import fit_runs
 from ..errors import PipelineError
-from ..paths import check_folder_name, preset_output
+from ..paths import preset_output
 from . import global_fit, identifiability
 
 NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
@@ -68,11 +69,11 @@ def early_share(refined, data: list, start: model.Params) -> float:
     return float(np.sum(res[early] ** 2) / np.sum(res**2))
 
 
-def preset_fit_runs(preset: str) -> list:
-    """The runs the global fit of ``preset`` uses; none is a one-line error."""
-    runs = fit_runs(preset)
+def preset_fit_runs(chosen: selection.DataSet) -> list:
+    """The runs the global fit of the data set ``chosen`` uses; none is a one-line error."""
+    runs = fit_runs(chosen)
     if not runs:
-        raise PipelineError(f"no run of preset {preset!r}")
+        raise PipelineError(f"no run of {chosen.label}")
     return runs
 
 
@@ -87,10 +88,10 @@ def compare_definitions(runs: list) -> list[dict]:
     return rows
 
 
-def markdown(rows: list[dict], preset: str) -> str:
+def markdown(rows: list[dict], label: str) -> str:
     head = ("| strain | Φ | p | " + " | ".join(NAMES)
             + " | misfit | Table 2: χ² rise | in 95 % region (noise / widened) | mean Φ |")
-    lines = [f"# The global fit under each definition: preset `{preset}`", "",
+    lines = [f"# The global fit under each definition: `{label}`", "",
              "± one standard error from the DEM's measured noise (correlated along strain; not scaled by the "
              "misfit). Φc and c2_coef: Eq. 18 on Φ, its scatter taken as white. *misfit*: χ² per degree of "
              "freedom in noise units (1 = within the noise). Table 2 is tested on its flow rule and fabric law "
@@ -114,13 +115,13 @@ def markdown(rows: list[dict], preset: str) -> str:
 @one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration.definitions", description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default="reduced")
-    parser.add_argument("--out", help="output folder (default results/<preset>/fit)")
+    selection.add_arguments(parser)
+    parser.add_argument("--out", help="output folder (default results/<data set folder>/fit)")
     args = parser.parse_args(argv)
-    preset = check_folder_name(args.preset)
-    out = io.check_writable_dir(args.out or preset_output(preset, "fit"))
-    rows = compare_definitions(preset_fit_runs(preset))
-    print(f"wrote {io.write_table(out, 'definitions', rows, markdown(rows, preset))} and definitions.json")
+    chosen = selection.from_arguments(args)
+    out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
+    rows = compare_definitions(preset_fit_runs(chosen))
+    print(f"wrote {io.write_table(out, 'definitions', rows, markdown(rows, chosen.label))} and definitions.json")
     return 0
 
 

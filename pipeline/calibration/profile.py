@@ -1,6 +1,7 @@
 """Profile likelihood of the global fit (``make fit-profile``): each parameter held on a grid, the rest refitted.
 
-``python -m pipeline.calibration.profile [--preset P] [--points 9] [--span 4] [--strain ...] [--phi ...]``
+``python -m pipeline.calibration.profile [--preset P] [--engine E] [--set K=V] [--points 9] [--span 4]
+[--strain ...] [--phi ...]``
 reads the preset's runs as ``make fit`` does (with the definitions given), fits them, then for every
 parameter of the global fit refits the others with it held at ``points`` values across +-``span``
 standard errors, and writes ``profiles.json`` beside the fit (``profiles-<strain>-<phi>-<p>.json`` for
@@ -24,11 +25,12 @@ import model
 
 from .. import io
 from ..cli import Parser, one_line_errors
+from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS
 from ..dataset.lookup import fit_runs
 from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError, PipelineError
-from ..paths import check_folder_name, preset_output
+from ..paths import preset_output
 from . import global_fit
 
 LEVELS = {"68": 1.0, "95": 3.841459}  # chi^2_1 quantiles, times each parameter's noise factor
@@ -86,20 +88,20 @@ def profiles(data: list, best: global_fit.GlobalFit, points: int = 9, span: floa
 @one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration.profile", description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default="reduced")
+    selection.add_arguments(parser)
     parser.add_argument("--points", type=int, default=9, help="values per parameter (default 9)")
     parser.add_argument("--span", type=float, default=4.0, help="half-width in standard errors (default 4)")
-    parser.add_argument("--out", help="output folder (default results/<preset>/fit)")
+    parser.add_argument("--out", help="output folder (default results/<data set folder>/fit)")
     add_definition_arguments(parser)
     args = parser.parse_args(argv)
-    preset = check_folder_name(args.preset)
     if args.points < 3 or not (np.isfinite(args.span) and args.span > 0):
         raise PipelineError(f"points={args.points} must be >= 3 and span={args.span} > 0")
     definitions = definitions_from(args)
-    out = io.check_writable_dir(args.out or preset_output(preset, "fit"))
-    runs = [r.with_definitions(definitions) for r in fit_runs(preset)]
+    chosen = selection.from_arguments(args)
+    out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
+    runs = [r.with_definitions(definitions) for r in fit_runs(chosen)]
     if not runs:
-        raise PipelineError(f"no run of preset {preset!r}")
+        raise PipelineError(f"no run of {chosen.label}")
     data, noise = global_fit.prepare(runs)
     best = global_fit.refine(data, model.Params(), noise=noise)
     tic = time.time()

@@ -1,6 +1,7 @@
 """The global fit past the reversal jump, side by side (``make fit-from``).
 
-``python -m pipeline.calibration.restart [--preset P] [--fit-from 0,0.005,0.01] [--exponents 0.5,...,1]``
+``python -m pipeline.calibration.restart [--preset P] [--engine E] [--set K=V] [--fit-from 0,0.005,0.01]
+[--exponents 0.5,...,1]``
 refits the preset's runs in the paper's definitions (nominal strain, Phi of the gap, the controlled p) with
 the model restarted from the DEM's state gamma0 past each change of direction (``Cycle.restarted``), for
 each gamma0, and then, at the first gamma0 > 0, with the persistence exponent k of Eq. 12 held at each value
@@ -20,9 +21,10 @@ import model
 
 from .. import io
 from ..cli import Parser, one_line_errors
+from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS, states_after_changes
 from ..errors import PipelineError
-from ..paths import check_folder_name, preset_output
+from ..paths import preset_output
 from .definitions import NAMES, fit_row, preset_fit_runs
 
 FIT_FROM = (0.0, 0.002, 0.005, 0.01)
@@ -70,9 +72,9 @@ def table(runs: list, fit_from=FIT_FROM, exponents=EXPONENTS, definitions=PAPER_
     return rows
 
 
-def markdown(rows: list[dict], preset: str) -> str:
+def markdown(rows: list[dict], label: str) -> str:
     shown = NAMES[:7]
-    lines = [f"# The global fit past the reversal jump: preset `{preset}`", "",
+    lines = [f"# The global fit past the reversal jump: `{label}`", "",
              "Paper's definitions (nominal strain, Φ of the gap, τ over the controlled p). *γ0*: the model restarts "
              "from the DEM's cycle-mean A and Φ this far past each change of direction and is fitted to what "
              "follows (0: the converged periodic cycle, all samples). *k*: the persistence exponent of Eq. 12, "
@@ -113,16 +115,16 @@ def _numbers(name: str, text: str) -> tuple[float, ...]:
 @one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration.restart", description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default="reduced")
+    selection.add_arguments(parser)
     parser.add_argument("--fit-from", default=",".join(f"{g:g}" for g in FIT_FROM), help="gamma0 values (strain)")
     parser.add_argument("--exponents", default=",".join(f"{k:g}" for k in EXPONENTS), help="k values profiled")
-    parser.add_argument("--out", help="output folder (default results/<preset>/fit)")
+    parser.add_argument("--out", help="output folder (default results/<data set folder>/fit)")
     args = parser.parse_args(argv)
-    preset = check_folder_name(args.preset)
     fit_from, exponents = _numbers("fit-from", args.fit_from), _numbers("exponents", args.exponents)
-    out = io.check_writable_dir(args.out or preset_output(preset, "fit"))
-    rows = table(preset_fit_runs(preset), fit_from, exponents)
-    print(f"wrote {io.write_table(out, 'fit_from', rows, markdown(rows, preset))} and fit_from.json")
+    chosen = selection.from_arguments(args)
+    out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
+    rows = table(preset_fit_runs(chosen), fit_from, exponents)
+    print(f"wrote {io.write_table(out, 'fit_from', rows, markdown(rows, chosen.label))} and fit_from.json")
     return 0
 
 

@@ -1,6 +1,6 @@
-"""``make compare``: the model against a preset's DEM runs -> ``results/<preset>/compare/``.
+"""``make compare``: the model against a data set's DEM runs -> ``results/<its folder>/compare/``.
 
-``python -m pipeline.comparison [--preset P] [--params FILE] [--out DIR]`` predicts every run's
+``python -m pipeline.comparison [--preset P] [--engine E] [--set K=V] [--params FILE] [--out DIR]`` predicts every run's
 cycle with Table 2 and with the fitted parameters (``fit/params.json``), reading the runs with the
 fit's definitions of strain, Phi and p (``fit/fit.json``), and writes, atomically:
 ``compare.h5`` (per run: the DEM's cycle mean and standard error, and each parameter set's model
@@ -24,10 +24,11 @@ import model
 
 from .. import io
 from ..cli import Parser, one_line_errors
+from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..dataset.lookup import preset_runs
 from ..errors import DemFileError
-from ..paths import check_folder_name, preset_output
+from ..paths import preset_output
 from . import metrics
 
 SCHEMA = "granular-backstress/compare"
@@ -66,12 +67,12 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
                 g.create_dataset(key, data=value)
 
 
-def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str) -> dict:
+def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str, label: str = "") -> dict:
     """Predict, measure and write ``compare.h5`` and ``metrics.json`` into ``out_dir``."""
     io.check_writable_dir(out_dir)
     predictions = [metrics.model_for(run, sets) for run in runs]
     ours = sets["our fit"]
-    result = {"preset": preset, "definitions": dataclasses.asdict(runs[0].definitions),
+    result = {"preset": preset, "data_set": label or preset, "definitions": dataclasses.asdict(runs[0].definitions),
               "param_sets": {label: p.to_dict() for label, p in sets.items()},
               "components": list(metrics.COMPONENTS),
               "errors": [{"run": Path(run.path).stem, "parameters": label, **metrics.errors(data, pred)}
@@ -107,23 +108,23 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
 @one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.comparison", description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default="reduced")
-    parser.add_argument("--params", type=Path, help="fitted parameters (default results/<preset>/fit/params.json)")
-    parser.add_argument("--out", type=Path, help="output folder (default results/<preset>/compare)")
+    selection.add_arguments(parser)
+    parser.add_argument("--params", type=Path, help="fitted parameters (default results/<folder>/fit/params.json)")
+    parser.add_argument("--out", type=Path, help="output folder (default results/<data set folder>/compare)")
     args = parser.parse_args(argv)
-    preset = check_folder_name(args.preset)
-    params_file = args.params or preset_output(preset, "fit", "params.json")
+    chosen = selection.from_arguments(args)
+    params_file = args.params or preset_output(chosen.folder, "fit", "params.json")
     fitted = io.read_params(params_file)
     fit_json = params_file.with_name("fit.json")
     definitions = Definitions(**json.loads(fit_json.read_text()).get("definitions", {})) \
         if fit_json.exists() else PAPER_DEFINITIONS
-    runs = [r.with_definitions(definitions) for r in preset_runs(preset)]
+    runs = [r.with_definitions(definitions) for r in preset_runs(chosen)]
     if not runs:
-        raise DemFileError(f"no DEM run of preset {preset!r}: run `make dem PRESET={preset}` first")
+        raise DemFileError(f"no DEM run of {chosen.label}: run `make dem PRESET={chosen.preset}` first")
     fit_h5 = params_file.with_name("fit.h5")
-    out = args.out or preset_output(preset, "compare")
+    out = args.out or preset_output(chosen.folder, "compare")
     compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5 if fit_h5.exists() else None, out,
-            preset)
+            chosen.preset, chosen.label)
     print(f"wrote {out / 'compare.h5'} and metrics.json")
     return 0
 

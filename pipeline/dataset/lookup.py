@@ -1,4 +1,5 @@
-"""Which DEM runs a stage uses: the lookup of a preset's files (results/ first, then the committed data)."""
+"""Which DEM runs a stage uses: the files of a data set (``selection.DataSet``), results/ first, then the committed
+data."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from ..errors import PipelineError
 from ..paths import DATA_ROOTS, preset_files
 from ..runs.spec import ENGINES
 from .dem_file import DemRun, load
+from .selection import DataSet
 
 
 def load_of_preset(path: Path, preset: str) -> DemRun:
@@ -27,20 +29,18 @@ def engine_folder(preset: str, engine: str = ENGINES[0]) -> str:
     return preset if engine == ENGINES[0] else f"{preset}-{engine}"
 
 
-def preset_runs(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, engine: str = ENGINES[0]) -> list[DemRun]:
-    """The runs of ``preset`` as it is (``<preset>/dem/*.h5``; another engine's in ``<preset>-<engine>/``), every
-    angle and rotation."""
-    runs = [load_of_preset(p, preset) for p in preset_files(engine_folder(preset, engine), roots, variants=False)]
-    return [r for r in runs if r.engine == engine]
+def preset_runs(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
+    """The data set's runs at its first seed (``<folder>/dem/*.h5``): every angle and rotation."""
+    runs = [load_of_preset(p, chosen.preset) for p in preset_files(chosen.folder, roots, variants=False)]
+    return [r for r in runs if chosen.matches(r.engine, r.overrides)]
 
 
-def reversal_seeds(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, engine: str = ENGINES[0]) -> list[DemRun]:
-    """The preset's reversals in ``engine`` (theta = 180, default rotation): the preset's own and every
-    ``<folder>-<hash>`` variant whose only override is the seed."""
-    runs = [load_of_preset(p, preset) for p in preset_files(engine_folder(preset, engine), roots)
+def reversal_seeds(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
+    """The data set's reversals (theta = 180, default rotation) at every seed: its own folder's and every
+    ``<preset>[-<engine>]-<hash>`` variant whose overrides are the data set's besides the seed."""
+    runs = [load_of_preset(p, chosen.preset) for p in preset_files(engine_folder(chosen.preset, chosen.engine), roots)
             if p.name == "theta180.h5"]
-    return [r for r in runs if r.engine == engine and r.is_reversal and r.default_rotation
-            and set(r.overrides) <= {"seed"}]
+    return [r for r in runs if chosen.matches(r.engine, r.overrides) and r.is_reversal and r.default_rotation]
 
 
 def other_angles(runs: list[DemRun]) -> list[DemRun]:
@@ -48,6 +48,6 @@ def other_angles(runs: list[DemRun]) -> list[DemRun]:
     return [r for r in runs if not r.is_reversal and r.default_rotation]
 
 
-def fit_runs(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, engine: str = ENGINES[0]) -> list[DemRun]:
-    """What the global fit uses: the preset's reversal seeds, then its other angles at the default rotation."""
-    return [*reversal_seeds(preset, roots, engine), *other_angles(preset_runs(preset, roots, engine))]
+def fit_runs(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
+    """What the global fit uses: the data set's reversal seeds, then its other angles at the default rotation."""
+    return [*reversal_seeds(chosen, roots), *other_angles(preset_runs(chosen, roots))]

@@ -1,7 +1,8 @@
-"""``python -m pipeline.figures [--preset reduced]`` (``make figures``): Figs. 3-9 and report.md.
+"""``python -m pipeline.figures [--preset P] [--engine E] [--set K=V]`` (``make figures``): Figs. 3-9 and report.md.
 
-Reads ``results/<preset>/compare/compare.h5`` and ``metrics.json`` (``make compare``) and
-``results/<preset>/fit/fit.h5`` and ``fit.json`` (``make fit``); draws and formats, computes nothing.
+Reads ``results/<folder>/compare/compare.h5`` and ``metrics.json`` (``make compare``) and
+``results/<folder>/fit/fit.h5`` and ``fit.json`` (``make fit``), ``<folder>`` the data set's
+(``pipeline.dataset.selection``); draws and formats, computes nothing.
 """
 
 from __future__ import annotations
@@ -15,8 +16,9 @@ import h5py
 
 from .. import io
 from ..cli import Parser, one_line_errors
+from ..dataset import selection
 from ..errors import PipelineError
-from ..paths import check_folder_name, preset_output
+from ..paths import preset_output
 from . import cycles, laws, profiles, report, reversal
 
 
@@ -75,14 +77,14 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
 @one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.figures", description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default="reduced")
-    parser.add_argument("--compare", type=Path, help="comparison folder (default results/<preset>/compare)")
-    parser.add_argument("--fit", type=Path, help="calibration folder (default results/<preset>/fit)")
-    parser.add_argument("--out", type=Path, help="output folder (default results/<preset>)")
+    selection.add_arguments(parser)
+    parser.add_argument("--compare", type=Path, help="comparison folder (default results/<data set folder>/compare)")
+    parser.add_argument("--fit", type=Path, help="calibration folder (default results/<data set folder>/fit)")
+    parser.add_argument("--out", type=Path, help="output folder (default results/<data set folder>)")
     args = parser.parse_args(argv)
-    preset = check_folder_name(args.preset)
-    made = draw(args.compare or preset_output(preset, "compare"), args.fit or preset_output(preset, "fit"),
-                args.out or preset_output(preset))
+    folder = selection.from_arguments(args).folder
+    made = draw(args.compare or preset_output(folder, "compare"), args.fit or preset_output(folder, "fit"),
+                args.out or preset_output(folder))
     for path in made:
         print(f"wrote {path}")
     return 0

@@ -128,7 +128,7 @@ def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int, fit_from
     sets = metrics["param_sets"]
     paper, ours = sets["Table 2"], sets["our fit"]
     components = metrics["components"]
-    lines = [f"# Model against our DEM: preset `{metrics['preset']}`", "",
+    lines = [f"# Model against our DEM: `{metrics.get('data_set', metrics['preset'])}`", "",
              f"{n_runs} DEM run(s); the model runs in the fit's strain measure for each run's protocol.", "",
              "## Parameters", "", *parameter_lines(ours, paper, fit_json)]
     lines += ["", "## Model against DEM", "",

@@ -256,12 +256,18 @@ def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | 
     rotate_at = parse_number("rotate_at", rotate_at)
     if not 0 < rotate_at < period:
         raise SpecError(f"rotate_at={rotate_at!r} must lie strictly between 0 and period_strain={period}")
+    return DemSpec(preset, theta, rotate_at, run_name(theta, rotate_at, default_rotate_at),
+                   run_folder(preset, engine, overrides), overrides, values, engine)
+
+
+def run_folder(preset: str, engine: str = ENGINES[0], overrides: dict | None = None) -> str:
+    """The folder of a preset's runs: ``<preset>`` in Yade, ``<preset>-<engine>`` in another engine, and
+    ``-<hash>`` after either for runs with overrides (the first 8 hex digits of SHA-1 of their sorted JSON)."""
     folder = preset if engine == ENGINES[0] else f"{preset}-{engine}"
     if overrides:
         digest = hashlib.sha1(json.dumps(overrides, sort_keys=True).encode()).hexdigest()[:8]
         folder = f"{folder}-{digest}"
-    return DemSpec(preset, theta, rotate_at, run_name(theta, rotate_at, default_rotate_at), folder, overrides, values,
-                   engine)
+    return folder
 
 
 def output_path(spec: DemSpec, results_dir: Path = RESULTS_DIR) -> Path:

@@ -137,7 +137,8 @@ def inputs(tmp_path_factory):
 #: (arguments, with {inp} for the inputs folder; the fragment the one-line error must hold)
 FIT_CASES = [
     (["--preset", "../../etc"], "preset '../../etc' is not a valid name"),
-    (["--preset", "nosuch"], "no reversal run found"),
+    (["--preset", "nosuch"], "unknown preset 'nosuch'"),
+    (["--preset", "tiny", "--set", "nosuch=1"], "unknown override key(s) nosuch"),
     (["--bootstrap", "1", "--runs", "{inp}/theta180.h5"], "bootstrap=1: a bootstrap needs at least 2"),
     (["--bootstrap", "0", "--runs", "{inp}/theta180.h5"], "bootstrap=0: a bootstrap needs at least 2"),
     (["--window", "-1", "--runs", "{inp}/theta180.h5"], "window=-1.0 must be a positive strain"),
@@ -164,8 +165,9 @@ def test_make_fit_refuses(inputs, tmp_path, template, fragment):
 
 @pytest.mark.parametrize("main, args, fragment", [
     (figures_main, ["--preset", "../x"], "preset '../x' is not a valid name"),
-    (figures_main, ["--preset", "nosuch"], "metrics.json not found: run `make compare`"),
-    (compare_main, ["--preset", "nosuch"], "cannot read parameters"),
+    (figures_main, ["--preset", "nosuch"], "unknown preset 'nosuch'"),
+    (figures_main, ["--preset", "tiny", "--engine", "lammps"], "metrics.json not found: run `make compare`"),
+    (compare_main, ["--preset", "tiny", "--set", "seed=7"], "cannot read parameters"),
     (compare_main, ["--preset", "a/b"], "preset 'a/b' is not a valid name"),
 ])
 def test_make_compare_and_figures_refuse(tmp_path, main, args, fragment):

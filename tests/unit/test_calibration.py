@@ -14,6 +14,7 @@ from pipeline.calibration.stepwise import dilatancy_estimate
 from pipeline.dataset import lookup
 from pipeline.dataset.cycle import Cycle
 from pipeline.dataset.derived import Definitions, cycle_D_dev
+from pipeline.dataset.selection import DataSet
 from pipeline.errors import CalibrationError, PipelineError
 from pipeline.io import read_params
 from tests.helpers import synthetic_file, synthetic_run
@@ -55,7 +56,9 @@ def test_several_seeds_give_a_mean_and_its_standard_error(tmp_path):
 
 def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
     assert fit_main(["--preset", "no-such-preset", "--out", str(tmp_path / "fit")]) == 2
-    assert "no reversal run found" in capsys.readouterr().err
+    assert "unknown preset 'no-such-preset'" in capsys.readouterr().err
+    assert fit_main(["--preset", "tiny", "--set", "friction_deg=33", "--out", str(tmp_path / "fit")]) == 2
+    assert "no reversal run of tiny (yade, friction_deg=33)" in capsys.readouterr().err
     path = synthetic_file(tmp_path, theta=90.0, n_cycles=1)
     assert fit_main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 2
     assert "not a reversal run: " in capsys.readouterr().err
@@ -103,12 +106,13 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
                               preset="p", **kw)
         assert path.exists()
     roots = (results, reference)
-    assert [r.path for r in lookup.reversal_seeds("p", roots)] == [results / "p/dem/theta180.h5",
+    assert [r.path for r in lookup.reversal_seeds(DataSet("p"), roots)] == [results / "p/dem/theta180.h5",
                                                                    reference / "p-1a2b/dem/theta180.h5"]
-    assert [r.path for r in lookup.other_angles(lookup.preset_runs("p", roots))] == [reference / "p/dem/theta090.h5"]
+    angles = lookup.other_angles(lookup.preset_runs(DataSet("p"), roots))
+    assert [r.path for r in angles] == [reference / "p/dem/theta090.h5"]
     # a writer's hidden temporary is not a run
     (results / "p/dem/.theta090.tmp123.h5").write_bytes(b"partial")
-    assert [r.path for r in lookup.preset_runs("p", roots)] == [reference / "p/dem/theta090.h5",
+    assert [r.path for r in lookup.preset_runs(DataSet("p"), roots)] == [reference / "p/dem/theta090.h5",
                                                                results / "p/dem/theta180.h5"]
 
 
@@ -124,13 +128,13 @@ def test_each_engines_runs_are_found_apart():
                                    ("p-lammps", "lammps", {}), ("p-lammps-3c4d", "lammps", {"overrides": {"seed": 2}})):
             (root / folder / "dem").mkdir(parents=True)
             synthetic_file(root / folder / "dem", name="theta180", n_cycles=1, preset="p", engine=engine, **kw)
-        yade = lookup.reversal_seeds("p", (root,))
-        lammps = lookup.reversal_seeds("p", (root,), engine="lammps")
+        yade = lookup.reversal_seeds(DataSet("p"), (root,))
+        lammps = lookup.reversal_seeds(DataSet("p", "lammps"), (root,))
         assert [r.path.parts[-3] for r in yade] == ["p", "p-1a2b"] and {r.engine for r in yade} == {"yade"}
         assert [r.path.parts[-3] for r in lammps] == ["p-lammps", "p-lammps-3c4d"]
-        assert [r.path.parts[-3] for r in lookup.preset_runs("p", (root,), engine="lammps")] == ["p-lammps"]
+        assert [r.path.parts[-3] for r in lookup.preset_runs(DataSet("p", "lammps"), (root,))] == ["p-lammps"]
         with pytest.raises(PipelineError, match="engine='foo' is not a DEM engine"):
-            lookup.reversal_seeds("p", (root,), engine="foo")
+            lookup.reversal_seeds(DataSet("p", "foo"), (root,))
 
 
 @pytest.mark.parametrize("damage, message", [
@@ -154,7 +158,7 @@ def test_a_damaged_run_in_results_is_one_line_not_a_fallback_to_the_committed_on
     else:
         synthetic_file(results / "p/dem", name="theta180", n_cycles=1, preset="q")
     with pytest.raises(PipelineError, match=re.escape(message)):
-        lookup.fit_runs("p", (results, reference))
+        lookup.fit_runs(DataSet("p"), (results, reference))
 
 
 @pytest.mark.slow

@@ -55,6 +55,8 @@ def test_figures_and_report_only_read_the_files(compared, tmp_path):
 
 def test_missing_inputs_are_one_line_errors(tmp_path, capsys):
     assert main(["--preset", "no-such-preset", "--out", str(tmp_path)]) == 2
+    assert "unknown preset 'no-such-preset'" in capsys.readouterr().err
+    assert main(["--preset", "tiny", "--set", "friction_deg=33", "--out", str(tmp_path)]) == 2
     assert "metrics.json not found: run `make compare`" in capsys.readouterr().err
     assert main(["--preset", "../../etc"]) == 2
     assert "preset '../../etc' is not a valid name" in capsys.readouterr().err

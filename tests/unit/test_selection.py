@@ -1,0 +1,94 @@
+"""Which runs fit, compare and figures read: the data set of a preset, its folder, and Make's view of it."""
+
+import subprocess
+import sys
+
+import pytest
+
+from pipeline.dataset import lookup, selection
+from pipeline.dataset.selection import DataSet
+from pipeline.errors import PipelineError
+from pipeline.paths import ROOT
+from pipeline.runs import spec as run_spec
+from tests.helpers import synthetic_file
+
+DECLARED = '[reduced]\nengine = "lammps"\nset = { inertial_number = 0.002 }\n'
+
+
+def declared(tmp_path, text=DECLARED):
+    path = tmp_path / "datasets.toml"
+    path.write_text(text)
+    return path
+
+
+def reversal(root, folder, preset="reduced", **kw):
+    (root / folder / "dem").mkdir(parents=True, exist_ok=True)
+    return synthetic_file(root / folder / "dem", name="theta180", n_cycles=1, preset=preset, **kw)
+
+
+def test_a_data_set_lives_in_the_folder_its_first_seeds_runs_go_to():
+    spec = run_spec.resolve(180, "paper", overrides={"inertial_number": 0.001}, engine="lammps")
+    chosen = selection.data_set("paper", "lammps", {"inertial_number": 0.001, "seed": 3})
+    assert chosen.folder == spec.folder and chosen.overrides == (("inertial_number", 0.001),)
+    assert chosen.make_words() == f"paper {spec.folder} lammps inertial_number=0.001"
+    assert selection.data_set("reduced", "lammps").folder == "reduced-lammps"
+    assert chosen.label == "paper (lammps, inertial_number=0.001)"
+
+
+def test_the_preset_as_it_is_comes_first_then_the_declared_data_set(tmp_path):
+    file = declared(tmp_path)
+    other = DataSet("reduced", "lammps", (("inertial_number", 0.002),))
+    # neither has a reversal run: the preset as it is (the stage then says there is none)
+    assert selection.data_set("reduced", roots=(tmp_path,), datasets_file=file) == DataSet("reduced")
+    reversal(tmp_path, other.folder, engine="lammps", overrides={"inertial_number": 0.002})
+    assert selection.data_set("reduced", roots=(tmp_path,), datasets_file=file) == other
+    assert selection.data_set("reduced", "lammps", roots=(tmp_path,), datasets_file=file) == other
+    assert selection.data_set("reduced", "yade", roots=(tmp_path,), datasets_file=file) == DataSet("reduced")
+    reversal(tmp_path, "reduced")
+    assert selection.data_set("reduced", roots=(tmp_path,), datasets_file=file) == DataSet("reduced")
+    # an explicit choice is taken as it is, seeds dropped
+    assert selection.data_set("reduced", overrides={"seed": 2}, roots=(tmp_path,), datasets_file=file) \
+        == DataSet("reduced")
+
+
+def test_the_most_faithful_preset_counts_a_declared_data_sets_runs(tmp_path, monkeypatch):
+    monkeypatch.setattr(selection, "DATASETS_FILE", declared(tmp_path))
+    assert selection.most_faithful_preset((tmp_path,)) == "quick"
+    reversal(tmp_path, run_spec.run_folder("reduced", "lammps", {"inertial_number": 0.002}), engine="lammps",
+             overrides={"inertial_number": 0.002})
+    assert selection.most_faithful_preset((tmp_path,)) == "reduced"
+
+
+def test_a_data_sets_seeds_are_its_variants_with_the_same_overrides_besides_the_seed(tmp_path):
+    i = {"inertial_number": 0.002}
+    for overrides in (i, {**i, "seed": 2}, {"seed": 2}, {**i, "friction_deg": 30.0}):
+        reversal(tmp_path, run_spec.run_folder("reduced", "lammps", overrides), engine="lammps", overrides=overrides)
+    chosen = DataSet("reduced", "lammps", (("inertial_number", 0.002),))
+    assert sorted(r.overrides.get("seed", 1) for r in lookup.reversal_seeds(chosen, (tmp_path,))) == [1, 2]
+    assert [r.overrides for r in lookup.preset_runs(chosen, (tmp_path,))] == [i]
+    assert [r.overrides for r in lookup.reversal_seeds(DataSet("reduced", "lammps"), (tmp_path,))] == [{"seed": 2}]
+
+
+@pytest.mark.parametrize("text, message", [
+    ('[reduced]\nengine = "foo"\n', "engine='foo' is not a DEM engine"),
+    ('[reduced]\nset = { nosuch = 1 }\n', "unknown override key(s) nosuch"),
+    ('[reduced]\nengines = "lammps"\n', "[reduced] has unknown key(s) engines"),
+    ('[reduced\n', "cannot read"),
+])
+def test_a_bad_declaration_is_one_line(tmp_path, text, message):
+    with pytest.raises(PipelineError, match=message.replace("[", r"\[").replace("(", r"\(").replace(")", r"\)")):
+        selection.data_set("reduced", roots=(tmp_path,), datasets_file=declared(tmp_path, text))
+
+
+def test_make_reads_one_line_and_a_bad_choice_is_one_line_on_stderr():
+    """Make runs this with the system's python3 before any virtualenv: standard library only (``-S``)."""
+    def ask(*args):
+        return subprocess.run([sys.executable, "-S", "-m", "pipeline.dataset.selection", *args], cwd=ROOT,
+                              capture_output=True, text=True)
+
+    ok = ask("--preset", "paper", "--engine", "lammps", "--set", "inertial_number=1e-3")
+    assert ok.returncode == 0 and ok.stdout.split() == ["paper", run_spec.run_folder(
+        "paper", "lammps", {"inertial_number": 0.001}), "lammps", "inertial_number=0.001"]
+    bad = ask("--preset", "paper", "--set", "nosuch=1")
+    assert bad.returncode == 2 and bad.stdout == "" and bad.stderr.strip() == \
+        "error: unknown override key(s) nosuch (see dem.toml)"
