@@ -7,7 +7,7 @@
 cd @ROOT@
 mapfile -t ARGS < @TASKS@/"$SLURM_ARRAY_TASK_ID".args
 echo "task $SLURM_ARRAY_TASK_ID, attempt $(( ${SLURM_RESTART_COUNT:-0} + 1 )) on $(hostname): ${ARGS[*]}"
-@PYTHON@ -m pipeline.runs run "${ARGS[@]}" --results @RESULTS@ --threads @THREADS@ &
+@PYTHON@ -m pipeline.runs run "${ARGS[@]}" --results @RESULTS@ --threads @THREADS@ --ranks @RANKS@ &
 child=$!
 trap 'kill -USR1 "$child" 2>/dev/null' USR1
 status=0

@@ -2,7 +2,7 @@
 slurm.conf in a temporary folder; nothing left running), a tiny sweep of three angles submitted as one
 job array, one task warned with SIGUSR1 (it checkpoints, requeues itself and resumes), another's
 process killed outright (requeued and resumed), a failing run not requeued; every HDF5 file identical
-to a local run of the same specs. `make test-cluster` runs it (Debian's slurm-wlm and munge)."""
+to a local run of the same specs. Then LAMMPS sweeps at one and two MPI ranks per task, each with a warned task. `make test-cluster` runs it (Debian's slurm-wlm and munge)."""
 
 import getpass
 import os
@@ -227,6 +227,7 @@ def test_bad_sweeps_are_refused_before_anything_is_submitted(cluster, tmp_path):
         (["--thetas", "30", "--slurm", "signal_lead_seconds=0"], "signal_lead_seconds=0 is shorter than"),
         (["--thetas", "30", "--slurm", "queue=fast"], "override 'queue=fast' is not key=value with a known key"),
         (["--thetas", "30", "--slurm", "partition=a;b"], "partition='a;b' is not a valid name"),
+        (["--thetas", "30", "--slurm", "ranks_per_run=2"], "ranks_per_run=2: MPI ranks are for ENGINE=lammps"),
     ]
     for args, fragment in cases:
         proc = sweep_cli("run", "--preset", "tiny", *args, "--launch", "slurm", "--results", str(tmp_path))
@@ -240,3 +241,56 @@ def test_bad_sweeps_are_refused_before_anything_is_submitted(cluster, tmp_path):
     assert not (tmp_path / "sweeps").exists()
     out = subprocess.run(["squeue", "-h"], capture_output=True, text=True).stdout
     assert "gb-tiny" not in out
+
+
+def warn_once_running(plan, job, percent):
+    """Release requeued tasks at once; warn (SIGUSR1, as before a time limit) the first task past ``percent``;
+    true when every run is done. Returns a poller for ``wait_for`` and the set of warned tasks."""
+    warned = set()
+
+    def poll():
+        for k, (state, reason) in sweep_slurm.queue(plan).items():
+            if state == "PENDING" and reason == "BeginTime":
+                release(job, k)
+        rows = sweep_status.status(plan)
+        for row in rows:
+            if not warned and row["state"] == "running" and progressed(plan, row["task"], percent):
+                subprocess.run(["scancel", "--signal=USR1", "--batch", f"{job}_{row['task']}"], check=True)
+                warned.add(row["task"])
+        return all(r["state"] == "done" for r in rows)
+
+    return poll, warned
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_lammps_sweep_survives_a_warning_at_one_and_two_ranks(cluster, tmp_path, ranks):
+    """``make sweep ENGINE=lammps LAUNCH=slurm SLURM=ranks_per_run=N``: each task asks SLURM for N tasks (cores)
+    and runs the launcher, which runs the scene under mpirun inside the allocation; a warned task checkpoints,
+    requeues and resumes. At one rank every file is identical to a local run's; at two, the run completes with
+    every sample (a multi-rank resume is not bit-identical: the ranks' sums change order)."""
+    thetas = "90 180" if ranks == 1 else "180"
+    local, remote = tmp_path / "local", tmp_path / "slurm"
+    lammps = ["--engine", "lammps", *LONGER]
+    proc = sweep_cli("run", "--preset", "tiny", "--thetas", thetas, *lammps, "--results", str(local))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    proc = sweep_cli("run", "--preset", "tiny", "--thetas", thetas, *lammps, "--launch", "slurm", *SLURM,
+                     "--slurm", f"ranks_per_run={ranks}", "--results", str(remote))
+    assert proc.returncode == 0 and "submitted job array" in proc.stdout, proc.stdout + proc.stderr
+    plan = sweep_plan.read_plan(remote)
+    job = job_id(remote, plan.ident)
+    assert f"--ntasks={ranks}" in (remote / "sweeps" / plan.ident / "job.sh").read_text()
+    poll, warned = warn_once_running(plan, job, 20)
+    wait_for(poll, 600, "every LAMMPS run of the sweep to finish")
+    assert len(warned) == 1, warned
+    log = (remote / "sweeps" / plan.ident / "logs" / f"task-{warned.pop()}.out").read_text()
+    assert "stopped (exit 138); requeued to resume from its checkpoint" in log, log
+    assert "attempt 2" in log and "resumed from checkpoint" in log
+    for task in plan.tasks:
+        mine, theirs = load(task.output), load(local / task.output.relative_to(remote))
+        assert mine.engine == "lammps" and mine.raw["fabric"].shape == theirs.raw["fabric"].shape
+        if ranks == 1:
+            for key, value in theirs.raw.items():
+                np.testing.assert_array_equal(mine.raw[key], value, err_msg=f"{task.label}: {key}")
+        else:
+            assert "mpirun -np 2" in (task.run_dir / "log.txt").read_text()

@@ -60,6 +60,30 @@ def test_the_local_makefile_and_the_batch_script_run_the_launcher_of_make_dem(tm
         slurm.apply_overrides(config, ["max_requeues=x"], "slurm")
 
 
+def test_a_lammps_sweep_on_slurm_asks_one_task_per_rank_and_bounds_checkpoints_at_lammps_rates(tmp_path,
+                                                                                                monkeypatch):
+    monkeypatch.setattr(slurm.shutil, "which", lambda tool: f"/usr/bin/{tool}")  # as if SLURM's tools were here
+    cluster = slurm.load_cluster_config()
+    config = slurm.apply_overrides(cluster["slurm"], ["ranks_per_run=4"], "slurm")
+    sweep = plan("paper", "180", results=tmp_path, engine="lammps")
+    script = slurm.job_script(sweep, config, [0])
+    assert "--ntasks=4 --cpus-per-task=1" in script.replace("\n#SBATCH ", " ") and "--ranks 4" in script
+    slurm.check_slurm(config, sweep, cluster["throughput"])
+    # a checkpoint interval of the paper cell: 30000 steps at LAMMPS's 250 steps/s (Yade's 100 would be 300 s)
+    short = slurm.apply_overrides(config, ["signal_lead_seconds=150", "time_limit=00:10:00"], "slurm")
+    with pytest.raises(SpecError, match="shorter than a checkpoint interval of preset paper \\(about 120 s\\)"):
+        slurm.check_slurm(slurm.apply_overrides(short, ["signal_lead_seconds=100"], "slurm"), sweep,
+                          cluster["throughput"])
+    slurm.check_slurm(short, sweep, cluster["throughput"])
+    with pytest.raises(SpecError, match="signal_lead_seconds=150 is shorter than a checkpoint interval"):
+        slurm.check_slurm(slurm.apply_overrides(short, ["ranks_per_run=1"], "slurm"),
+                          plan("paper", "180", results=tmp_path), cluster["throughput"])
+    with pytest.raises(SpecError, match="ranks_per_run=4: MPI ranks are for ENGINE=lammps"):
+        slurm.check_slurm(config, plan("paper", "180", results=tmp_path), cluster["throughput"])
+    with pytest.raises(SpecError, match="ranks_per_run=0 must be between 1 and 256"):
+        slurm.check_slurm(slurm.apply_overrides(config, ["ranks_per_run=0"], "slurm"), sweep, cluster["throughput"])
+
+
 def test_a_plan_with_runs_outside_results_or_too_many_runs_is_refused(tmp_path):
     from pipeline.runs.sweep.plan import MAX_TASKS
 

@@ -60,12 +60,17 @@ def check_slurm(config: dict, sweep: Sweep, throughput: dict) -> None:
             raise SpecError(f"slurm {key}={config[key]!r} is not a valid name")
     if not MEMORY.fullmatch(config["memory"]):
         raise SpecError(f"slurm memory={config['memory']!r} is not a size such as 2G")
-    if not 1 <= config["threads_per_run"] <= 256:
-        raise SpecError(f"slurm threads_per_run={config['threads_per_run']} must be between 1 and 256")
+    for key in ("threads_per_run", "ranks_per_run"):
+        if not 1 <= config[key] <= 256:
+            raise SpecError(f"slurm {key}={config[key]} must be between 1 and 256")
+    spec = sweep.tasks[0].spec()
+    if config["ranks_per_run"] > 1 and spec.engine != "lammps":
+        raise SpecError(f"slurm ranks_per_run={config['ranks_per_run']}: MPI ranks are for ENGINE=lammps "
+                        "(Yade runs on threads: threads_per_run)")
     limit = time_limit_seconds(config["time_limit"])
     lead = config["signal_lead_seconds"]
-    spec = sweep.tasks[0].spec()
-    interval = spec.checkpoint_steps / throughput.get(sweep.preset, min(throughput.values()))
+    rates = throughput[spec.engine]
+    interval = spec.checkpoint_steps / rates.get(sweep.preset, min(rates.values()))
     if lead < interval:
         raise SpecError(f"slurm signal_lead_seconds={lead} is shorter than a checkpoint interval of preset "
                         f"{sweep.preset} (about {interval:.0f} s): the run could not checkpoint before the limit")
@@ -86,7 +91,7 @@ def job_script(sweep: Sweep, config: dict, indices: list[int]) -> str:
     directives = [
         f"--job-name={sweep.job_name}", f"--array={','.join(map(str, indices))}", "--requeue",
         "--open-mode=append", f"--signal=B:USR1@{config['signal_lead_seconds']}", f"--time={config['time_limit']}",
-        "--ntasks=1", f"--cpus-per-task={threads}", f"--mem={config['memory']}",
+        f"--ntasks={config['ranks_per_run']}", f"--cpus-per-task={threads}", f"--mem={config['memory']}",
         f"--output=\"{sweep.folder / 'logs' / 'task-%a.out'}\"",
     ]
     directives += [f"--{key}={config[key]}" for key in ("partition", "account") if config[key]]
@@ -94,6 +99,7 @@ def job_script(sweep: Sweep, config: dict, indices: list[int]) -> str:
               "LEAD": str(config["signal_lead_seconds"]), "ROOT": shlex.quote(str(ROOT)),
               "TASKS": shlex.quote(str(sweep.folder / "tasks")), "PYTHON": shlex.quote(sys.executable),
               "RESULTS": shlex.quote(str(sweep.results)), "THREADS": str(threads),
+              "RANKS": str(config["ranks_per_run"]),
               "MAX_REQUEUES": str(config["max_requeues"])}
     text = JOB_TEMPLATE.read_text()
     for key, value in fields.items():
