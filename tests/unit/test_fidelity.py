@@ -241,3 +241,50 @@ def test_an_older_summary_is_redone_where_its_run_is_at_hand_and_kept_where_it_i
     assert redone["schema_version"] == VERSION and "marker" not in redone and redone["fit_paper_definitions"]
     assert json.loads(ladder.summary_path(here, summary_dir).read_text())["schema_version"] == VERSION
     assert kept["marker"] == 1  # its run is not here: the older summary still counts
+
+
+def _cell_entries(rng, mu_of_gap, seeds=((6.8, 4), (8.5, 9), (11.9, 3), (13.6, 2)), sd=0.01):
+    entries = []
+    for gap, n in seeds:
+        for k in range(n):
+            s = _summary(f"h{gap}s{k}", mu_of_gap(gap) + rng.normal(0, sd))
+            over = {"seed": float(k + 1)} if gap == 8.5 else {"width_d": gap / 0.85, "gap_d": gap, "seed": float(k + 1)}
+            s["overrides"], s["spec"] = over, {"gap_d": gap, "width_d": gap / 0.85}
+            entries.append(("seed" if gap == 8.5 else "cell", "", s))
+    return entries
+
+
+def _top(rng, mu, runs, sd=0.01):
+    return [{**_summary(f"paper{k}", mu + rng.normal(0, sd)), "name": "theta180"} for k in range(runs)]
+
+
+def test_the_top_rung_is_set_against_the_extrapolation_and_says_whether_it_was_predicted():
+    rng = np.random.default_rng(5)
+    truth = lambda gap: 0.45 - 0.5 / gap  # noqa: E731
+    entries = _cell_entries(rng, truth)
+    cell = {"cell": {"keys": ["gap_d", "width_d"], "transform": "inverse", "paper": 17.0}}
+    fair = table.build(entries, extrapolations=cell, top=("paper (lammps)", _top(rng, truth(17.0), 3), ["cell"]))
+    check = fair["top"]["180"]
+    assert check["runs"] == 3 and check["data_set"] == "paper (lammps)"
+    mu = check["checks"]["cell"]["mu"]
+    assert mu["within_95"] and mu["extrapolated"] == fair["extrapolations"]["180"]["cell"]["quantities"]["mu"][
+        "at_target"]
+    off = table.build(entries, extrapolations=cell, top=("paper", _top(rng, truth(17.0) + 0.1, 1), ["cell"]))
+    one = off["top"]["180"]["checks"]["cell"]["mu"]
+    assert not one["within_95"] and one["z"] > 5 and one["paper_cell_se"] == 0.005  # one run: its windows' error
+    assert "The top rung, the paper's cell (paper, 1 run(s))" in render.markdown(off)
+    assert "| mu |" in render.markdown(off).split("The top rung")[1]
+
+
+def test_the_top_rungs_95_percent_verdict_covers_the_truth_about_95_percent_of_the_time():
+    """Coverage of the check on synthetic ladders of known truth: the paper cell on the extrapolated line."""
+    rng = np.random.default_rng(11)
+    truth = lambda gap: 0.45 - 0.5 / gap  # noqa: E731
+    ref_sd = {"mu": 0.01}
+    inside = []
+    for _ in range(400):
+        entries = _cell_entries(rng, truth)
+        line = table.extrapolate(entries, 180.0, ["gap_d", "width_d"], "inverse", 17.0, ref_sd, ("mu",))
+        check = table.top_check(_top(rng, truth(17.0), 3), {"cell": line}, ["cell"], "paper")
+        inside.append(check["checks"]["cell"]["mu"]["within_95"])
+    assert 0.90 <= np.mean(inside) <= 0.99, np.mean(inside)

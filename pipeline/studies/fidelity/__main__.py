@@ -63,6 +63,21 @@ def summaries(rungs: list, summary_dir: Path = ladder.SUMMARY_DIR, roots: tuple 
     return entries
 
 
+def top_summaries(paths: list[Path], summary_dir: Path = ladder.SUMMARY_DIR) -> list[dict]:
+    """The summaries of the top rung's runs (``data/fidelity/<folder>/<name>.json``), made where missing or
+    of an older version."""
+    out = []
+    for path in paths:
+        target = summary_dir / path.parts[-3] / f"{path.stem}.json"
+        found = _current(target)
+        if found is None:
+            found = summarize(load(path))
+            io.write_json(target, found)
+            print(f"summarised {path.parts[-3]}/{path.stem} (the top rung)", flush=True)
+        out.append(found)
+    return out
+
+
 def csv_text(rows: list[dict]) -> str:
     out = text_io.StringIO()
     keys = ["axis", "setting", "theta_deg", "cpu_hours", "steps_per_second", "grains", "mu", "mu_se", "mu_shift",
@@ -105,15 +120,18 @@ def main(argv=None) -> int:
             return 0
         run_local(sweep, args.jobs)
     entries = summaries(rungs)
+    label, top_paths = ladder.top_runs(spec)
+    top = (label, top_summaries(top_paths), list(spec["top"].get("checks", []))) if top_paths else None
     result = table.build(entries, extrapolations={axis: entry["extrapolate"] for axis, entry in spec["axes"].items()
                                                   if "extrapolate" in entry},
-                         node_cores=int(spec.get("node_cores", 32)))
+                         node_cores=int(spec.get("node_cores", 32)), top=top)
     io.write_json(out / "table.json", result)
     io.write_text(out / "table.csv", csv_text(result["rows"]))
     io.write_text(out / "table.md", render.markdown(result))
     left = len(ladder.missing(rungs))
     print(f"wrote {out / 'table.md'}, table.csv, table.json: {len({e[2]['folder'] + e[2]['name'] for e in entries})} "
-          f"run(s) of the ladder; {left} not made yet" + (" (make fidelity runs them)" if left else ""))
+          f"run(s) of the ladder; {left} not made yet" + (" (make fidelity runs them)" if left else "")
+          + f"; the top rung ({label or spec.get('top', {}).get('preset', 'none')}): {len(top_paths)} run(s)")
     return 0
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...config import load_presets
+from ...dataset import lookup, selection
 from ...errors import SpecError
 from ...paths import CONFIG_DIR, DATA_ROOTS, RESULTS_DIR, ROOT, first_existing
 from ...runs import spec as run_spec
@@ -67,6 +68,19 @@ def rungs(ladder: dict, engine: str = run_spec.ENGINES[0]) -> list[Rung]:
                     raise SpecError(f"{LADDER_FILE.name}, axis {axis}, {value}: {exc}") from None
                 out.append(Rung(axis, {k: float(v) for k, v in value.items()}, float(theta), spec))
     return out
+
+
+def top_runs(ladder: dict, roots: tuple[Path, ...] = DATA_ROOTS) -> tuple[str, list[Path]]:
+    """The top rung (``[top]``): the label of the data set of its preset and the DEM files of its runs at its
+    angles (every seed, the default rotation), found as ``make fit`` finds them; none where no ``[top]``."""
+    top = ladder.get("top")
+    if not top:
+        return "", []
+    chosen = selection.data_set(top["preset"], roots=roots)
+    thetas = {float(t) for t in top.get("thetas", ladder["thetas"])}
+    runs = {r.path: r for r in (*lookup.reversal_seeds(chosen, roots), *lookup.preset_runs(chosen, roots))
+            if r.default_rotation and float(r.spec["theta_deg"]) in thetas}
+    return chosen.label, sorted(runs)
 
 
 def summary_path(rung: Rung, root: Path = SUMMARY_DIR) -> Path:

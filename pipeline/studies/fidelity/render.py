@@ -75,7 +75,25 @@ def markdown(table: dict) -> str:
                              f"{q['sd_reference']:.3g} | {q['error_small_ensemble']:.3g} / "
                              f"{q['error_reference_run']:.3g} | {q['better']} |")
             lines.append("")
+        if top := table.get("top", {}).get(theta):
+            lines += top_lines(top)
     return "\n".join(lines) + "\n"
+
+
+def top_lines(top: dict) -> list[str]:
+    """The top rung (the paper's cell) against each extrapolation it checks, quantity by quantity."""
+    lines = []
+    for axis, rows in top["checks"].items():
+        lines += [f"The top rung, the paper's cell ({top['data_set']}, {top['runs']} run(s)), against the "
+                  f"extrapolation along `{axis}`: did the smaller cells predict it? z = difference / combined "
+                  "standard error" + (" (one run: its own noise, a seed's scatter left out)" if top["runs"] == 1
+                                      else "") + ".", "",
+                  "| quantity | paper cell | extrapolated | z | within 95 % |", "|---|---|---|---|---|"]
+        for name, q in rows.items():
+            lines.append(f"| {name} | {q['paper_cell']:.4g} ± {q['paper_cell_se']:.2g} | {q['extrapolated']:.4g} ± "
+                         f"{q['extrapolated_se']:.2g} | {q['z']:+.2f} | {'yes' if q['within_95'] else 'no'} |")
+        lines.append("")
+    return lines
 
 
 def _cost(c: dict, cores: int) -> str:

@@ -12,6 +12,7 @@ target error on each quantity, setting by setting, and names the cheapest.
 from __future__ import annotations
 
 import numpy as np
+from scipy import stats
 
 import model
 
@@ -106,7 +107,8 @@ def extrapolate(entries: list[tuple], theta: float, keys: list[str], transform: 
     """A weighted straight line through the runs that differ from the preset only in ``keys`` (and the seed),
     in f(x) of the first key (``transform``: linear or inverse, e.g. a bias linear in 1/H), evaluated at
     the paper's value ``target``: for μ and each fitted parameter, the points (runs at one x pooled: their
-    mean, ± SD/sqrt(n), or one run's error taken as the seeds' scatter per run ``ref_sd``), intercept,
+    mean ± s/sqrt(n), s the largest of their SD, one run's own error and the seeds' scatter per run ``ref_sd``),
+    intercept,
     slope, the value at the target with its standard error from the line's covariance, and χ²/dof when
     three or more x values leave the line testable. Empty when fewer than two x values exist."""
     f = TRANSFORMS[transform]
@@ -129,9 +131,11 @@ def extrapolate(entries: list[tuple], theta: float, keys: list[str], transform: 
                 own = 0.0
             if not vals:
                 continue
-            sd = ref_sd.get(name)
-            se = (np.std(vals, ddof=1) / np.sqrt(len(vals)) if len(vals) > 2
-                  else max(own, sd or 0.0) / np.sqrt(len(vals)))
+            # one run's scatter: the larger of the group's own (three runs or more), one run's windows and the
+            # reference seeds' (a scatter estimated from a few runs is often far too small: the line's error
+            # would then undercover)
+            scatter = np.std(vals, ddof=1) if len(vals) > 2 else 0.0
+            se = max(scatter, own, ref_sd.get(name) or 0.0) / np.sqrt(len(vals))
             if not np.isfinite(se) or se <= 0:
                 continue
             xs.append(x), ys.append(float(np.mean(vals))), ses.append(float(se)), ns.append(len(vals))
@@ -184,15 +188,54 @@ def with_combinations(entries: list[tuple], found: dict) -> list[tuple]:
     return out
 
 
+def top_check(top: list[dict], extrapolated: dict, checks: list[str], label: str) -> dict:
+    """The top rung (the paper's cell) at one angle against each ``checks`` axis's extrapolation there: for μ and
+    each fitted parameter, the top rung's value (its seeds' mean ± SD/sqrt(n); one run: its windows' standard
+    error for μ, its own fit's for a parameter, which leave a seed's scatter out), the extrapolated value, the
+    difference in combined standard errors (z) and whether it lies within the two-sided 95 % quantile of
+    Student's t, its degrees of freedom Welch's (the top rung's from its n - 1 seeds, or its windows for
+    one run's μ; the line's taken as many)."""
+    ref = reference(top)
+    out = {"data_set": label, "runs": len(top), "checks": {}}
+    for axis in checks:
+        line = extrapolated.get(axis)
+        if not line:
+            continue
+        rows = {}
+        for name, q in line["quantities"].items():
+            if name == "mu":
+                value, se = ref["steady"]["mu"]["mean"], ref["steady"]["mu"]["standard_error"]
+                dof = len(top) - 1 if len(top) > 1 else len(top[0]["steady"]["mu"].get("windows", ())) - 1
+            elif name in ref["fit"] and len(top) > 1:
+                value, se, dof = ref["fit"][name]["mean"], ref["fit"][name]["standard_error"], len(top) - 1
+            elif name in ref["fit"]:
+                value, dof = ref["fit"][name]["mean"], np.inf  # a fit's error from thousands of samples
+                se = ((top[0].get("fit") or {}).get("standard_errors") or {}).get(name)
+            else:
+                continue
+            if se is None or not np.isfinite(se):
+                continue
+            combined = float(np.hypot(se, q["at_target_se"]))
+            welch = combined**4 / (se**4 / dof) if dof > 0 else np.inf
+            critical = float(stats.t.ppf(0.975, welch))
+            z = (value - q["at_target"]) / combined
+            rows[name] = {"paper_cell": value, "paper_cell_se": se, "extrapolated": q["at_target"],
+                          "extrapolated_se": q["at_target_se"], "z": float(z), "critical": critical,
+                          "within_95": bool(abs(z) <= critical)}
+        out["checks"][axis] = rows
+    return out
+
+
 def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | None = None,
-          node_cores: int = 32) -> dict:
+          node_cores: int = 32, top: tuple[str, list[dict], list[str]] | None = None) -> dict:
     """``entries``: (axis, setting label, summary) for every rung with a summary. Rows per angle, the
     references, the cheapest setting for each target error (``recommend``; cluster nodes of
     ``node_cores``), the Pareto front of the settings at each angle, the small cells against the reference cell and the
-    ``extrapolations`` ({axis: {keys, transform, paper}}) to the paper's values."""
+    ``extrapolations`` ({axis: {keys, transform, paper}}) to the paper's values; ``top`` (its data set's label,
+    its runs' summaries, the axes it checks): the paper's cell against those axes' extrapolations."""
     thetas = sorted({s["theta_deg"] for _, _, s in entries}, reverse=True)
     out = {"references": {}, "recommendation": {}, "rows": [], "pareto": {}, "ensembles": {}, "extrapolations": {},
-           "combinations": {}, "paper_definitions": {}, "table2": model.PAPER.to_dict()}
+           "combinations": {}, "paper_definitions": {}, "top": {}, "table2": model.PAPER.to_dict()}
     for theta in thetas:
         at = [(a, label, s) for a, label, s in entries if s["theta_deg"] == theta]
         seeds = {s["folder"]: s for a, _, s in at if a == seed_axis}
@@ -218,4 +261,6 @@ def build(entries: list[tuple], seed_axis: str = "seed", extrapolations: dict | 
         for axis, how in (extrapolations or {}).items():
             if line := extrapolate(tagged, theta, how["keys"], how["transform"], how["paper"], ref_sd, names):
                 out["extrapolations"].setdefault(f"{theta:g}", {})[axis] = line
+        if top and (at_top := [s for s in top[1] if s["theta_deg"] == theta]):
+            out["top"][f"{theta:g}"] = top_check(at_top, out["extrapolations"].get(f"{theta:g}", {}), top[2], top[0])
     return out
