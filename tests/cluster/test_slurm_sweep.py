@@ -2,7 +2,8 @@
 slurm.conf in a temporary folder; nothing left running), a tiny sweep of three angles submitted as one
 job array, one task warned with SIGUSR1 (it checkpoints, requeues itself and resumes), another's
 process killed outright (requeued and resumed), a failing run not requeued; every HDF5 file identical
-to a local run of the same specs. Then LAMMPS sweeps at one and two MPI ranks per task, each with a warned task. `make test-cluster` runs it (Debian's slurm-wlm and munge)."""
+to a local run of the same specs. Then LAMMPS sweeps at one and two MPI ranks per task, each with a warned
+task. `make test-cluster` runs it (Debian's slurm-wlm and munge)."""
 
 import getpass
 import os
