@@ -19,6 +19,7 @@ MODEL_DIR := results/model
 # make dem THETA=90 [PRESET=quick] [ROTATE_AT=0.1] [SET="key=value ..."] [FRESH=1] [THREADS=1] [ALLOW_INERTIAL=1]
 #          [ENGINE=yade|lammps] [RANKS=1: MPI ranks of a LAMMPS run]
 THETA ?= 180
+ENGINE_GIVEN := $(if $(filter undefined,$(origin ENGINE)),,$(ENGINE))
 ENGINE ?= yade
 RANKS ?= 1
 ROTATE_AT ?=
@@ -88,11 +89,12 @@ endif
 # (paper, then reduced, then quick) unless PRESET is given, in the engine and with the overrides config/datasets.toml
 # declares for it unless ENGINE or SET is given; their outputs go to results/<the data set's folder>/.
 DATA_CHOICE := $(shell $(PYTHON) -m pipeline.dataset.selection $(if $(filter undefined,$(origin PRESET)),,--preset $(PRESET)) \
-	$(if $(filter undefined,$(origin ENGINE)),,--engine $(ENGINE)) $(foreach s,$(SET),--set $(s)) 2>/dev/null)
+	$(if $(ENGINE_GIVEN),--engine $(ENGINE_GIVEN)) $(foreach s,$(SET),--set $(s)) 2>/dev/null)
 DATA_PRESET := $(or $(word 1,$(DATA_CHOICE)),$(PRESET),quick)
+PRESET_GIVEN := $(if $(filter undefined,$(origin PRESET)),,$(PRESET))
 DATA_SET := $(or $(word 2,$(DATA_CHOICE)),$(DATA_PRESET))
 DATA_ARGS := --preset $(DATA_PRESET) $(if $(DATA_CHOICE),--engine $(word 3,$(DATA_CHOICE)) \
-	$(foreach s,$(wordlist 4,$(words $(DATA_CHOICE)),$(DATA_CHOICE)),--set $(s)),$(if $(filter undefined,$(origin ENGINE)),,--engine $(ENGINE)) \
+	$(foreach s,$(wordlist 4,$(words $(DATA_CHOICE)),$(DATA_CHOICE)),--set $(s)),$(if $(ENGINE_GIVEN),--engine $(ENGINE_GIVEN)) \
 	$(foreach s,$(SET),--set $(s)))
 SAY_PRESET := @echo "data set $(DATA_SET) (preset $(DATA_PRESET)$(if $(filter undefined,$(origin PRESET)),$(comma) \
 	the most faithful one with a reversal run; PRESET=... to choose))"
@@ -112,7 +114,7 @@ DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config
 
 FORCE:
 .PHONY: FORCE help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-lammps system-slurm model-cycles \
-	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table engines jump stability profile-dem bench-dem compare figures demo-dem clean
+	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table engines cells jump stability profile-dem bench-dem compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -249,9 +251,12 @@ fidelity-table: venv ## results/fidelity/ from the committed summaries and the r
 profile-dem: venv ## where Yade's time goes, per engine (PRESETS=reduced,paper; THREADS=1) -> results/bench/dem_profile.md
 	$(PY) -m pipeline.studies.profile_dem --presets $(or $(PRESETS),reduced$(comma)paper) --threads $(THREADS)
 
-engines: venv ## Yade against LAMMPS on one preset (the fit's default; PRESET=...), seeds of each -> results/engines/
-	$(SAY_PRESET)
-	$(PY) -m pipeline.studies.engines --preset $(DATA_PRESET)
+engines: venv ## Yade against LAMMPS on one preset (PRESET=reduced), seeds of each -> results/engines/engines.md
+	$(PY) -m pipeline.studies.versus --a $(or $(PRESET_GIVEN),reduced)/yade --b $(or $(PRESET_GIVEN),reduced)/lammps \
+	  --out results/engines
+
+cells: venv ## the reduced cell against the paper's (its data set, config/datasets.toml), seed against seed -> results/cells/cells.md
+	$(PY) -m pipeline.studies.versus --a reduced --b paper --out results/cells
 
 jump: venv ## the reversal jump: fabric and wall stress right after each change of direction, every run -> results/jump/
 	$(PY) -m pipeline.studies.jump

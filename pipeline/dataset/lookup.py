@@ -35,12 +35,19 @@ def preset_runs(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[D
     return [r for r in runs if chosen.matches(r.engine, r.overrides)]
 
 
-def reversal_seeds(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
-    """The data set's reversals (theta = 180, default rotation) at every seed: its own folder's and every
+def seed_runs(chosen: DataSet, theta_deg: float, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
+    """The data set's runs at ``theta_deg`` and the default rotation, every seed: its own folder's and every
     ``<preset>[-<engine>]-<hash>`` variant whose overrides are the data set's besides the seed."""
+    name = f"theta{int(round(theta_deg)):03d}.h5"
     runs = [load_of_preset(p, chosen.preset) for p in preset_files(engine_folder(chosen.preset, chosen.engine), roots)
-            if p.name == "theta180.h5"]
-    return [r for r in runs if chosen.matches(r.engine, r.overrides) and r.is_reversal and r.default_rotation]
+            if p.name == name]
+    return [r for r in runs if chosen.matches(r.engine, r.overrides) and r.default_rotation
+            and r.spec["theta_deg"] == theta_deg]
+
+
+def reversal_seeds(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
+    """The data set's reversals (theta = 180, default rotation) at every seed."""
+    return [r for r in seed_runs(chosen, 180.0, roots) if r.is_reversal]
 
 
 def other_angles(runs: list[DemRun]) -> list[DemRun]:

@@ -2,9 +2,10 @@
 share one set of overrides (their seeds may differ), and its folder of outputs.
 
 The data set of ``--preset P`` alone: the preset as it is in Yade where it has a reversal run, else the one
-``config/datasets.toml`` declares for it (the committed paper-cell runs are LAMMPS's at I = 1e-3). ``--engine``
-and ``--set`` choose another. Its outputs go to ``results/<folder>/`` with ``<folder>`` the folder of its runs
-(``<preset>[-<engine>][-<hash of the overrides>]``), so a fit is never mixed with another data set's.
+``config/datasets.toml`` declares for it, which is also the one to make where neither has a run yet (the
+paper cell's is LAMMPS's at I = 1e-3). ``--engine`` and ``--set`` choose another. Its outputs go to
+``results/<folder>/`` with ``<folder>`` the folder of its runs (``<preset>[-<engine>][-<hash of the overrides>]``),
+so a fit is never mixed with another data set's.
 
 Standard library only: Make asks ``python3 -m pipeline.dataset.selection [--preset P] [--engine E] [--set k=v]``
 before any virtualenv exists, and gets ``PRESET FOLDER ENGINE [k=v ...]`` on one line.
@@ -68,7 +69,8 @@ def data_set(preset: str, engine: str | None = None, overrides: dict | None = No
              roots: tuple[Path, ...] = DATA_ROOTS, datasets_file: Path | None = None) -> DataSet:
     """The data set of ``preset`` (validated like a run: unknown keys and bad values are one-line errors). Without
     ``engine`` and ``overrides``: the preset as it is in Yade if it has a reversal run, else its declared data set
-    where that has one (or where ``engine`` names the declared one's engine); seeds are dropped."""
+    (where ``engine`` is not given or names the declared one's engine), which is also the one to make where neither
+    has a run; seeds are dropped."""
     check_folder_name(preset)
     chosen = {k: float(v) for k, v in (overrides or {}).items() if k not in SEED_KEYS}
     run_spec.resolve(180, preset, overrides=chosen, engine=engine or run_spec.ENGINES[0])  # validates
@@ -78,7 +80,7 @@ def data_set(preset: str, engine: str | None = None, overrides: dict | None = No
     declared = declared_data_set(preset, datasets_file)
     if declared is not None and engine in (None, declared.engine):
         candidates.append(declared)
-    return next((c for c in candidates if has_reversal(c, roots)), candidates[0])
+    return next((c for c in candidates if has_reversal(c, roots)), candidates[-1])
 
 
 def declared_data_set(preset: str, datasets_file: Path | None = None) -> DataSet | None:

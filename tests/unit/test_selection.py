@@ -38,8 +38,9 @@ def test_a_data_set_lives_in_the_folder_its_first_seeds_runs_go_to():
 def test_the_preset_as_it_is_comes_first_then_the_declared_data_set(tmp_path):
     file = declared(tmp_path)
     other = DataSet("reduced", "lammps", (("inertial_number", 0.002),))
-    # neither has a reversal run: the preset as it is (the stage then says there is none)
-    assert selection.data_set("reduced", roots=(tmp_path,), datasets_file=file) == DataSet("reduced")
+    # neither has a reversal run: the declared one, the one to make (the stage then says so)
+    assert selection.data_set("reduced", roots=(tmp_path,), datasets_file=file) == other
+    assert selection.data_set("reduced", "yade", roots=(tmp_path,), datasets_file=file) == DataSet("reduced")
     reversal(tmp_path, other.folder, engine="lammps", overrides={"inertial_number": 0.002})
     assert selection.data_set("reduced", roots=(tmp_path,), datasets_file=file) == other
     assert selection.data_set("reduced", "lammps", roots=(tmp_path,), datasets_file=file) == other
@@ -92,3 +93,19 @@ def test_make_reads_one_line_and_a_bad_choice_is_one_line_on_stderr():
     bad = ask("--preset", "paper", "--set", "nosuch=1")
     assert bad.returncode == 2 and bad.stdout == "" and bad.stderr.strip() == \
         "error: unknown override key(s) nosuch (see dem.toml)"
+
+
+@pytest.mark.parametrize("variables, words", [
+    (["PRESET=paper", "ENGINE=lammps", "SET=inertial_number=1e-3 seed=2"],
+     "--preset paper --engine lammps --set inertial_number=0.001"),
+    (["PRESET=paper", "ENGINE=yade"], "--preset paper --engine yade"),
+    (["PRESET=reduced", "ENGINE=lammps"], "--preset reduced --engine lammps"),
+])
+def test_make_hands_the_stages_the_data_set_and_its_folder(variables, words):
+    """What ``make fit`` runs, and where it writes: the data set's folder (``make -n``: nothing runs)."""
+    proc = subprocess.run(["make", "-n", "fit", *variables], cwd=ROOT, capture_output=True, text=True)
+    line = next(x for x in proc.stdout.splitlines() if "-m pipeline.calibration" in x)
+    assert line.split("pipeline.calibration", 1)[1].split() == words.split()
+    preset, engine, sets = words.split()[1], words.split()[3], words.split()[5::2]
+    folder = run_spec.run_folder(preset, engine, run_spec.parse_overrides(sets))
+    assert f"results/{folder}/fit/options.txt" in proc.stdout

@@ -4,7 +4,7 @@ a shifted one is flagged."""
 import math
 
 import model
-from pipeline.studies import engines
+from pipeline.studies import versus
 from tests.helpers import synthetic_run
 
 
@@ -17,7 +17,7 @@ def test_the_same_physics_agrees_and_a_shifted_one_does_not(tmp_path):
 
     yade = runs("yade", model.PAPER, (1, 2, 3, 4))
     same = runs("lammps", model.PAPER, (5, 6, 7, 8))
-    summary = engines.summarise({"180": {"yade": yade, "lammps": same}}, fits=False)
+    summary = versus.summarise({"180": {"yade": yade, "lammps": same}}, fits=False)
     rows = {r["quantity"]: r for r in summary["groups"]["180"]["rows"]}
     assert rows["τ12/p"]["yade"]["n"] == 4 and rows["τ12/p"]["lammps"]["n"] == 4
     tested = [r["agree"] for r in rows.values() if r["agree"] is not None]
@@ -25,8 +25,24 @@ def test_the_same_physics_agrees_and_a_shifted_one_does_not(tmp_path):
     assert abs(rows["τ12/p"]["lammps"]["mean"] - rows["τ12/p"]["yade"]["mean"]) < 0.01
     assert 2.4 < rows["τ12/p"]["critical"] < 4.4  # Welch's t* at 3 to 6 degrees of freedom
     stronger = runs("lammps_shifted", model.PAPER.replace(C=model.PAPER.C * 1.2), (9, 10, 11, 12))
-    shifted = engines.summarise({"180": {"yade": yade, "lammps": stronger}}, fits=False)
+    shifted = versus.summarise({"180": {"yade": yade, "lammps": stronger}}, fits=False)
     mu = next(r for r in shifted["groups"]["180"]["rows"] if r["quantity"] == "τ12/p")
     assert mu["agree"] is False and math.isfinite(mu["z"]) and abs(mu["z"]) > 2
-    assert "| τ12/p |" in engines.markdown({"preset": "x", **shifted}) and "**no**" in engines.markdown(
-        {"preset": "x", **shifted})
+    assert "| τ12/p |" in versus.markdown(shifted) and "**no**" in versus.markdown(
+        shifted)
+
+
+def test_a_side_is_a_data_set_and_a_bad_one_is_one_line():
+    import pytest
+
+    from pipeline.dataset.selection import DataSet
+    from pipeline.errors import PipelineError
+
+    assert versus.side("reduced/lammps") == DataSet("reduced", "lammps")
+    chosen = DataSet("paper", "lammps", (("inertial_number", 0.001),))
+    assert versus.side("paper/lammps/inertial_number=0.001") == chosen
+    assert versus.side("reduced/yade/seed=3") == DataSet("reduced")  # seeds are the runs compared, not a side
+    for bad, message in (("reduced/foo", "'foo' is neither an engine"), ("nosuch", "unknown preset 'nosuch'"),
+                         ("reduced/lammps/colour=1", "unknown override key(s) colour")):
+        with pytest.raises(PipelineError, match=message.replace("(", r"\(").replace(")", r"\)")):
+            versus.side(bad)

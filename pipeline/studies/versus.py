@@ -1,0 +1,164 @@
+"""Two data sets side by side, seed against seed: Yade against LAMMPS on one preset (``make engines``, the engines'
+cross-validation) or the reduced cell against the paper's (``make cells``).
+
+``python -m pipeline.studies.versus --a SIDE --b SIDE [--out DIR] [--no-fit]``, a SIDE being
+``preset[/engine][/key=value...]`` (``reduced/yade``, ``paper``: the preset's data set,
+``pipeline.dataset.selection``). Reads each side's runs, every seed: the reversals (theta = 180) and the theta = 90
+runs, at the default rotation. Per run, with the fidelity study's measures (``pipeline.studies.fidelity.summary``):
+the steady values before each change of direction (tau12/p as ``mu``, |A|, A12 as ``A_aligned``, Phi of the central
+band and of the gap), the central band's strain per nominal strain, the fabric's shear component after each change
+as a fraction of its value before it (``make jump``'s measure) at gamma = 0.0005 ... 0.5 (below 0.005 from the runs
+with dense samples), and, for the reversals, the global fit on the run alone in the paper's definitions.
+
+Each quantity's mean over a side's runs, its standard error from their scatter (seeds are independent), and the
+difference in combined standard errors, ``z = (B - A) / sqrt(se_A^2 + se_B^2)``. With a few seeds per side z is a
+Welch t statistic, not a normal one: the sides agree on a quantity when |z| is below Welch's two-sided 95 %
+critical value at the Welch-Satterthwaite degrees of freedom (about 2.2 with six seeds each, 4.3 with two and
+two). Of twenty quantities that truly agree, about one falls outside by chance. Writes ``<name>.md`` and
+``<name>.json`` into ``--out`` (``results/<name>/``).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from .. import io
+from ..cli import Parser, one_line_errors
+from ..dataset import selection
+from ..dataset.derived import Definitions, bulk_over_nominal
+from ..dataset.lookup import seed_runs
+from ..errors import PipelineError
+from ..paths import RESULTS_DIR
+from ..runs.spec import ENGINES, parse_overrides
+from .fidelity.summary import PAPER_DEFINITIONS, own_fit, steady_values
+from .jump import mean_and_error, run_profiles
+
+TRANSIENT_GAMMAS = (0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
+STEADY = {"mu": "τ12/p", "A_norm": "|A|", "A_aligned": "A12", "phi_central": "Φ band", "phi_gap": "Φ gap"}
+FIT_NAMES = ("C", "n", "a1", "a2", "b1", "b2")
+#: two-sided level of the agreement test
+LEVEL = 0.95
+
+
+def run_measures(run, fit: bool) -> dict:
+    """One run's measures (see the module's doc), each a number (NaN where the run cannot give it)."""
+    steady = steady_values(run)
+    out = {label: steady[key]["mean"] for key, label in STEADY.items()}
+    out["band strain / nominal"] = bulk_over_nominal(run.with_definitions(Definitions(strain="bulk")))
+    profiles = run_profiles(run, TRANSIENT_GAMMAS)
+    for k, g in enumerate(TRANSIENT_GAMMAS):
+        values = [p["fabric"][k] for p in profiles if np.isfinite(p["fabric"][k])]
+        out[f"A fraction at γ = {g:g}"] = float(np.mean(values)) if values else math.nan
+    if fit:
+        result = own_fit(run.with_definitions(PAPER_DEFINITIONS))
+        for name in FIT_NAMES:
+            out[f"fit {name}"] = result.get("values", {}).get(name, math.nan)
+    return out
+
+
+def side(text: str) -> selection.DataSet:
+    """``preset[/engine][/key=value...]`` -> its data set (without an engine or overrides, the preset's own)."""
+    preset, *rest = text.split("/")
+    engine = rest.pop(0) if rest and rest[0] in ENGINES else None
+    if rest and "=" not in rest[0]:
+        raise PipelineError(f"side {text!r}: {rest[0]!r} is neither an engine ({', '.join(ENGINES)}) nor key=value")
+    return selection.data_set(preset, engine, parse_overrides(rest))
+
+
+def welch_critical(a: dict, b: dict) -> float:
+    """Welch's two-sided ``LEVEL`` critical value of t for two means with standard errors ``se`` from ``n`` runs."""
+    va, vb = a["se"] ** 2, b["se"] ** 2
+    if not (a["n"] > 1 and b["n"] > 1 and va + vb > 0):
+        return math.nan
+    dof = (va + vb) ** 2 / (va**2 / (a["n"] - 1) + vb**2 / (b["n"] - 1))
+    return float(stats.t.ppf(0.5 + LEVEL / 2, dof))
+
+
+def compare(measures: dict) -> list[dict]:
+    """Per quantity: each side's mean, standard error and runs, and z (``measures`` holds two sides, A then B,
+    each a list of its runs' measure dicts)."""
+    rows = []
+    names = list(next(iter(m for m in measures.values() if m))[0]) if any(measures.values()) else []
+    labels = list(measures)
+    for name in names:
+        row = {"quantity": name}
+        for label in labels:
+            row[label] = dict(zip(("mean", "se", "n"), mean_and_error([m[name] for m in measures[label]]),
+                                  strict=True))
+        a, b = row[labels[0]], row[labels[1]]
+        combined = math.hypot(a["se"], b["se"])
+        row["z"] = (b["mean"] - a["mean"]) / combined if combined > 0 else math.nan
+        row["critical"] = welch_critical(a, b)
+        row["agree"] = bool(abs(row["z"]) < row["critical"]) if math.isfinite(row["z"]) else None
+        rows.append(row)
+    return rows
+
+
+def summarise(runs: dict, fits: bool = True) -> dict:
+    """The comparison of ``runs[theta][side label]`` (lists of runs; two sides, A then B), the reversals' own
+    fits with ``fits``."""
+    groups, labels = {}, []
+    for theta, by_side in runs.items():
+        labels = list(by_side)
+        measures = {label: [run_measures(r, fit=fits and theta == "180") for r in by_side[label]]
+                    for label in labels}
+        groups[theta] = {"seeds": {e: len(m) for e, m in measures.items()}, "rows": compare(measures)}
+    return {"sides": labels, "gammas": list(TRANSIENT_GAMMAS), "level": LEVEL, "groups": groups}
+
+
+def cell(m: dict) -> str:
+    if not m["n"]:
+        return ""
+    return f"{m['mean']:.4g}" + (f" ± {m['se']:.2g}" if np.isfinite(m["se"]) else "") + f" ({m['n']})"
+
+
+def markdown(summary: dict) -> str:
+    a, b = summary["sides"]
+    lines = [f"# {a} against {b}", "",
+             f"Per quantity: each side's mean over its runs ± the standard error "
+             f"from their scatter (runs in brackets), and z = ({b} − {a}) / combined standard error; the sides "
+             f"agree at these seeds where |z| is below Welch's two-sided {summary['level']:.0%} critical value t* "
+             "(about one quantity in twenty falls outside by chance). Steady values over the 0.3 strain before "
+             "each change of direction; A fraction: the fabric's shear component after a change over its value "
+             "before it; fit: the global fit on each reversal alone, in the paper's definitions (nominal strain, Φ "
+             "of the gap)."]
+    for theta, group in summary["groups"].items():
+        lines += ["", f"## θ = {theta}° ({group['seeds'][a]} and {group['seeds'][b]} runs)", "",
+                  f"| quantity | {a} | {b} | z | t* | agree |", "|---|---|---|---|---|---|"]
+        for r in group["rows"]:
+            z = f"{r['z']:+.2f}" if math.isfinite(r["z"]) else ""
+            agree = {True: "yes", False: "**no**", None: ""}[r["agree"]]
+            critical = f"{r['critical']:.2f}" if math.isfinite(r["critical"]) else ""
+            lines.append(f"| {r['quantity']} | {cell(r[a])} | {cell(r[b])} | {z} | {critical} | {agree} |")
+    return "\n".join(lines) + "\n"
+
+
+@one_line_errors
+def main(argv=None) -> int:
+    parser = Parser(prog="python -m pipeline.studies.versus", description=__doc__.splitlines()[0])
+    parser.add_argument("--a", required=True, help="one side: preset[/engine][/key=value...] (e.g. reduced/yade)")
+    parser.add_argument("--b", required=True, help="the other side (e.g. reduced/lammps, or paper)")
+    parser.add_argument("--out", type=Path, default=RESULTS_DIR / "versus")
+    parser.add_argument("--no-fit", action="store_true", help="leave out the reversals' own fits (minutes)")
+    args = parser.parse_args(argv)
+    sides = [side(args.a), side(args.b)]
+    if sides[0] == sides[1]:
+        raise PipelineError(f"--a {args.a} and --b {args.b} are the same data set ({sides[0].label})")
+    out = io.check_writable_dir(args.out)
+    runs = {f"{theta:g}": {s.label: seed_runs(s, theta) for s in sides} for theta in (180.0, 90.0)}
+    few = [s for s in sides if len([r for r in runs["180"][s.label] if r.is_reversal]) < 2]
+    if few:
+        raise PipelineError(f"{few[0].label} needs two or more reversals: make dem THETA=180 PRESET={few[0].preset} "
+                            f"ENGINE={few[0].engine} SET=\"{' '.join([*few[0].settings, 'seed=2'])}\" (and more seeds)")
+    summary = {"a": sides[0].label, "b": sides[1].label, **summarise(runs, fits=not args.no_fit)}
+    print(f"wrote {io.write_table(out, out.name, summary, markdown(summary))} and {out.name}.json")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
