@@ -198,8 +198,9 @@ runs: venv ## every DEM run here and committed: its folder, overrides, state (do
 sweep-status: venv ## every run of the latest sweep (or SWEEP=<id>): done, running, queued, failed, stopped
 	$(PY) -m pipeline.runs.sweep status $(if $(SWEEP),--sweep $(SWEEP))
 
-sweep-collect: venv ## make fit, compare and figures on the preset of the latest sweep (or SWEEP=<id>)
-	$(MAKE) --no-print-directory figures PRESET="$$($(PY) -m pipeline.runs.sweep preset $(if $(SWEEP),--sweep $(SWEEP)))"
+sweep-collect: venv ## make fit, compare and figures on the data set of the latest sweep (or SWEEP=<id>)
+	words="$$($(PY) -m pipeline.runs.sweep preset $(if $(SWEEP),--sweep $(SWEEP)))" && set -- $$words && \
+	  preset=$$1 engine=$$2 && shift 2 && $(MAKE) --no-print-directory figures PRESET=$$preset ENGINE=$$engine SET="$$*"
 
 demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 90, both at once
 	$(MAKE) --no-print-directory -j2 demo-dem-180 demo-dem-90

@@ -14,6 +14,16 @@ from .slurm import apply_overrides, check_slurm, load_cluster_config, submit
 from .status import format_status, status
 
 
+def data_set_words(sweep) -> str:
+    """``PRESET ENGINE [key=value ...]``: the data set of the sweep's runs (their engine and the overrides they
+    share but the seed), for ``make sweep-collect``; checked as ``make dem`` checks them (known keys, numbers)."""
+    task = sweep.tasks[0]
+    task.spec()
+    shared = [o for o in task.overrides if o.partition("=")[0] != "seed"
+              and all(o in t.overrides for t in sweep.tasks)]
+    return " ".join([sweep.preset, task.engine, *shared])
+
+
 @one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.runs.sweep", description="a set of DEM runs launched with one command")
@@ -33,7 +43,8 @@ def main(argv=None) -> int:
     st = sub.add_parser("status", help="the state of every run of a sweep (default: the latest)")
     st.add_argument("--sweep", help="the sweep's id (results/sweeps/<id>)")
     st.add_argument("--results", type=Path, default=RESULTS_DIR)
-    pr = sub.add_parser("preset", help="print the preset of a sweep (default: the latest)")
+    pr = sub.add_parser("preset", help="print the data set of a sweep (default: the latest): its preset, engine "
+                        "and the overrides its runs share but the seed")
     pr.add_argument("--sweep")
     pr.add_argument("--results", type=Path, default=RESULTS_DIR)
     args = parser.parse_args(argv)
@@ -42,7 +53,7 @@ def main(argv=None) -> int:
         print(format_status(sweep, status(sweep)))
         return 0
     if args.command == "preset":
-        print(read_plan(args.results, args.sweep).preset)
+        print(data_set_words(read_plan(args.results, args.sweep)))
         return 0
     config = load_cluster_config()
     jobs = args.jobs if args.jobs is not None else config["local"]["jobs"]
