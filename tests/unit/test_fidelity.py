@@ -288,3 +288,23 @@ def test_the_top_rungs_95_percent_verdict_covers_the_truth_about_95_percent_of_t
         check = table.top_check(_top(rng, truth(17.0), 3), {"cell": line}, ["cell"], "paper")
         inside.append(check["checks"]["cell"]["mu"]["within_95"])
     assert 0.90 <= np.mean(inside) <= 0.99, np.mean(inside)
+
+
+def test_the_top_rung_reads_the_paper_presets_data_set_at_its_angles_every_seed(tmp_path):
+    from pipeline.runs import spec as run_spec
+    from tests.helpers import synthetic_file
+
+    i = {"inertial_number": 0.001}
+    for theta, overrides in ((180.0, i), (90.0, i), (60.0, i), (180.0, {**i, "seed": 2}),
+                             (180.0, {"inertial_number": 0.002})):
+        folder = tmp_path / run_spec.run_folder("paper", "lammps", overrides) / "dem"
+        folder.mkdir(parents=True, exist_ok=True)
+        synthetic_file(folder, theta=theta, name=f"theta{int(theta):03d}", n_cycles=1, preset="paper",
+                       engine="lammps", overrides=overrides)
+    spec = {**ladder.load(), "top": {"preset": "paper", "thetas": [180.0, 90.0], "checks": ["cell"]}}
+    label, paths = ladder.top_runs(spec, roots=(tmp_path,))
+    assert label == "paper (lammps, inertial_number=0.001)"
+    first, second = run_spec.run_folder("paper", "lammps", i), run_spec.run_folder("paper", "lammps", {**i, "seed": 2})
+    assert sorted((p.parts[-3], p.stem) for p in paths) == sorted([(first, "theta180"), (first, "theta090"),
+                                                                  (second, "theta180")])
+    assert ladder.top_runs({**spec, "top": {}}, roots=(tmp_path,)) == ("", [])
