@@ -46,3 +46,14 @@ def test_a_side_is_a_data_set_and_a_bad_one_is_one_line():
                          ("reduced/lammps/colour=1", "unknown override key(s) colour")):
         with pytest.raises(PipelineError, match=message.replace("(", r"\(").replace(")", r"\)")):
             versus.side(bad)
+
+
+def test_a_side_of_one_run_is_shown_untested(tmp_path):
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    many = [synthetic_run(folder, 180.0, name=f"s{seed}", seed=seed, noise=0.01, n_cycles=1) for seed in (1, 2, 3)]
+    one = [synthetic_run(folder, 180.0, name="one", seed=9, noise=0.01, n_cycles=1, engine="lammps")]
+    summary = versus.summarise({"180": {"reduced (yade)": many, "paper (lammps)": one}}, fits=False)
+    mu = next(r for r in summary["groups"]["180"]["rows"] if r["quantity"] == "τ12/p")
+    assert mu["paper (lammps)"]["n"] == 1 and mu["agree"] is None and not math.isfinite(mu["critical"])
+    assert "| τ12/p |" in versus.markdown(summary) and "| (1) |" not in versus.markdown(summary)
