@@ -22,7 +22,7 @@ from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.derived import Definitions
 from ..dataset.lookup import fit_runs
-from ..errors import PipelineError
+from ..errors import CalibrationError, PipelineError
 from ..paths import preset_output
 from . import global_fit, identifiability
 
@@ -37,13 +37,18 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
     data, noise = global_fit.prepare([r.with_definitions(definitions) for r in runs], fit_from)
     start = model.Params().replace(persistence_exponent=persistence_exponent)
     refined = global_fit.refine(data, start, noise=noise)
-    dilatancy = global_fit.refine_dilatancy(data, refined.params)
-    se = {**dict(zip(refined.names, refined.standard_errors.tolist(), strict=True)),
-          **dict(zip(dilatancy.names, dilatancy.standard_errors.tolist(), strict=True))}
+    se = dict(zip(refined.names, refined.standard_errors.tolist(), strict=True))
+    try:
+        dilatancy = global_fit.refine_dilatancy(data, refined.params)
+        params, note = dilatancy.params, ""
+        se.update(zip(dilatancy.names, dilatancy.standard_errors.tolist(), strict=True))
+    except CalibrationError as exc:  # reversals alone: Phi_c runs off to a bound along c2_coef (make fit's note)
+        params, note = refined.params, f"Eq. 18's c2_coef and Phi_c not determined ({exc}): Table 2's shown"
+        se.update({n: float("nan") for n in ("c2_coef", "phi_c")})
     summary = identifiability.summary(refined, data)
     return {"definitions": dataclasses.asdict(definitions), "fit_from": fit_from,
-            "persistence_exponent": persistence_exponent,
-            "params": {n: getattr(dilatancy.params, n) for n in NAMES},
+            "persistence_exponent": persistence_exponent, "dilatancy_note": note,
+            "params": {n: getattr(params, n) for n in NAMES},
             "standard_errors": {n: se[n] for n in NAMES},
             "status": {n: p["status"] for n, p in summary["parameters"].items()},
             "misfit": refined.misfit, "chi2": refined.chi2, "table2": summary["table2"],

@@ -390,3 +390,20 @@ def test_reversals_alone_leave_the_dilatancy_undetermined_and_say_so(tmp_path, c
     params = read_params(tmp_path / "fit" / "params.json")
     assert (params.c2_coef, params.phi_c) == (model.PAPER.c2_coef, model.PAPER.phi_c)
     assert "c2_coef, phi_c: not determined by these runs" in capsys.readouterr().out
+
+
+def test_a_fit_row_whose_dilatancy_the_runs_cannot_fix_keeps_table_2s_and_says_so(tmp_path, monkeypatch):
+    """Reversals alone leave Eq. 18's c2_coef and Phi_c open (make fit goes on with Table 2's): so do
+    make fit-from and make fit-definitions, their errors NaN (shown as open) and a note in the row."""
+    from pipeline.calibration import definitions
+
+    def no_dilatancy(data, params):
+        raise CalibrationError("the dilatancy fit did not converge")
+
+    monkeypatch.setattr(global_fit, "refine_dilatancy", no_dilatancy)
+    run = synthetic_run(tmp_path, name="one", seed=1, noise=0.003, n_cycles=1)
+    row = definitions.fit_row([run], Definitions(strain="nominal", phi="gap"))
+    assert "not determined" in row["dilatancy_note"] and "did not converge" in row["dilatancy_note"]
+    assert row["params"]["c2_coef"] == model.PAPER.c2_coef and row["params"]["phi_c"] == model.PAPER.phi_c
+    assert np.isnan(row["standard_errors"]["phi_c"]) and np.isfinite(row["standard_errors"]["C"])
+    assert "(open)" in definitions.markdown([row], "x").split("\n")[-3]

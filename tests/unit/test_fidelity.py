@@ -308,3 +308,15 @@ def test_the_top_rung_reads_the_paper_presets_data_set_at_its_angles_every_seed(
     assert sorted((p.parts[-3], p.stem) for p in paths) == sorted([(first, "theta180"), (first, "theta090"),
                                                                   (second, "theta180")])
     assert ladder.top_runs({**spec, "top": {}}, roots=(tmp_path,)) == ("", [])
+
+
+def test_one_top_runs_fitted_parameter_is_checked_on_its_own_fits_error():
+    rng = np.random.default_rng(8)
+    entries = _cell_entries(rng, lambda gap: 0.45 - 0.5 / gap)
+    for _, _, s in entries:
+        s["fit"]["values"]["C"] += rng.normal(0, 0.3)
+    cell = {"cell": {"keys": ["gap_d", "width_d"], "transform": "inverse", "paper": 17.0}}
+    one = _top(rng, 0.42, 1)
+    one[0]["fit"]["standard_errors"] = {"C": 0.1}
+    c = table.build(entries, extrapolations=cell, top=("paper", one, ["cell"]))["top"]["180"]["checks"]["cell"]["C"]
+    assert c["paper_cell_se"] == 0.1 and c["critical"] == pytest.approx(1.96, abs=0.01) and c["within_95"]

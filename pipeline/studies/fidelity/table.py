@@ -216,7 +216,7 @@ def top_check(top: list[dict], extrapolated: dict, checks: list[str], label: str
             if se is None or not np.isfinite(se):
                 continue
             combined = float(np.hypot(se, q["at_target_se"]))
-            welch = combined**4 / (se**4 / dof) if dof > 0 else np.inf
+            welch = combined**4 / (se**4 / dof) if 0 < dof < np.inf and se > 0 else np.inf
             critical = float(stats.t.ppf(0.975, welch))
             z = (value - q["at_target"]) / combined
             rows[name] = {"paper_cell": value, "paper_cell_se": se, "extrapolated": q["at_target"],
