@@ -389,6 +389,7 @@ def test_reversals_alone_leave_the_dilatancy_undetermined_and_say_so(tmp_path, c
     assert any("c2_coef and Phi_c are not determined" in note for note in report["notes"])
     params = read_params(tmp_path / "fit" / "params.json")
     assert (params.c2_coef, params.phi_c) == (model.PAPER.c2_coef, model.PAPER.phi_c)
+    assert params.c1 == -params.C != model.PAPER.c1  # Eq. 19 follows the fitted C
     assert "c2_coef, phi_c: not determined by these runs" in capsys.readouterr().out
 
 
