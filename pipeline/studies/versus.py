@@ -26,7 +26,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
 from .. import io
 from ..cli import Parser, one_line_errors
@@ -36,6 +35,7 @@ from ..dataset.lookup import seed_runs
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs.spec import ENGINES, parse_overrides
+from . import welch
 from .fidelity.summary import PAPER_DEFINITIONS, own_fit, steady_values
 from .jump import mean_and_error, run_profiles
 
@@ -71,15 +71,6 @@ def side(text: str) -> selection.DataSet:
     return selection.data_set(preset, engine, parse_overrides(rest))
 
 
-def welch_critical(a: dict, b: dict) -> float:
-    """Welch's two-sided ``LEVEL`` critical value of t for two means with standard errors ``se`` from ``n`` runs."""
-    va, vb = a["se"] ** 2, b["se"] ** 2
-    if not (a["n"] > 1 and b["n"] > 1 and va + vb > 0):
-        return math.nan
-    dof = (va + vb) ** 2 / (va**2 / (a["n"] - 1) + vb**2 / (b["n"] - 1))
-    return float(stats.t.ppf(0.5 + LEVEL / 2, dof))
-
-
 def compare(measures: dict) -> list[dict]:
     """Per quantity: each side's mean, standard error and runs, and z (``measures`` holds two sides, A then B,
     each a list of its runs' measure dicts)."""
@@ -94,7 +85,7 @@ def compare(measures: dict) -> list[dict]:
         a, b = row[labels[0]], row[labels[1]]
         combined = math.hypot(a["se"], b["se"])
         row["z"] = (b["mean"] - a["mean"]) / combined if combined > 0 else math.nan
-        row["critical"] = welch_critical(a, b)
+        row["critical"] = welch.critical(a["se"], a["n"] - 1, b["se"], b["n"] - 1, LEVEL)
         row["agree"] = bool(abs(row["z"]) < row["critical"]) if math.isfinite(row["z"]) else None
         rows.append(row)
     return rows

@@ -131,7 +131,7 @@ def main(argv=None) -> int:
     left = len(ladder.missing(rungs))
     print(f"wrote {out / 'table.md'}, table.csv, table.json: {len({e[2]['folder'] + e[2]['name'] for e in entries})} "
           f"run(s) of the ladder; {left} not made yet" + (" (make fidelity runs them)" if left else "")
-          + f"; the top rung ({label or spec.get('top', {}).get('preset', 'none')}): {len(top_paths)} run(s)")
+          + f"; the top rung ({label or 'none'}): {len(top_paths)} run(s)")
     return 0
 
 

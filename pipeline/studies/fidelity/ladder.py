@@ -77,10 +77,8 @@ def top_runs(ladder: dict, roots: tuple[Path, ...] = DATA_ROOTS) -> tuple[str, l
     if not top:
         return "", []
     chosen = selection.data_set(top["preset"], roots=roots)
-    thetas = {float(t) for t in top.get("thetas", ladder["thetas"])}
-    runs = {r.path: r for r in (*lookup.reversal_seeds(chosen, roots), *lookup.preset_runs(chosen, roots))
-            if r.default_rotation and float(r.spec["theta_deg"]) in thetas}
-    return chosen.label, sorted(runs)
+    thetas = [float(t) for t in top.get("thetas", ladder["thetas"])]
+    return chosen.label, sorted(r.path for theta in thetas for r in lookup.seed_runs(chosen, theta, roots))
 
 
 def summary_path(rung: Rung, root: Path = SUMMARY_DIR) -> Path:

@@ -12,10 +12,10 @@ target error on each quantity, setting by setting, and names the cheapest.
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
 
 import model
 
+from .. import welch
 from . import combinations
 from .recommend import recommend, values_of
 
@@ -216,8 +216,7 @@ def top_check(top: list[dict], extrapolated: dict, checks: list[str], label: str
             if se is None or not np.isfinite(se):
                 continue
             combined = float(np.hypot(se, q["at_target_se"]))
-            welch = combined**4 / (se**4 / dof) if 0 < dof < np.inf and se > 0 else np.inf
-            critical = float(stats.t.ppf(0.975, welch))
+            critical = welch.critical(se, dof, q["at_target_se"], np.inf)
             z = (value - q["at_target"]) / combined
             rows[name] = {"paper_cell": value, "paper_cell_se": se, "extrapolated": q["at_target"],
                           "extrapolated_se": q["at_target_se"], "z": float(z), "critical": critical,
