@@ -251,11 +251,16 @@ def damaged(message):
     sys.exit(2)
 
 
+#: the signals that ask a run to stop (``stop_on_signals``)
+STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGUSR2}
+
+
 def stop_on_signals(describe_stop):
     """Count SIGINT/SIGTERM/SIGUSR1 into the returned dict (``count``, ``signal``); the first one prints
     ``describe_stop()``. SIGUSR1 (a scheduler's warning before a time limit) only ever asks for the checkpoint stop;
     SIGUSR2 asks for the stop at once (the second signal, as the launcher passes it through ``mpirun``, which would
-    kill its ranks on SIGINT or SIGTERM)."""
+    kill its ranks on SIGINT or SIGTERM). The handlers in place, the signals are unblocked: one that came while a
+    process ``exec``ed itself with them blocked (``block_stop_signals``) is taken now, not lost nor fatal."""
     stop = {"count": 0, "signal": 0}
 
     def on_signal(signum, _frame):
@@ -278,7 +283,22 @@ def stop_on_signals(describe_stop):
 
     signal.signal(signal.SIGUSR1, on_usr1)
     signal.signal(signal.SIGUSR2, on_usr2)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
     return stop
+
+
+def block_stop_signals():
+    """Hold the stop signals back (before ``exec``: a process starts with the default actions, which would end it on
+    SIGUSR1 before its handlers are in place; the mask and the pending signals pass through ``exec``)."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+
+
+def next_stop(scene) -> str:
+    """Where a run asked to stop will stop: its next checkpoint's iteration, or the first one once it is built or
+    resumed."""
+    if scene.run is None:
+        return "the first checkpoint, once the run is built or resumed"
+    return f"iteration {scene.run.state['next_checkpoint']}"
 
 
 def run_scene(scene):
@@ -290,7 +310,7 @@ def run_scene(scene):
     run then resumes correctly but not bit-identically). ``scene`` provides ``start()`` (build or resume; the
     Protocol), ``advance(run, stop)`` (to the next checkpoint iteration or until the run stops itself),
     ``save(run)``, ``checkpoint_bytes()``, ``reload()`` and ``meta()`` (its entries of ``raw.npz``)."""
-    stop = stop_on_signals(lambda: f"iteration {scene.run.state['next_checkpoint']}")
+    stop = stop_on_signals(lambda: next_stop(scene))
     run = scene.start()
     run_dir = run.run_dir
     while True:

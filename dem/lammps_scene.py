@@ -308,7 +308,10 @@ class Scene:
         one instance at a time does not. When the driver is about to stop, and with MPI ranks (``mpirun`` cannot
         be ``exec``ed into), the run goes on as it is: a resumed run of several ranks is then not bit-identical to an
         uninterrupted one."""
-        if self.stop["count"] or COMM is not None:
+        if COMM is not None:
+            return self.run
+        driver.block_stop_signals()  # a warning from here on waits for the new process's handlers
+        if self.stop["count"]:
             return self.run
         sys.stdout.flush()
         sys.stderr.flush()

@@ -38,14 +38,34 @@ def free_port():
         return s.getsockname()[1]
 
 
-def wait_for(predicate, timeout, what):
+def wait_for(predicate, timeout, what, explain=lambda: ""):
     end = time.time() + timeout
     while time.time() < end:
         value = predicate()
         if value:
             return value
         time.sleep(0.2)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}\n{explain()}")
+
+
+def cluster_state(base: Path, plan) -> str:
+    """What a stuck sweep looks like: the queue with its reasons, the node, each task's state and log, and the
+    daemons' last lines."""
+    def run(*cmd):
+        return subprocess.run(cmd, capture_output=True, text=True).stdout.strip()
+
+    parts = [f"squeue: {run('squeue', '-h', '-o', '%i %T %r %C')}", f"sinfo: {run('sinfo', '-h', '-o', '%T %E %C')}",
+             f"tasks: {sweep_status.status(plan)}"]
+    for log in sorted((plan.folder / "logs").glob("*.out")):
+        parts.append(f"--- {log.name}\n{log.read_text()[-3000:]}")
+    for task in plan.tasks:
+        for name in ("log.txt", "failed.json"):
+            if (task.run_dir / name).exists():
+                parts.append(f"--- {task.label} {name}\n{(task.run_dir / name).read_text()[-3000:]}")
+    for name in ("slurmctld.log", "slurmd.log"):
+        lines = (base / "log" / name).read_text().splitlines() if (base / "log" / name).exists() else []
+        parts.append(f"--- {name}\n" + "\n".join(lines[-40:]))
+    return "\n".join(parts)
 
 
 @pytest.fixture(scope="module")
@@ -184,7 +204,7 @@ def test_a_sweep_survives_a_warning_a_killed_process_and_matches_a_local_run(clu
                 acted["killed"] = k
         return all(r["state"] == "done" for r in rows)
 
-    wait_for(act, 600, "every run of the sweep to finish")
+    wait_for(act, 600, "every run of the sweep to finish", lambda: cluster_state(cluster, plan))
     slurm_seconds = time.time() - tic
     assert {"running", "queued", "done"} <= table_states, table_states
     assert set(acted) == {"warned", "killed"}, acted
@@ -244,9 +264,10 @@ def test_bad_sweeps_are_refused_before_anything_is_submitted(cluster, tmp_path):
     assert "gb-tiny" not in out
 
 
-def warn_once_running(plan, job, percent):
+def warn_once_running(base, plan, job, percent):
     """Release requeued tasks at once; warn (SIGUSR1, as before a time limit) the first task past ``percent``;
-    true when every run is done. Returns a poller for ``wait_for`` and the set of warned tasks."""
+    true when every run is done, an error (with the cluster's state) as soon as one has failed. Returns a poller
+    for ``wait_for`` and the set of warned tasks."""
     warned = set()
 
     def poll():
@@ -254,6 +275,7 @@ def warn_once_running(plan, job, percent):
             if state == "PENDING" and reason == "BeginTime":
                 release(job, k)
         rows = sweep_status.status(plan)
+        assert not any(r["state"] == "failed" for r in rows), cluster_state(base, plan)
         for row in rows:
             if not warned and row["state"] == "running" and progressed(plan, row["task"], percent):
                 subprocess.run(["scancel", "--signal=USR1", "--batch", f"{job}_{row['task']}"], check=True)
@@ -281,8 +303,8 @@ def test_a_lammps_sweep_survives_a_warning_at_one_and_two_ranks(cluster, tmp_pat
     plan = sweep_plan.read_plan(remote)
     job = job_id(remote, plan.ident)
     assert f"--ntasks={ranks}" in (remote / "sweeps" / plan.ident / "job.sh").read_text()
-    poll, warned = warn_once_running(plan, job, 20)
-    wait_for(poll, 600, "every LAMMPS run of the sweep to finish")
+    poll, warned = warn_once_running(cluster, plan, job, 20)
+    wait_for(poll, 600, "every LAMMPS run of the sweep to finish", lambda: cluster_state(cluster, plan))
     assert len(warned) == 1, warned
     log = (remote / "sweeps" / plan.ident / "logs" / f"task-{warned.pop()}.out").read_text()
     assert "stopped (exit 138); requeued to resume from its checkpoint" in log, log

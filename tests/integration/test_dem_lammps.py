@@ -163,3 +163,18 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
     assert np.all(np.abs(two.raw["wall_stress_error_mean"]) < two.spec["stress_alarm"])
     refused = run_launcher("--theta", "90", "--preset", "tiny", "--ranks", "2", results=tmp_path)
     assert refused.returncode == 2 and "MPI ranks are for ENGINE=lammps" in refused.stderr
+
+
+def test_a_warning_at_any_moment_of_a_run_is_a_resumable_stop(tmp_path):
+    """SIGUSR1 (a scheduler's warning) at times spread over the tiny run (its build, its compaction, its shear, the
+    moments it ``exec``s itself at a checkpoint): every run stops resumably (exit 138) or finishes, never fails."""
+    for k, delay in enumerate(np.arange(0.5, 8.0, 0.55)):
+        results = tmp_path / f"r{k}"
+        proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=results), cwd=ROOT,
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        try:
+            proc.communicate(timeout=delay)
+        except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGUSR1)
+        out = proc.communicate(timeout=120)[0] or ""
+        assert proc.returncode in (0, 138) and "Traceback" not in out, f"warned at {delay:.2f} s:\n{out}"
