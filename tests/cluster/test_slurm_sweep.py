@@ -304,7 +304,7 @@ def test_a_lammps_sweep_survives_a_warning_at_one_and_two_ranks(cluster, tmp_pat
     job = job_id(remote, plan.ident)
     assert f"--ntasks={ranks}" in (remote / "sweeps" / plan.ident / "job.sh").read_text()
     poll, warned = warn_once_running(cluster, plan, job, 20)
-    wait_for(poll, 600, "every LAMMPS run of the sweep to finish", lambda: cluster_state(cluster, plan))
+    wait_for(poll, 300, "every LAMMPS run of the sweep to finish", lambda: cluster_state(cluster, plan))
     assert len(warned) == 1, warned
     log = (remote / "sweeps" / plan.ident / "logs" / f"task-{warned.pop()}.out").read_text()
     assert "stopped (exit 138); requeued to resume from its checkpoint" in log, log
