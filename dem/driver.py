@@ -39,7 +39,8 @@ def initial_state(spec, **engine_state):
     return {
         "phase": "compaction", "hold_since": None, "t_shear0": None, "gap0": None, "wall_speed": None,
         "next_sample": 0, "alarm_strain": 0.0, "samples_file": None, "next_checkpoint": int(spec["checkpoint_steps"]),
-        "err_sum": 0.0, "err_n": 0, "err_max": 0.0, "callback_seconds": 0.0, "loop_seconds": 0.0, **engine_state,
+        "err_sum": 0.0, "err_n": 0, "err_max": 0.0, "callback_seconds": 0.0, "loop_seconds": 0.0, "cpu_seconds": 0.0,
+        **engine_state,
     }
 
 
@@ -239,6 +240,7 @@ def write_run_raw(run, engine_meta):
         "ct": st["ct"], "n_grains": st["n_grains"], "gap0": st["gap0"], "wall_speed": st["wall_speed"],
         "gamma_dot_nominal": run.gamma_dot, "t_shear0": st["t_shear0"], "iterations": run.iteration(),
         "callback_seconds": st["callback_seconds"], "loop_seconds": st["loop_seconds"],
+        "cpu_seconds": st.get("cpu_seconds", st["loop_seconds"]),
         "grain_radius": run.radius.tolist(),
     }
     write_raw(os.path.join(run.run_dir, "raw.npz"), stack(run.samples), meta)
@@ -301,6 +303,19 @@ def next_stop(scene) -> str:
     return f"iteration {scene.run.state['next_checkpoint']}"
 
 
+def cores() -> int:
+    """Cores this process's run uses: its MPI ranks (``mpirun``) times its OpenMP threads."""
+    return int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) * int(os.environ.get("OMP_NUM_THREADS", "1"))
+
+
+def count_seconds(state, seconds):
+    """Add ``seconds`` of the run's loop (wall time) and its cost in CPU-seconds (times ``cores()``, which may
+    change between sessions) to ``state``; a checkpoint from before CPU-seconds were counted ran on one core."""
+    state.setdefault("cpu_seconds", state["loop_seconds"])
+    state["loop_seconds"] += seconds
+    state["cpu_seconds"] += seconds * cores()
+
+
 def run_scene(scene):
     """Build or resume ``scene``'s run, then run it; at every checkpoint save, reload and go on (see
     ``checkpoint_steps``).
@@ -316,7 +331,7 @@ def run_scene(scene):
     while True:
         tic = time.time()
         scene.advance(run, stop)
-        run.state["loop_seconds"] += time.time() - tic
+        count_seconds(run.state, time.time() - tic)
         phase = run.state["phase"]
         if phase == "failed":
             sys.stderr.write(f"error: {run.failure}\n")

@@ -94,8 +94,8 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rota
     weakest = np.array([fit.directions[0]["direction"][n] for n in fit.names]) / scale
     reference = next(r for r in runs if r.is_reversal)
     spec = reference.spec
-    seconds_per_strain = float(np.mean([r.parameters["loop_seconds"] / (r.spec["pre_strain"] + r.spec["n_cycles"]
-                                                                        * r.spec["period_strain"]) for r in runs]))
+    seconds_per_strain = float(np.mean([r.cpu_seconds / (r.spec["pre_strain"] + r.spec["n_cycles"]
+                                                         * r.spec["period_strain"]) for r in runs]))
     ratio = bulk_over_nominal(reference)
 
     def measures(cov):

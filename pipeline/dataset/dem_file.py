@@ -94,6 +94,8 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
             wall_speed=meta["wall_speed"], gamma_dot_nominal=meta["gamma_dot_nominal"], iterations=meta["iterations"],
             callback_seconds=meta["callback_seconds"], loop_seconds=meta["loop_seconds"],
         )
+        if "cpu_seconds" in meta:
+            params.attrs["cpu_seconds"] = meta["cpu_seconds"]
         _dataset(params, "grain_diameter", 2 * np.asarray(meta["grain_radius"]), "d")
         g_raw = f.create_group("raw")
         for key, info in fields.items():
@@ -147,6 +149,22 @@ class DemRun:
     @property
     def overrides(self) -> dict:
         return dict(self.spec.get("overrides", {}))
+
+    @property
+    def sessions(self) -> list[dict]:
+        """The sessions that ran it (when, the command, its ranks and threads), oldest first."""
+        text = self.provenance.get("sessions", "[]")
+        return json.loads(text) if isinstance(text, str) and text else []
+
+    @property
+    def cpu_seconds(self) -> float:
+        """The run's loop in CPU-seconds: counted with each session's cores where the file has it
+        (``parameters/cpu_seconds``); else the loop's wall time times the most cores a session used, an upper
+        bound where a run changed its ranks or threads."""
+        if "cpu_seconds" in self.parameters:
+            return float(self.parameters["cpu_seconds"])
+        most = max((s.get("ranks", 1) * s.get("threads", 1) for s in self.sessions), default=1)
+        return float(self.parameters["loop_seconds"]) * most
 
     def with_definitions(self, definitions: derived.Definitions) -> DemRun:
         """The same run read with other definitions of strain, Phi and p (series and cycle recomputed)."""

@@ -159,6 +159,8 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
     two = load(run_spec.output_path(tiny_spec("lammps"), tmp_path))
     one = runs["lammps"]
     assert json.loads(two.provenance["sessions"])[-1]["ranks"] == 2
+    assert two.cpu_seconds == pytest.approx(2 * two.parameters["loop_seconds"])  # both sessions on two cores
+    assert one.cpu_seconds == pytest.approx(one.parameters["loop_seconds"])
     np.testing.assert_allclose(two.raw_all["strain"], one.raw_all["strain"], atol=1e-3)
     assert np.all(np.abs(two.raw["wall_stress_error_mean"]) < two.spec["stress_alarm"])
     refused = run_launcher("--theta", "90", "--preset", "tiny", "--ranks", "2", results=tmp_path)

@@ -136,3 +136,28 @@ def test_a_checkpoint_is_whole_only_if_its_gzip_stream_is(tmp_path):
     junk.write_bytes(b"not gzip")
     assert complete_gzip(whole) and not complete_gzip(truncated) and not complete_gzip(junk)
     assert not complete_gzip(tmp_path / "missing.gz")
+
+
+def test_cpu_seconds_count_each_session_s_cores_and_bound_an_older_file_from_above(tmp_path, monkeypatch):
+    """A run's cost: its loop's wall seconds times its cores (MPI ranks times threads) session by session; a file
+    from before that count gives its loop times the most cores a session used (an upper bound)."""
+    from dem import driver
+
+    state = {"loop_seconds": 100.0}  # a checkpoint from before the count: 100 s on one core
+    monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "2")
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")
+    driver.count_seconds(state, 50.0)
+    assert state == {"loop_seconds": 150.0, "cpu_seconds": 200.0}
+    monkeypatch.delenv("OMPI_COMM_WORLD_SIZE")
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")
+    driver.count_seconds(state, 10.0)
+    assert state == {"loop_seconds": 160.0, "cpu_seconds": 230.0}
+
+    raw, meta = synthetic_raw(180.0)
+    write_raw(tmp_path / "raw.npz", raw, {**meta, "loop_seconds": 160.0, "cpu_seconds": 230.0})
+    sessions = [{"ranks": 1, "threads": 1}, {"ranks": 2, "threads": 1}]
+    write_h5(tmp_path / "raw.npz", tmp_path / "run.h5", {"git_commit": "test", "sessions": sessions})
+    run = load(tmp_path / "run.h5")
+    assert run.cpu_seconds == 230.0 and run.sessions == sessions
+    older = dataclasses.replace(run, parameters={k: v for k, v in run.parameters.items() if k != "cpu_seconds"})
+    assert older.cpu_seconds == 320.0

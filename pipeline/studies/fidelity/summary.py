@@ -19,8 +19,6 @@ Everything the ladder's table and plots need, a few kB per run (the raw file sta
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 
 import model
@@ -83,12 +81,11 @@ def own_fit(run) -> dict:
 
 def cost(run) -> dict:
     p = run.parameters
-    sessions = json.loads(run.provenance["sessions"]) if isinstance(run.provenance["sessions"], str) else []
-    threads = max([s.get("threads", 1) for s in sessions] or [1])
+    threads = max([s.get("threads", 1) for s in run.sessions] or [1])
     return {"steps": int(p["iterations"]), "loop_seconds": float(p["loop_seconds"]),
             "callback_seconds": float(p["callback_seconds"]),
             "steps_per_second": float(p["iterations"] / p["loop_seconds"]) if p["loop_seconds"] > 0 else None,
-            "cpu_hours": float(p["loop_seconds"]) * threads / 3600, "threads": int(threads),
+            "cpu_hours": run.cpu_seconds / 3600, "threads": int(threads),
             "grains": int(p["n_grains"]), "wall_spheres": int(p["n_wall_spheres"])}
 
 
