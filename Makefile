@@ -37,7 +37,8 @@ FIT_FROM ?=
 STRAIN ?= nominal
 PHI ?= gap
 # make sweep PRESET=... THETAS="30 60 90" [ROTATE_ATS="0.1 0.2"] [SEEDS="1 2 3"] [SET=...] [LAUNCH=local|slurm]
-#            [SLURM="partition=... time_limit=HH:MM:SS ..."] [JOBS=2] [MANY=1: more than 200 runs]
+#            [SLURM="partition=... time_limit=HH:MM:SS ..."] [JOBS=2] [RANKS=1: MPI ranks per LAMMPS run]
+#            [MANY=1: more than 200 runs]
 THETAS ?=
 ROTATE_ATS ?=
 SEEDS ?=
@@ -190,6 +191,7 @@ sweep: system $(if $(filter lammps,$(ENGINE)),system-lammps) venv ## a sweep of 
 	$(PY) -m pipeline.runs.sweep run --preset $(PRESET) --thetas "$(THETAS)" \
 	  $(if $(ROTATE_ATS),--rotate-ats "$(ROTATE_ATS)") $(if $(SEEDS),--seeds "$(SEEDS)") $(foreach s,$(SET),--set $(s)) \
 	  --launch $(LAUNCH) $(foreach s,$(SLURM),--slurm $(s)) $(if $(JOBS),--jobs $(JOBS)) \
+	  $(if $(filter-out 1,$(RANKS)),--ranks $(RANKS)) \
 	  $(if $(filter 1 yes true,$(MANY)),--allow-many) --engine $(ENGINE)
 
 runs: venv ## every DEM run here and committed: its folder, overrides, state (done, running, stopped, failed) and summary

@@ -157,3 +157,28 @@ def test_sweep_collect_reads_the_data_set_of_the_sweeps_runs(tmp_path):
     (sweep.folder / "plan.json").write_text(json.dumps(plan_json))
     with pytest.raises(SpecError, match="unknown override key"):
         data_set_words(read_plan(tmp_path))
+
+
+def test_a_local_lammps_sweep_runs_each_run_on_its_ranks_and_refuses_ranks_it_cannot_use(tmp_path, capsys):
+    """``make sweep ENGINE=lammps RANKS=2``: every rule of the sweep's makefile launches its run on two MPI ranks
+    (one run at a time on two cores by default); ranks for Yade, ranks that contradict SLURM=ranks_per_run, and
+    no ranks are one-line errors before anything runs."""
+    from pipeline.runs.sweep.__main__ import main
+
+    sweep = plan("tiny", "90 180", results=tmp_path, engine="lammps")
+    for task in sweep.tasks:  # as if done: Make has nothing to run
+        task.output.parent.mkdir(parents=True, exist_ok=True)
+        task.output.touch()
+    args = ["run", "--preset", "tiny", "--thetas", "90 180", "--engine", "lammps", "--results", str(tmp_path)]
+    assert main([*args, "--ranks", "2"]) == 0
+    rules = (read_plan(tmp_path).folder / "runs.mk").read_text()
+    assert rules.count("--ranks 2") == 2
+    assert main(args) == 0 and "--ranks" not in (read_plan(tmp_path).folder / "runs.mk").read_text()
+    cases = [([*args[:-4], "--results", str(tmp_path), "--ranks", "2"], "ranks=2: MPI ranks are for ENGINE=lammps"),
+             ([*args, "--ranks", "2", "--slurm", "ranks_per_run=4"], "ranks=2 and slurm ranks_per_run=4 disagree"),
+             ([*args, "--ranks", "0"], "ranks=0 must be between 1 and 256")]
+    for argv, message in cases:
+        capsys.readouterr()
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1, err

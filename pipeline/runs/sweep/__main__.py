@@ -36,7 +36,10 @@ def main(argv=None) -> int:
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every run")
     run.add_argument("--launch", choices=("local", "slurm"), default="local")
     run.add_argument("--slurm", action="append", default=[], metavar="KEY=VALUE", help="override of [slurm]")
-    run.add_argument("--jobs", type=int, help="runs side by side with LAUNCH=local (default: [local] jobs)")
+    run.add_argument("--jobs", type=int, help="runs side by side with LAUNCH=local (default: [local] jobs, "
+                     "divided by the ranks)")
+    run.add_argument("--ranks", type=int, help="MPI ranks of each LAMMPS run, here or per SLURM task (default: "
+                     "[slurm] ranks_per_run, 1)")
     run.add_argument("--allow-many", action="store_true", help=f"allow more than {MAX_TASKS} runs in one sweep")
     run.add_argument("--engine", default="yade", help="DEM engine: yade or lammps")
     run.add_argument("--results", type=Path, default=RESULTS_DIR)
@@ -56,19 +59,28 @@ def main(argv=None) -> int:
         print(data_set_words(read_plan(args.results, args.sweep)))
         return 0
     config = load_cluster_config()
-    jobs = args.jobs if args.jobs is not None else config["local"]["jobs"]
+    slurm = apply_overrides(config["slurm"], args.slurm, "slurm")
+    ranks = slurm["ranks_per_run"] if args.ranks is None else args.ranks
+    if args.ranks is not None and any(o.startswith("ranks_per_run=") for o in args.slurm) \
+            and args.ranks != slurm["ranks_per_run"]:
+        raise SpecError(f"ranks={args.ranks} and slurm ranks_per_run={slurm['ranks_per_run']} disagree: give one")
+    if not 1 <= ranks <= 256:
+        raise SpecError(f"ranks={ranks} must be between 1 and 256")
+    jobs = args.jobs if args.jobs is not None else max(1, config["local"]["jobs"] // ranks)
     if jobs < 1:
         raise SpecError(f"jobs={jobs} must be >= 1")
     sweep = plan(args.preset, args.thetas, args.rotate_ats, args.seeds, args.set, args.results, args.allow_many,
                  args.engine)
+    slurm["ranks_per_run"] = ranks
     if args.launch == "slurm":
-        slurm = apply_overrides(config["slurm"], args.slurm, "slurm")
         check_slurm(slurm, sweep, config["throughput"])
+    elif ranks > 1 and sweep.tasks[0].engine != "lammps":
+        raise SpecError(f"ranks={ranks}: MPI ranks are for ENGINE=lammps (Yade runs on threads)")
     write_plan(sweep)
     print(f"sweep {sweep.ident}: {len(sweep.tasks)} run(s) of preset {sweep.preset} "
           f"({sum(t.output.exists() for t in sweep.tasks)} done)")
     if args.launch == "local":
-        return run_local(sweep, jobs)
+        return run_local(sweep, jobs, ranks)
     job = submit(sweep, slurm)
     print("every run is done: nothing submitted" if job is None else
           f"submitted job array {job} ({sweep.folder / 'job.sh'}); follow it with `make sweep-status`")

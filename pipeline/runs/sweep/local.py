@@ -1,4 +1,5 @@
-"""A sweep run here: a makefile of one rule per run, run by Make with ``-j`` (one Yade thread each)."""
+"""A sweep run here: a makefile of one rule per run, run by Make with ``-j`` (one Yade thread or one or more MPI
+ranks each)."""
 
 from __future__ import annotations
 
@@ -11,19 +12,20 @@ from ..state import run_state
 from .plan import Sweep, launcher_command
 
 
-def local_makefile(sweep: Sweep) -> str:
+def local_makefile(sweep: Sweep, ranks: int = 1) -> str:
     lines = ["# one rule per run of the sweep; run by `make sweep LAUNCH=local` with -j", "",
              "all: " + " ".join(shlex.quote(str(t.output)) for t in sweep.tasks), ""]
     for task in sweep.tasks:
-        lines += [f"{shlex.quote(str(task.output))}:",
-                  "\tcd " + shlex.quote(str(ROOT)) + " && " + shlex.join(launcher_command(task, sweep.results)), ""]
+        command = shlex.join(launcher_command(task, sweep.results, ranks=ranks))
+        lines += [f"{shlex.quote(str(task.output))}:", "\tcd " + shlex.quote(str(ROOT)) + " && " + command, ""]
     return "\n".join(lines)
 
 
-def run_local(sweep: Sweep, jobs: int) -> int:
+def run_local(sweep: Sweep, jobs: int, ranks: int = 1) -> int:
     """Make's exit status, but 0 when every run is done in the end (some perhaps by another sweep of the same
-    runs, whose launches this one's were refused): the status reports the runs, not the race."""
-    makefile = io.write_text(sweep.folder / "runs.mk", local_makefile(sweep))
+    runs, whose launches this one's were refused): the status reports the runs, not the race. ``jobs`` runs side
+    by side, each on ``ranks`` MPI ranks."""
+    makefile = io.write_text(sweep.folder / "runs.mk", local_makefile(sweep, ranks))
     status = subprocess.call(["make", "--no-print-directory", "-k", f"-j{jobs}", "-f", str(makefile), "all"])
     if status == 0:
         return 0

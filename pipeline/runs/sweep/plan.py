@@ -142,6 +142,6 @@ def read_plan(results: Path = RESULTS_DIR, ident: str | None = None) -> Sweep:
     return dataclasses.replace(sweep, results=results)
 
 
-def launcher_command(task: Task, results: Path, threads: int = 1) -> list[str]:
+def launcher_command(task: Task, results: Path, threads: int = 1, ranks: int = 1) -> list[str]:
     return [sys.executable, "-m", "pipeline.runs", "run", *task.args, "--results", str(results),
-            "--threads", str(threads)]
+            "--threads", str(threads), *(["--ranks", str(ranks)] if ranks > 1 else [])]
