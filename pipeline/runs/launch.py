@@ -242,8 +242,11 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
         if status != 0:
             raise SystemExit(status)
     provenance["finished"] = dt.datetime.now().isoformat(timespec="seconds")
-    signal.signal(signal.SIGUSR1, signal.SIG_IGN)  # a scheduler's warning now: the file is seconds away
-    write_h5(run_dir / "raw.npz", out, provenance)
+    previous = signal.signal(signal.SIGUSR1, signal.SIG_IGN)  # a scheduler's warning now: the file is seconds away
+    try:
+        write_h5(run_dir / "raw.npz", out, provenance)
+    finally:
+        signal.signal(signal.SIGUSR1, previous)
     return out
 
 

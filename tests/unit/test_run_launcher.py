@@ -3,13 +3,16 @@
 
 import dataclasses
 import json
+import signal
 
 import h5py
 import pytest
 
+from dem.rawfile import write_raw
 from pipeline.errors import SpecError
 from pipeline.runs import launch as dem
 from pipeline.runs import spec as run_spec
+from tests.helpers.synthetic import synthetic_raw
 
 
 def test_prepare_writes_the_spec_and_refuses_a_checkpoint_of_another_spec(tmp_path):
@@ -59,3 +62,15 @@ def test_a_leftover_raw_file_of_another_spec_is_refused(tmp_path):
     other = dataclasses.replace(run_spec.resolve(135, "tiny"), name=spec.name)  # the same folder, another angle
     with pytest.raises(SpecError, match="holds a raw.npz of another spec"):
         dem.prepare(other, tmp_path, fresh=False)
+
+
+def test_writing_the_file_holds_off_a_warning_and_then_gives_the_handler_back(tmp_path):
+    """A scheduler's warning while the HDF5 file is written (seconds) is ignored, and only then: the launcher's
+    SIGUSR1 handler is back afterwards (a caller in-process, or a child it starts, keeps what it had)."""
+    spec = run_spec.resolve(90, "tiny")
+    run_dir = run_spec.work_dir(spec, tmp_path)
+    run_dir.mkdir(parents=True)
+    write_raw(run_dir / "raw.npz", *synthetic_raw(90.0))  # the scene has finished: only the file is left to write
+    before = signal.getsignal(signal.SIGUSR1)
+    assert dem.run(spec, tmp_path).exists()
+    assert signal.getsignal(signal.SIGUSR1) is before

@@ -15,6 +15,7 @@ CHILD = """
 import os, signal, sys, threading
 from dem import driver
 if sys.argv[1] in ("block", "no-block"):
+    signal.signal(signal.SIGUSR1, signal.SIG_DFL)  # as a scene starts (whatever its parent ignored)
     if sys.argv[1] == "block":
         driver.block_stop_signals()
     signal.pthread_kill(threading.main_thread().ident, signal.SIGUSR1)
