@@ -5,6 +5,8 @@ import json
 import signal
 import subprocess
 import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -167,16 +169,29 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
     assert refused.returncode == 2 and "MPI ranks are for ENGINE=lammps" in refused.stderr
 
 
+def catches(pid: int, signum: int) -> bool:
+    """Whether process ``pid`` has a handler for ``signum`` (its ``SigCgt`` mask in /proc)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("SigCgt:"):
+            return bool(int(line.split()[1], 16) >> (signum - 1) & 1)
+    return False
+
+
 def test_a_warning_at_any_moment_of_a_run_is_a_resumable_stop(tmp_path):
-    """SIGUSR1 (a scheduler's warning) at times spread over the tiny run (its build, its compaction, its shear, the
-    moments it ``exec``s itself at a checkpoint): every run stops resumably (exit 138) or finishes, never fails."""
-    for k, delay in enumerate(np.arange(0.5, 8.0, 0.55)):
+    """SIGUSR1 (a scheduler's warning) at times spread over the tiny run, from the moment the launcher's Python
+    has its handler (before that, the interpreter is still starting) through its imports, the build, the
+    compaction, the shear and the moments it ``exec``s itself at a checkpoint: every run stops resumably (exit
+    138) or finishes, never fails."""
+    for k, delay in enumerate(np.arange(0.0, 7.5, 0.55)):
         results = tmp_path / f"r{k}"
         proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=results), cwd=ROOT,
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        end = time.time() + 60
+        while not catches(proc.pid, signal.SIGUSR1) and proc.poll() is None and time.time() < end:
+            time.sleep(0.005)
         try:
             proc.communicate(timeout=delay)
         except subprocess.TimeoutExpired:
             proc.send_signal(signal.SIGUSR1)
         out = proc.communicate(timeout=120)[0] or ""
-        assert proc.returncode in (0, 138) and "Traceback" not in out, f"warned at {delay:.2f} s:\n{out}"
+        assert proc.returncode in (0, 138) and "Traceback" not in out, f"warned {delay:.2f} s in:\n{out}"
