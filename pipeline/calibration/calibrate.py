@@ -215,8 +215,7 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
         notes.append(f"Eq. 18's c2_coef and Phi_c are not determined by these runs ({undetermined_dilatancy}): "
                      "params.json keeps their defaults (Table 2's), with c1 = -C (Eq. 19); runs at other angles "
                      "fix them")
-    # without a dilatancy fit c1 still follows the fitted C (Eq. 19), as refine_dilatancy sets it
-    result = stepwise if refined is None else (refined.params.replace(c1=-refined.params.C) if dilatancy is None
+    result = stepwise if refined is None else (global_fit.with_eq19_c1(refined.params) if dilatancy is None
                                                else dilatancy.params)
     return Calibration(settings, result, stepwise, per_run, cross,
                        estimates, sensitivity(reversals), refined, dilatancy, noise, identifiable, next_runs, boot,

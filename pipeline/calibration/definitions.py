@@ -43,7 +43,7 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
         params, note = dilatancy.params, ""
         se.update(zip(dilatancy.names, dilatancy.standard_errors.tolist(), strict=True))
     except CalibrationError as exc:  # reversals alone: Phi_c runs off to a bound along c2_coef (make fit's note)
-        params = refined.params.replace(c1=-refined.params.C)  # Eq. 19, as refine_dilatancy sets it
+        params = global_fit.with_eq19_c1(refined.params)
         note = f"Eq. 18's c2_coef and Phi_c not determined ({exc}): Table 2's shown"
         se.update({n: float("nan") for n in ("c2_coef", "phi_c")})
     summary = identifiability.summary(refined, data)

@@ -232,10 +232,15 @@ def _dilatancy_residuals(values, data: list[Cycle], base: model.Params) -> np.nd
     return np.concatenate(out)
 
 
+def with_eq19_c1(params: model.Params) -> model.Params:
+    """``params`` with c1 = -C (Eq. 19: the second law with the fitted C), whether Eq. 18 is fitted or not."""
+    return params.replace(c1=-params.C)
+
+
 def refine_dilatancy(data: list[Cycle], params: model.Params) -> GlobalFit:
     """c2_coef and Phi_c of Eq. 18 fitted to the DEM's Phi over every cycle, with c1 = -C (Eq. 19)
     and c3, the c2 exponent and the flow rule and fabric law of ``params`` held fixed."""
-    base = params.replace(c1=-params.C)
+    base = with_eq19_c1(params)
     lower, upper = np.array([1e-3, 0.3]), np.array([100.0, 0.9])
     x0 = np.array([base.c2_coef, float(np.mean(np.concatenate([d.phi for d in data])))])
     x0 = np.clip(x0, lower + 1e-3 * (upper - lower), upper - 1e-3 * (upper - lower))
