@@ -146,9 +146,20 @@ def job_id(results: Path, ident: str) -> str:
     return (results / "sweeps" / ident / "jobs.txt").read_text().split()[-1]
 
 
-def release(job: str, task: int):
-    """A requeued task waits for its BeginTime (SLURM's requeue delay, 2 minutes): start it now."""
-    subprocess.run(["scontrol", "update", f"JobId={job}_{task}", "StartTime=now"], capture_output=True)
+#: how long a requeued task stays pending before it is released: its last attempt's batch step must be cleaned
+#: up on the node first (released at once, the new attempt's launch fails there with exit 1)
+SETTLE_SECONDS = 5.0
+
+
+def release_requeued(plan, job: str, pending_since: dict):
+    """A requeued task waits for its BeginTime (SLURM's requeue delay, 2 minutes): start it once it has been
+    pending ``SETTLE_SECONDS``."""
+    now = time.time()
+    for k, (state, reason) in sweep_slurm.queue(plan).items():
+        if state == "PENDING" and reason == "BeginTime":
+            if now - pending_since.setdefault(k, now) >= SETTLE_SECONDS:
+                subprocess.run(["scontrol", "update", f"JobId={job}_{k}", "StartTime=now"], capture_output=True)
+                pending_since.pop(k)
 
 
 def progressed(plan, task, percent):
@@ -175,11 +186,10 @@ def test_a_sweep_survives_a_warning_a_killed_process_and_matches_a_local_run(clu
     plan = sweep_plan.read_plan(remote)
     job = job_id(remote, plan.ident)
     table_states = set()
+    pending_since = {}
 
     def poll():
-        for k, (state, reason) in sweep_slurm.queue(plan).items():  # the admin who will not wait for a requeue delay
-            if state == "PENDING" and reason == "BeginTime":
-                release(job, k)
+        release_requeued(plan, job, pending_since)  # the admin who will not wait for a requeue delay
         rows = sweep_status.status(plan)
         out = sweep_cli("status", "--results", str(remote)).stdout  # what `make sweep-status` prints
         table_states.update(s for s in ("done", "running", "queued", "failed", "stopped") if f"  {s}" in out)
@@ -268,12 +278,10 @@ def warn_once_running(base, plan, job, percent):
     """Release requeued tasks at once; warn (SIGUSR1, as before a time limit) the first task past ``percent``;
     true when every run is done, an error (with the cluster's state) as soon as one has failed. Returns a poller
     for ``wait_for`` and the set of warned tasks."""
-    warned = set()
+    warned, pending_since = set(), {}
 
     def poll():
-        for k, (state, reason) in sweep_slurm.queue(plan).items():
-            if state == "PENDING" and reason == "BeginTime":
-                release(job, k)
+        release_requeued(plan, job, pending_since)
         rows = sweep_status.status(plan)
         assert not any(r["state"] == "failed" for r in rows), cluster_state(base, plan)
         for row in rows:
