@@ -25,6 +25,8 @@ from ..errors import CalibrationError
 from . import design, global_fit, identifiability
 from .stepwise import calibrate_run, combine, cross_check_run, fitted_params, sensitivity, stepwise_bootstrap
 
+STEPWISE_RESAMPLES = 40  # resamplings of a single reversal run's cycles that give its stepwise errors
+
 
 @dataclass(frozen=True)
 class Settings:
@@ -197,7 +199,10 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
             boot["stepwise"] = stepwise_bootstrap(reversals, settings.bootstrap, window)
         if settings.jackknife:
             jack = global_fit.jackknife(data, list(range(len(reversals))), refined, progress=_progress("jackknife"))
-    estimates = combine(per_run)
+    resampled = None
+    if len(reversals) == 1 and reversals[0].spec["n_cycles"] > 1:  # one run: its error from its cycles
+        resampled = boot["stepwise"] if boot else stepwise_bootstrap(reversals, STEPWISE_RESAMPLES, window)
+    estimates = combine(per_run, resampled)
     bad = [k for k in ("C_eq15", "n", "m", "a1", "b1", "a2", "b2") if not math.isfinite(estimates[k]["value"])]
     if bad:
         raise CalibrationError(f"the fit gave no finite value for {', '.join(bad)}")

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.stats
 
 import model
 
@@ -137,17 +138,30 @@ ESTIMATES = ("C_eq15", "n", "m", "a1", "b1", "a2", "b2", "persistence_exponent_a
              "persistence_exponent_alpha2", "c2_coef", "phi_c", "steady_packing_fraction")
 
 
-def combine(per_run: list[dict]) -> dict:
-    """Mean over runs with its standard error (or the single run's regression standard error)."""
+def small_sample_factor(cycles: int) -> float:
+    """The widening that makes half a bootstrap's 68 % interval over ``cycles`` resampled cycles a 68 % error:
+    sqrt(n / (n - 1)) (the bootstrap's plug-in variance) times Student's t at 84.1 % with n - 1 degrees of
+    freedom; 1.27 for the paper's five cycles."""
+    return math.sqrt(cycles / (cycles - 1)) * float(scipy.stats.t.ppf(0.8413, cycles - 1))
+
+
+def combine(per_run: list[dict], resampled: dict | None = None) -> dict:
+    """Mean over runs with its standard error; for a single run, half the 68 % interval over ``resampled``
+    (``stepwise_bootstrap`` of its cycles; robust to the heavy tail of Phi_c, which goes as 1/c2_coef) widened
+    by ``small_sample_factor``, else NaN: a regression's own error treats the smoothed, correlated samples as
+    independent and comes out too small (it stays in the run's ``*_se``)."""
     out = {}
     for key in ESTIMATES:
         values = np.array([r[key] for r in per_run], dtype=float)
         mean = float(np.nanmean(values))
         if len(values) > 1:
-            se = float(np.nanstd(values, ddof=1) / np.sqrt(np.isfinite(values).sum()))
+            se, source = float(np.nanstd(values, ddof=1) / np.sqrt(np.isfinite(values).sum())), "runs"
+        elif resampled is not None and key in resampled["free"]:
+            half_width = resampled["half_width_68"][resampled["free"].index(key)]
+            se, source = half_width * small_sample_factor(resampled["cycles"]), "cycle resamples"
         else:
-            se = float(per_run[0].get(key + "_se", float("nan")))
-        out[key] = {"value": mean, "standard_error": se, "per_run": values.tolist()}
+            se, source = float("nan"), None
+        out[key] = {"value": mean, "standard_error": se, "error_from": source, "per_run": values.tolist()}
     return out
 
 
@@ -155,6 +169,7 @@ SMOOTHING_WINDOWS = (0.03, 0.05, 0.08)  # Savitzky-Golay windows in strain
 TRANSIENT_EFOLDS = (1.0, 2.0, 4.0)  # strain after each change used by the beta_i fits, in 1/e strains of A12
 EQ15_WINDOWS = ((0.2, 0.69), (0.3, 0.69), (0.4, 0.69))  # strain after the reversal for Eq. 15's slope
 SENSITIVE = ("C_eq15", "n", "m", "a1", "b1", "a2", "b2", "persistence_exponent_alpha1", "persistence_exponent_alpha2")
+BOOTSTRAPPED = (*SENSITIVE, "c2_coef", "phi_c", "steady_packing_fraction")
 
 
 def sensitivity(runs: list) -> dict:
@@ -178,9 +193,12 @@ def stepwise_bootstrap(runs: list, replicates: int, window: float, seed: int = 0
         for run in runs:
             cycle = {**run.cycle, **resampled_cycle(run, rng)} if run.spec["n_cycles"] > 1 else run.cycle
             per_run.append(calibrate_run(run, window=window, cycle=cycle))
-        values.append([np.nanmean([r[key] for r in per_run]) for key in SENSITIVE])
+        values.append([np.nanmean([r[key] for r in per_run]) for key in BOOTSTRAPPED])
     v = np.array(values)
-    return {"free": list(SENSITIVE), "standard_deviation": np.nanstd(v, axis=0, ddof=1).tolist(),
+    lo, hi = np.nanpercentile(v, [15.87, 84.13], axis=0)
+    return {"free": list(BOOTSTRAPPED), "replicates": replicates,
+            "cycles": min(run.spec["n_cycles"] for run in runs),
+            "standard_deviation": np.nanstd(v, axis=0, ddof=1).tolist(), "half_width_68": ((hi - lo) / 2).tolist(),
             "percentile_2.5": np.nanpercentile(v, 2.5, axis=0).tolist(),
             "percentile_97.5": np.nanpercentile(v, 97.5, axis=0).tolist(), "seed": seed}
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 
@@ -68,20 +69,31 @@ def print_report(report: dict, out: Path) -> None:
         print(f"noise bootstrap ({len(b['replicates'])} refits, blocks of {b['block_strain']:g} strain), 68 %: "
               + ", ".join(f"{n} [{lo:+.4g}, {hi:+.4g}]" for n, (lo, hi) in zip(b["free"], b["interval_68"],
                                                                                strict=True)))
+        st = b["stepwise"]
+        print("the stepwise route on the same resamplings, 95 %: "
+              + ", ".join(f"{n} [{lo:+.4g}, {hi:+.4g}]" for n, lo, hi in
+                          zip(st["free"], st["percentile_2.5"], st["percentile_97.5"], strict=True)
+                          if not n.startswith("persistence_exponent")))
     if report.get("jackknife"):
         j = report["jackknife"]
         print(f"jackknife over the {len(j['left_out'])} reversal seeds: standard errors "
               + ", ".join(f"{n} {se:.2g} ({r:.1f}x the noise model's)" for n, se, r in
                           zip(j["free"], j["standard_error"], j["over_sandwich"], strict=True)))
-    print("the paper's stepwise route (Sec. 4), mean ± standard error over the reversal runs, and its range over "
-          "smoothing windows 0.03-0.08 and 1-4 relaxation strains of transient (fit.json: sensitivity):")
+    one_run = len(next(iter(report["estimates"].values()))["per_run"]) == 1
+    print("the paper's stepwise route (Sec. 4), "
+          + ("one run ± its error from resamplings of its cycles (docs/calibration.md)" if one_run else
+             "mean ± standard error over the reversal runs")
+          + ", and its range over smoothing windows 0.03-0.08 and 1-4 relaxation strains of transient "
+            "(fit.json: sensitivity):")
     settings = [v for part in ("smoothing_window", "transient_efolds") for v in report["sensitivity"][part].values()]
     for key, e in report["estimates"].items():
         if key.startswith("persistence_exponent"):
             continue  # biased at the DEM's 0.005 sampling (0.50 / 1.04 on model data made with 0.75): fit.json only
         values = [v[key] for v in settings if key in v]
         spread = f"   ({min(values):+.4g} to {max(values):+.4g} over its settings)" if values else ""
-        print(f"{key:>30s} = {e['value']:+.4g} ± {e['standard_error']:.2g}{spread}")
+        se = e["standard_error"]
+        error = f"± {se:.2g}" if math.isfinite(se) else "(one run of one cycle: no error)"
+        print(f"{key:>30s} = {e['value']:+.4g} {error}{spread}")
     for c in report["cross_check"]:
         if "C_median" in c:
             q = c["C_quartiles"]

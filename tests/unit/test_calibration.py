@@ -75,6 +75,8 @@ def test_sec33_cross_check_on_other_angles_finds_constant_C(tmp_path):
     for check in report["cross_check"]:
         assert check["C_median"] == pytest.approx(TRUE.C, rel=0.02)
         assert check["m"] == pytest.approx(TRUE.m, abs=0.1) and check["n"] == pytest.approx(TRUE.n, abs=0.02)
+    # one reversal of one cycle: nothing to take a stepwise error from, and none is claimed
+    assert all(np.isnan(e["standard_error"]) and e["error_from"] is None for e in report["estimates"].values())
 
 
 @pytest.mark.slow
@@ -162,7 +164,10 @@ def test_a_damaged_run_in_results_is_one_line_not_a_fallback_to_the_committed_on
 
 
 @pytest.mark.slow
-def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path):
+def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path, capsys):
+    from pipeline.calibration.stepwise import small_sample_factor
+    from pipeline.calibration.text import print_report
+
     runs = [synthetic_run(tmp_path, theta=t, name=f"b{int(t)}", n_cycles=4, noise=0.01, seed=int(t) + 7)
             for t in (180.0, 90.0)]
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], bootstrap=12)
@@ -172,10 +177,20 @@ def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path):
     assert np.all((ratio > 0.3) & (ratio < 3)), dict(zip(g["free"], ratio, strict=True))
     # the stepwise calibration, bootstrapped over cycles: a spread, and an interval around its value
     step = boot["stepwise"]
-    for key in ("C_eq15", "n", "m", "b1", "b2"):
+    for key in ("C_eq15", "n", "m", "b1", "b2", "c2_coef", "phi_c"):
         i = step["free"].index(key)
         assert 0 < step["standard_deviation"][i] < np.inf, key
         assert step["percentile_2.5"][i] <= report["estimates"][key]["value"] <= step["percentile_97.5"][i], key
+    # one reversal: its stepwise errors are the spread over the resamplings of its cycles
+    for key in ("C_eq15", "m", "phi_c"):
+        e = report["estimates"][key]
+        assert e["error_from"] == "cycle resamples"
+        half_width = step["half_width_68"][step["free"].index(key)]
+        assert e["standard_error"] == pytest.approx(half_width * small_sample_factor(4)) and half_width > 0, key
+    print_report(report, tmp_path / "fit")
+    out = capsys.readouterr().out
+    assert "nan" not in out and "one run ± its error from resamplings of its cycles (docs/calibration.md)" in out
+    assert re.search(r"stepwise route on the same resamplings, 95 %: .*phi_c \[\+0\.\d+, \+0\.\d+\]", out)
 
 
 def test_bootstrap_needs_more_than_one_cycle(tmp_path, capsys):
@@ -408,3 +423,23 @@ def test_a_fit_row_whose_dilatancy_the_runs_cannot_fix_keeps_table_2s_and_says_s
     assert row["params"]["c2_coef"] == model.PAPER.c2_coef and row["params"]["phi_c"] == model.PAPER.phi_c
     assert np.isnan(row["standard_errors"]["phi_c"]) and np.isfinite(row["standard_errors"]["C"])
     assert "(open)" in definitions.markdown([row], "x").split("\n")[-3]
+
+
+@pytest.mark.slow
+def test_a_single_runs_stepwise_errors_cover_the_spread_of_its_noise_draws(tmp_path):
+    """One reversal of five cycles with DEM-like noise, drawn 16 times: each draw's stepwise errors (from
+    resamplings of its cycles) hold its estimates within that of the draws' median for about 68 % of (draw,
+    estimate) pairs. Measured over 24 other draws: 70 % (58 % without the small-sample widening)."""
+    from pipeline.calibration.stepwise import BOOTSTRAPPED, calibrate_run, combine, stepwise_bootstrap
+
+    keys = [k for k in BOOTSTRAPPED if not k.startswith("persistence_exponent")]
+    estimates, errors = [], []
+    for draw in range(16):
+        run = synthetic_run(tmp_path, name=f"d{draw}", n_cycles=5, noise=0.01, seed=300 + draw,
+                            correlation_strain=0.03, a_tau_correlation=-0.5)
+        combined = combine([calibrate_run(run)], stepwise_bootstrap([run], 20, 0.05, seed=draw))
+        estimates.append([combined[k]["value"] for k in keys])
+        errors.append([combined[k]["standard_error"] for k in keys])
+    estimates, errors = np.array(estimates), np.array(errors)
+    covered = np.abs(estimates - np.median(estimates, axis=0)) < errors
+    assert 0.55 < covered.mean() < 0.85, dict(zip(keys, covered.mean(axis=0).round(2), strict=True))
