@@ -133,3 +133,22 @@ def test_without_a_measured_noise_there_are_no_intervals_and_no_verdict_on_table
     assert all(p["intervals"]["68"] is None and p["status"].startswith("no interval") for p in
                ident["parameters"].values())
     assert report["next_runs"] == []
+
+
+@pytest.mark.slow
+def test_the_next_runs_are_as_long_as_the_data_sets_and_priced_by_its_cpu_time(tmp_path):
+    """A data set of three-cycle runs at one CPU-hour per unit strain: every new candidate runs three cycles (the
+    longer one six) and costs its strain in hours; more data never widens the weakest direction."""
+    from pipeline.calibration.calibrate import calibrate
+    from tests.helpers.synthetic import PERIOD, PRE
+
+    runs = [synthetic_run(tmp_path, theta=t, name=f"n{int(t)}", n_cycles=3, seed=int(t), **NOISE)
+            for t in (180.0, 90.0)]
+    for run in runs:
+        run.parameters["cpu_seconds"] = 3600.0 * (PRE + 3 * PERIOD)
+    rows = {r["run"]: r for r in calibrate(runs[:1], tuple(runs[1:])).next_runs}
+    seed = rows["another reversal seed (theta = 180)"]
+    assert seed["n_cycles"] == 3 and seed["cpu_hours"] == pytest.approx(PRE + 3 * PERIOD)
+    assert rows["a reversal run for 6 cycles instead of 3"]["cpu_hours"] == pytest.approx(PRE + 6 * PERIOD)
+    assert all(r["weakest_after"] <= r["weakest_before"] * (1 + 1e-9) for r in rows.values())
+    assert seed["weakest_after"] < seed["weakest_before"]
