@@ -14,8 +14,9 @@ Each quantity's mean over a side's runs, its standard error from their scatter (
 difference in combined standard errors, ``z = (B - A) / sqrt(se_A^2 + se_B^2)``. With a few seeds per side z is a
 Welch t statistic, not a normal one: the sides agree on a quantity when |z| is below Welch's two-sided 95 %
 critical value at the Welch-Satterthwaite degrees of freedom (about 2.2 with six seeds each, 4.3 with two and
-two). Of twenty quantities that truly agree, about one falls outside by chance; a side with one run has no
-scatter, so its quantities are shown untested. Writes ``<name>.md`` and
+two). Of twenty quantities that truly agree, about one falls outside by chance. A side with one run has no
+scatter of its own; against a side of several runs it is tested as a new draw from that side
+(``one_against_many``); two sides of one run each are shown untested. Writes ``<name>.md`` and
 ``<name>.json`` into ``--out`` (``results/<name>/``).
 """
 
@@ -26,6 +27,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import scipy.stats
 
 from .. import io
 from ..cli import Parser, one_line_errors
@@ -71,9 +73,10 @@ def side(text: str) -> selection.DataSet:
     return selection.data_set(preset, engine, parse_overrides(rest))
 
 
-def compare(measures: dict) -> list[dict]:
+def compare(measures: dict, cycles: dict) -> list[dict]:
     """Per quantity: each side's mean, standard error and runs, and z (``measures`` holds two sides, A then B,
-    each a list of its runs' measure dicts)."""
+    each a list of its runs' measure dicts; ``cycles`` the same sides' cycles per run). A side of one run
+    against a side of several is tested as a new draw from the other side (``one_against_many``)."""
     rows = []
     names = list(next(iter(m for m in measures.values() if m))[0]) if any(measures.values()) else []
     labels = list(measures)
@@ -83,12 +86,36 @@ def compare(measures: dict) -> list[dict]:
             row[label] = dict(zip(("mean", "se", "n"), mean_and_error([m[name] for m in measures[label]]),
                                   strict=True))
         a, b = row[labels[0]], row[labels[1]]
-        combined = math.hypot(a["se"], b["se"])
-        row["z"] = (b["mean"] - a["mean"]) / combined if combined > 0 else math.nan
-        row["critical"] = welch.critical(a["se"], a["n"] - 1, b["se"], b["n"] - 1, LEVEL)
+        single = [label for label in labels if row[label]["n"] == 1 and row[_other(labels, label)]["n"] > 1]
+        if single:
+            one, many = row[single[0]], row[_other(labels, single[0])]
+            widen = math.sqrt(max(1.0, min(cycles[_other(labels, single[0])]) / max(cycles[single[0]])))
+            row["z"], row["critical"] = one_against_many(one["mean"], many, widen, sign=1 if one is b else -1)
+            row["borrowed"] = single[0]
+        else:
+            combined = math.hypot(a["se"], b["se"])
+            row["z"] = (b["mean"] - a["mean"]) / combined if combined > 0 else math.nan
+            row["critical"] = welch.critical(a["se"], a["n"] - 1, b["se"], b["n"] - 1, LEVEL)
         row["agree"] = bool(abs(row["z"]) < row["critical"]) if math.isfinite(row["z"]) else None
         rows.append(row)
     return rows
+
+
+def _other(labels: list, label: str) -> str:
+    return labels[1] if label == labels[0] else labels[0]
+
+
+def one_against_many(value: float, many: dict, widen: float = 1.0, sign: int = 1) -> tuple[float, float]:
+    """z and the two-sided critical value for one run's ``value`` against the mean of ``many`` runs (mean, se, n),
+    taken as a new draw: its scatter is the other side's seed-to-seed standard deviation s, times ``widen`` (the
+    square root of how many more cycles each of the many runs averages), so z = (value - mean) / sqrt(
+    (widen s)^2 + s^2 / n), against Student's t at n - 1 degrees of freedom (a prediction interval).
+    ``sign`` -1 gives z as (mean - value), the table's B - A when the one run is side A."""
+    sd = many["se"] * math.sqrt(many["n"])
+    error = math.hypot(widen * sd, many["se"])
+    if not (error > 0 and math.isfinite(error)):
+        return math.nan, math.nan
+    return sign * (value - many["mean"]) / error, float(scipy.stats.t.ppf(0.5 + LEVEL / 2, many["n"] - 1))
 
 
 def summarise(runs: dict, fits: bool = True) -> dict:
@@ -99,7 +126,8 @@ def summarise(runs: dict, fits: bool = True) -> dict:
         labels = list(by_side)
         measures = {label: [run_measures(r, fit=fits and theta == "180") for r in by_side[label]]
                     for label in labels}
-        groups[theta] = {"seeds": {e: len(m) for e, m in measures.items()}, "rows": compare(measures)}
+        cycles = {label: [r.spec["n_cycles"] for r in by_side[label]] for label in labels}
+        groups[theta] = {"seeds": {e: len(m) for e, m in measures.items()}, "rows": compare(measures, cycles)}
     return {"sides": labels, "gammas": list(TRANSIENT_GAMMAS), "level": LEVEL, "groups": groups}
 
 
@@ -115,8 +143,11 @@ def markdown(summary: dict) -> str:
              f"Per quantity: each side's mean over its runs ± the standard error "
              f"from their scatter (runs in brackets), and z = ({b} − {a}) / combined standard error; the sides "
              f"agree at these seeds where |z| is below Welch's two-sided {summary['level']:.0%} critical value t* "
-             "(about one quantity in twenty falls outside by chance; a side of one run is not tested: its seeds' "
-             "scatter is unknown). Steady values over the 0.3 strain before "
+             "(about one quantity in twenty falls outside by chance). A side of one run against a side of several "
+             "(z marked †) is tested as a new draw from the other side: its scatter is the other side's seed-to-seed "
+             "standard deviation, widened by the square root of how many more cycles the other side's runs average "
+             "(a prediction interval, Student's t at the other side's runs − 1 degrees of freedom); two sides of one "
+             "run each are not tested. Steady values over the 0.3 strain before "
              "each change of direction; A fraction: the fabric's shear component after a change over its value "
              "before it; fit: the global fit on each reversal alone, in the paper's definitions (nominal strain, Φ "
              "of the gap)."]
@@ -124,7 +155,7 @@ def markdown(summary: dict) -> str:
         lines += ["", f"## θ = {theta}° ({group['seeds'][a]} and {group['seeds'][b]} runs)", "",
                   f"| quantity | {a} | {b} | z | t* | agree |", "|---|---|---|---|---|---|"]
         for r in group["rows"]:
-            z = f"{r['z']:+.2f}" if math.isfinite(r["z"]) else ""
+            z = f"{r['z']:+.2f}" + ("†" if r.get("borrowed") else "") if math.isfinite(r["z"]) else ""
             agree = {True: "yes", False: "**no**", None: ""}[r["agree"]]
             critical = f"{r['critical']:.2f}" if math.isfinite(r["critical"]) else ""
             lines.append(f"| {r['quantity']} | {cell(r[a])} | {cell(r[b])} | {z} | {critical} | {agree} |")

@@ -3,6 +3,9 @@ a shifted one is flagged."""
 
 import math
 
+import numpy as np
+import pytest
+
 import model
 from pipeline.studies import versus
 from tests.helpers import synthetic_run
@@ -33,8 +36,6 @@ def test_the_same_physics_agrees_and_a_shifted_one_does_not(tmp_path):
 
 
 def test_a_side_is_a_data_set_and_a_bad_one_is_one_line():
-    import pytest
-
     from pipeline.dataset.selection import DataSet
     from pipeline.errors import PipelineError
 
@@ -48,12 +49,38 @@ def test_a_side_is_a_data_set_and_a_bad_one_is_one_line():
             versus.side(bad)
 
 
-def test_a_side_of_one_run_is_shown_untested(tmp_path):
+def test_one_run_against_several_is_tested_as_a_new_draw_and_a_shifted_one_is_flagged(tmp_path):
     folder = tmp_path / "runs"
     folder.mkdir()
     many = [synthetic_run(folder, 180.0, name=f"s{seed}", seed=seed, noise=0.01, n_cycles=1) for seed in (1, 2, 3)]
     one = [synthetic_run(folder, 180.0, name="one", seed=9, noise=0.01, n_cycles=1, engine="lammps")]
     summary = versus.summarise({"180": {"reduced (yade)": many, "paper (lammps)": one}}, fits=False)
-    mu = next(r for r in summary["groups"]["180"]["rows"] if r["quantity"] == "τ12/p")
-    assert mu["paper (lammps)"]["n"] == 1 and mu["agree"] is None and not math.isfinite(mu["critical"])
-    assert "| τ12/p |" in versus.markdown(summary) and "| (1) |" not in versus.markdown(summary)
+    rows = {r["quantity"]: r for r in summary["groups"]["180"]["rows"]}
+    mu = rows["τ12/p"]
+    assert mu["paper (lammps)"]["n"] == 1 and mu["borrowed"] == "paper (lammps)"
+    assert mu["critical"] == pytest.approx(4.303, abs=1e-3)  # Student's t, 2 degrees of freedom, 95 %
+    tested = [r["agree"] for r in rows.values() if r["agree"] is not None]
+    assert len(tested) >= 10 and sum(tested) >= len(tested) - 1
+    assert "| τ12/p |" in versus.markdown(summary) and "†" in versus.markdown(summary)
+    stronger = [synthetic_run(folder, 180.0, name="strong", seed=9, noise=0.01, n_cycles=1, engine="lammps",
+                              params=model.PAPER.replace(C=model.PAPER.C * 1.2))]
+    shifted = versus.summarise({"180": {"reduced (yade)": many, "paper (lammps)": stronger}}, fits=False)
+    mu = next(r for r in shifted["groups"]["180"]["rows"] if r["quantity"] == "τ12/p")
+    assert mu["agree"] is False and mu["z"] > 0  # B - A: the stronger backstress raises tau12/p
+    alone = versus.summarise({"180": {"reduced (yade)": many[:1], "paper (lammps)": one}}, fits=False)
+    assert all(r["agree"] is None for r in alone["groups"]["180"]["rows"])
+
+
+@pytest.mark.parametrize("cycles_ratio", [1, 4])
+def test_one_against_many_holds_95_percent_of_new_draws(cycles_ratio):
+    """Three runs of five cycles and one run of 5 / ratio cycles, all from one normal population (a run's noise
+    variance going as 1 / cycles): the test accepts the one run 95 % of the time."""
+    rng = np.random.default_rng(cycles_ratio)
+    accepted = []
+    for _ in range(20000):
+        many = rng.normal(0.0, 1.0, size=3)
+        value = rng.normal(0.0, np.sqrt(cycles_ratio))
+        summary = {"mean": many.mean(), "se": many.std(ddof=1) / np.sqrt(3), "n": 3}
+        z, critical = versus.one_against_many(value, summary, widen=np.sqrt(cycles_ratio))
+        accepted.append(abs(z) < critical)
+    assert np.mean(accepted) == pytest.approx(0.95, abs=0.006)
