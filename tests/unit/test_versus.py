@@ -77,10 +77,10 @@ def test_one_against_many_holds_95_percent_of_new_draws(cycles_ratio):
     variance going as 1 / cycles): the test accepts the one run 95 % of the time."""
     rng = np.random.default_rng(cycles_ratio)
     accepted = []
-    for _ in range(20000):
+    for _ in range(4000):
         many = rng.normal(0.0, 1.0, size=3)
         value = rng.normal(0.0, np.sqrt(cycles_ratio))
         summary = {"mean": many.mean(), "se": many.std(ddof=1) / np.sqrt(3), "n": 3}
         z, critical = versus.one_against_many(value, summary, widen=np.sqrt(cycles_ratio))
         accepted.append(abs(z) < critical)
-    assert np.mean(accepted) == pytest.approx(0.95, abs=0.006)
+    assert np.mean(accepted) == pytest.approx(0.95, abs=0.012)  # 3.5 binomial standard deviations
