@@ -115,7 +115,7 @@ DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config
 
 FORCE:
 .PHONY: FORCE help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-lammps system-slurm model-cycles \
-	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table engines versus cells jump stability profile-dem bench-dem compare figures demo-dem clean
+	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table engines versus data-card cells jump stability profile-dem bench-dem compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -257,6 +257,9 @@ profile-dem: venv ## where Yade's time goes, per engine (PRESETS=reduced,paper; 
 engines: venv ## Yade against LAMMPS on one preset (PRESET=reduced), seeds of each -> results/engines/engines.md
 	$(PY) -m pipeline.studies.versus --a $(or $(PRESET_GIVEN),reduced)/yade --b $(or $(PRESET_GIVEN),reduced)/lammps \
 	  --out results/engines
+
+data-card: venv ## the data card's table of every committed run, from the files -> data/reference/README.md
+	$(PY) -m pipeline.dataset.card
 
 versus: venv ## any two data sets, seed against seed: A=preset[/engine][/key=value...] B=... -> results/versus/versus.md
 	$(if $(and $(A),$(B)),,$(error make versus needs A=preset[/engine][/key=value...] and B=...; e.g. \

@@ -152,19 +152,13 @@ class DemRun:
 
     @property
     def sessions(self) -> list[dict]:
-        """The sessions that ran it (when, the command, its ranks and threads), oldest first."""
-        text = self.provenance.get("sessions", "[]")
-        return json.loads(text) if isinstance(text, str) and text else []
+        """The sessions that ran it (when, the command, its ranks and threads, the commit), oldest first."""
+        return sessions(self.provenance)
 
     @property
     def cpu_seconds(self) -> float:
-        """The run's loop in CPU-seconds: counted with each session's cores where the file has it
-        (``parameters/cpu_seconds``); else the loop's wall time times the most cores a session used, an upper
-        bound where a run changed its ranks or threads."""
-        if "cpu_seconds" in self.parameters:
-            return float(self.parameters["cpu_seconds"])
-        most = max((s.get("ranks", 1) * s.get("threads", 1) for s in self.sessions), default=1)
-        return float(self.parameters["loop_seconds"]) * most
+        """The run's loop in CPU-seconds (``cpu_seconds``)."""
+        return cpu_seconds(self.parameters, self.sessions)
 
     def with_definitions(self, definitions: derived.Definitions) -> DemRun:
         """The same run read with other definitions of strain, Phi and p (series and cycle recomputed)."""
@@ -203,6 +197,26 @@ def _check_raw(path: Path, raw: dict, spec: dict, grid: np.ndarray) -> None:
                               spec["sample_strain"], spec["n_cycles"])
     except ValueError as exc:
         raise DemFileError(f"{path}: {exc}") from None
+
+
+def sessions(provenance: dict) -> list[dict]:
+    """A file's sessions from its ``/provenance`` attributes, oldest first."""
+    text = provenance.get("sessions", "[]")
+    return json.loads(text) if isinstance(text, str) and text else []
+
+
+def cpu_seconds(parameters: dict, run_sessions: list[dict]) -> float:
+    """A run's loop in CPU-seconds: counted with each session's cores where the file has it
+    (``parameters/cpu_seconds``); else the loop's wall time times the most cores a session used, an upper
+    bound where a run changed its ranks or threads (``cpu_seconds_counted`` tells which)."""
+    if cpu_seconds_counted(parameters):
+        return float(parameters["cpu_seconds"])
+    most = max((s.get("ranks", 1) * s.get("threads", 1) for s in run_sessions), default=1)
+    return float(parameters["loop_seconds"]) * most
+
+
+def cpu_seconds_counted(parameters: dict) -> bool:
+    return "cpu_seconds" in parameters
 
 
 def load(path) -> DemRun:

@@ -221,7 +221,7 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
     provenance = json.loads(provenance_file.read_text()) if provenance_file.exists() else {
         "started": dt.datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(), "sessions": []}
     provenance["sessions"].append({"command": " ".join(sys.argv), "at": dt.datetime.now().isoformat(timespec="seconds"),
-                                   "threads": threads, "ranks": ranks})
+                                   "threads": threads, "ranks": ranks, "git_commit": git_commit()})
     io.write_json(provenance_file, provenance)
     (run_dir / FAILED).unlink(missing_ok=True)
     if not (run_dir / "raw.npz").exists():

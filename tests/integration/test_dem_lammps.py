@@ -161,6 +161,7 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
     two = load(run_spec.output_path(tiny_spec("lammps"), tmp_path))
     one = runs["lammps"]
     assert json.loads(two.provenance["sessions"])[-1]["ranks"] == 2
+    assert all(s["git_commit"] for s in two.sessions)  # each session records the code that ran it
     assert two.cpu_seconds == pytest.approx(2 * two.parameters["loop_seconds"])  # both sessions on two cores
     assert one.cpu_seconds == pytest.approx(one.parameters["loop_seconds"])
     np.testing.assert_allclose(two.raw_all["strain"], one.raw_all["strain"], atol=1e-3)

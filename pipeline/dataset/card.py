@@ -1,0 +1,107 @@
+"""The data card's inventory of committed runs (``make data-card``): one row per run file, read from the file's
+own provenance, so the card cannot drift from the files.
+
+``python -m pipeline.dataset.card [--check] [--root data/reference] [--card data/reference/README.md]`` rewrites the
+table between the card's two markers, or with ``--check`` exits 1 when the table is out of date.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import h5py
+
+from ..cli import Parser, one_line_errors
+from ..errors import DemFileError, PipelineError
+from ..io import atomic_path
+from ..paths import ROOT
+from .dem_file import cpu_seconds, cpu_seconds_counted, sessions
+
+BEGIN = "<!-- inventory: written by make data-card from the files themselves; do not edit by hand -->"
+END = "<!-- inventory end -->"
+HEADER = ("| file | engine | θ | rotation | seed | other overrides | cycles | grains | M steps | loop h | CPU h "
+          "| sessions (ranks) | commits | finished | MB |")
+
+
+def describe(path: Path, root: Path) -> dict:
+    """One run file's inventory row, from its ``/provenance`` and ``/parameters`` attributes."""
+    try:
+        with h5py.File(path, "r") as f:
+            prov, params = dict(f["provenance"].attrs), dict(f["parameters"].attrs)
+    except (OSError, KeyError) as exc:
+        raise DemFileError(f"{path}: not a readable run file ({exc})") from None
+    spec = json.loads(prov["spec_json"])
+    engine = spec.get("engine", "yade")
+    version = prov.get("engine_version", prov.get("yade_version", "")) if engine == "lammps" else prov.get(
+        "yade_version", "")
+    runs = sessions(prov)
+    commits = [str(prov.get("git_commit", "unknown"))] + [str(s["git_commit"]) for s in runs if "git_commit" in s]
+    overrides = {k: v for k, v in spec.get("overrides", {}).items() if k != "seed"}
+    cores = {s.get("ranks", 1) * s.get("threads", 1) for s in runs}  # one count: loop x cores is exact
+    return {"file": str(path.relative_to(root)), "engine": f"{engine} {version}".strip(),
+            "theta_deg": float(spec["theta_deg"]), "rotate_at": float(spec["rotate_at_strain"]),
+            "seed": int(spec.get("seed", prov.get("seed", 0))),
+            "overrides": " ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in
+                                  sorted(overrides.items())),
+            "cycles": int(spec["n_cycles"]), "grains": int(params.get("n_grains", 0)),
+            "steps": int(params.get("iterations", 0)), "loop_hours": float(params["loop_seconds"]) / 3600,
+            "cpu_hours": cpu_seconds(params, runs) / 3600,
+            "cpu_exact": cpu_seconds_counted(params) or len(cores) < 2,
+            "sessions": len(runs), "ranks": sorted({int(s.get("ranks", 1)) for s in runs}) or [1],
+            "commits": list(dict.fromkeys(c[:7] + ("-dirty" if c.endswith("-dirty") else "") for c in commits)),
+            "finished": str(prov.get("finished", ""))[:10], "megabytes": path.stat().st_size / 1e6}
+
+
+def inventory(root: Path) -> str:
+    """The markdown table of every ``<folder>/dem/*.h5`` under ``root``, sorted by path."""
+    paths = sorted(root.glob("*/dem/*.h5"))
+    if not paths:
+        raise PipelineError(f"{root}: no run files (<folder>/dem/*.h5)")
+    lines = [HEADER, "|" + "---|" * HEADER.count(" | ") + "---|"]
+    for row in (describe(p, root) for p in paths):
+        cpu = ("" if row["cpu_exact"] else "≤ ") + f"{row['cpu_hours']:.2f}"
+        lines.append(f"| `{row['file']}` | {row['engine']} | {row['theta_deg']:g} | {row['rotate_at']:g} | "
+                     f"{row['seed']} | {row['overrides']} | {row['cycles']} | {row['grains']} | "
+                     f"{row['steps'] / 1e6:.2f} | {row['loop_hours']:.2f} | {cpu} | {row['sessions']} "
+                     f"({', '.join(map(str, row['ranks']))}) | {', '.join(row['commits'])} | {row['finished']} | "
+                     f"{row['megabytes']:.1f} |")
+    return "\n".join(lines)
+
+
+def with_inventory(card: str, table: str, card_path: Path) -> str:
+    """``card`` with the text between its markers replaced by ``table``."""
+    if card.count(BEGIN) != 1 or card.count(END) != 1 or card.index(BEGIN) > card.index(END):
+        raise PipelineError(f"{card_path}: needs the two markers, once each and in order: {BEGIN!r} ... {END!r}")
+    head, rest = card.split(BEGIN)
+    return f"{head}{BEGIN}\n{table}\n{END}{rest.split(END, 1)[1]}"
+
+
+@one_line_errors
+def main(argv=None) -> int:
+    parser = Parser(prog="python -m pipeline.dataset.card", description=__doc__.splitlines()[0])
+    parser.add_argument("--root", type=Path, default=ROOT / "data" / "reference")
+    parser.add_argument("--card", type=Path, default=None, help="the data card (default: ROOT/README.md)")
+    parser.add_argument("--check", action="store_true", help="exit 1 if the card's table is out of date")
+    args = parser.parse_args(argv)
+    card_path = args.card or args.root / "README.md"
+    try:
+        card = card_path.read_text()
+    except OSError as exc:
+        raise PipelineError(f"cannot read {card_path}: {exc.strerror}") from None
+    updated = with_inventory(card, inventory(args.root), card_path)
+    if args.check:
+        if updated != card:
+            print(f"{card_path}: the inventory is out of date: make data-card", file=sys.stderr)
+            return 1
+        print(f"{card_path}: the inventory matches the files")
+        return 0
+    with atomic_path(card_path) as tmp:
+        tmp.write_text(updated)
+    print(f"wrote the inventory of {updated.count(chr(10) + '| `')} runs into {card_path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,46 @@
+"""The data card's inventory: one row per committed run file, read from the file, and a check that fails when the
+card and the files part."""
+
+from pipeline.dataset import card
+from pipeline.paths import ROOT
+from tests.helpers import run_main, synthetic_file
+
+MARKED = f"# card\n\nbefore\n\n{card.BEGIN}\n{card.END}\n\nafter\n"
+
+
+def run_file(folder, **kw):
+    folder.mkdir(parents=True, exist_ok=True)
+    return synthetic_file(folder, **kw)
+
+
+def test_the_committed_card_lists_every_committed_run_as_its_file_says():
+    result = run_main(card.main, ["--check"])
+    assert result.returncode == 0, result.stderr
+    table = (ROOT / "data/reference/README.md").read_text().split(card.BEGIN)[1].split(card.END)[0]
+    assert table.count("\n| `") == len(list((ROOT / "data/reference").glob("*/dem/*.h5")))
+
+
+def test_the_inventory_follows_the_files_and_the_check_fails_when_they_part(tmp_path):
+    root = tmp_path / "reference"
+    run_file(root / "p" / "dem", theta=90.0, name="theta090", n_cycles=3, preset="p")
+    (root / "README.md").write_text(MARKED)
+    assert run_main(card.main, ["--root", str(root), "--check"]).returncode == 1  # an empty table
+    assert run_main(card.main, ["--root", str(root)]).returncode == 0
+    text = (root / "README.md").read_text()
+    assert text.startswith("# card\n\nbefore\n") and text.endswith("\nafter\n")
+    row = next(line for line in text.splitlines() if line.startswith("| `p/dem/theta090.h5`"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[1].startswith("yade") and cells[2] == "90" and cells[3] == "0.7" and cells[6] == "3"
+    assert run_main(card.main, ["--root", str(root), "--check"]).returncode == 0
+    run_file(root / "p-1234abcd" / "dem", theta=180.0, name="theta180", preset="p")
+    result = run_main(card.main, ["--root", str(root), "--check"])
+    assert result.returncode == 1 and "out of date: make data-card" in result.stderr
+
+
+def test_a_card_without_its_markers_is_a_one_line_error(tmp_path):
+    root = tmp_path / "reference"
+    run_file(root / "p" / "dem", name="theta180", preset="p")
+    (root / "README.md").write_text("# a card with no markers\n")
+    result = run_main(card.main, ["--root", str(root)])
+    assert result.returncode == 2 and "needs the two markers" in result.stderr and len(result.stderr.splitlines()) == 1
+    assert (root / "README.md").read_text() == "# a card with no markers\n"
