@@ -23,6 +23,7 @@ from .. import io
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..errors import CalibrationError
 from . import design, global_fit, identifiability
+from .residual_map import residual_map
 from .stepwise import calibrate_run, combine, cross_check_run, fitted_params, sensitivity, stepwise_bootstrap
 
 STEPWISE_RESAMPLES = 40  # resamplings of a single reversal run's cycles that give its stepwise errors
@@ -84,6 +85,7 @@ class Calibration:
     jackknife: dict | None
     global_runs: list
     notes: list
+    residual_map: list | None = None
     arrays: dict = field(repr=False, default_factory=dict)
 
     def to_dict(self) -> dict:
@@ -100,7 +102,7 @@ class Calibration:
                 "identifiability": self.identifiability, "next_runs": self.next_runs,
                 "dilatancy": None if self.dilatancy is None else self.dilatancy.to_dict(),
                 "bootstrap": self.bootstrap, "jackknife": self.jackknife, "global_runs": self.global_runs,
-                "notes": self.notes}
+                "residual_map": self.residual_map, "notes": self.notes}
 
     def params_metadata(self) -> dict | None:
         """What ``params.json`` records beside the values: the fit, its definitions and intervals."""
@@ -224,7 +226,8 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
                                                else dilatancy.params)
     return Calibration(settings, result, stepwise, per_run, cross,
                        estimates, sensitivity(reversals), refined, dilatancy, noise, identifiable, next_runs, boot,
-                       jack, [str(r.path) for r in (*reversals, *cross_runs)] if refine else [], notes, arrays)
+                       jack, [str(r.path) for r in (*reversals, *cross_runs)] if refine else [], notes,
+                       residual_map(refined, data) if refined is not None else None, arrays)
 
 
 def write_arrays(path: Path, arrays: dict, per_run: list[dict], cross: list[dict]) -> None:

@@ -60,9 +60,24 @@ def print_next_runs(report: dict, count: int = 5) -> None:
         print(f"  {r['run']}: ±{r['weakest_after']:.2g}, {r['cpu_hours']:.2f} CPU-hours")
 
 
+def print_residual_map(report: dict, top: int = 4) -> None:
+    """The largest shares of the global fit's chi^2 by run, quantity and strain since a change of direction."""
+    rows = report.get("residual_map") or []
+    if not rows:
+        return
+    print("where the global fit's residuals are largest (share of chi^2; chi^2 per sample over the mean; "
+          "fit.json: residual_map):")
+    for r in rows[:top]:
+        lo, hi = r["window"]
+        span = f"{lo:g}-{hi:g}" if hi != float("inf") else f"past {lo:g}"
+        print(f"  theta = {r['theta_deg']:g} (turn at {r['rotate_at']:g}), {r['quantity']}, {span} strain after a "
+              f"change: {r['share']:.0%} of chi^2, {r['per_sample_over_mean']:.1f}x the mean per sample")
+
+
 def print_report(report: dict, out: Path) -> None:
     if report["global"]:
         print_global(report)
+        print_residual_map(report)
         print_next_runs(report)
     if report.get("bootstrap"):
         b = report["bootstrap"]

@@ -1,0 +1,55 @@
+"""Where the global fit's residuals are largest (``fit.json`` → ``residual_map``): its chi^2 split by run, quantity
+and strain since the last change of direction. A feature the model does not resolve, such as the jump right
+after a reversal, shows here before a parameter that absorbed it is trusted.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..dataset.cycle import Cycle
+from . import global_fit
+from .noise import COMPONENTS
+
+#: strain since the last change of direction (the bulk or nominal measure of the fit), window edges
+WINDOWS = (0.0, 0.005, 0.02, 0.1, 0.3, np.inf)
+LABELS = [f"{''.join(str(i + 1) for i in c)}" for c in COMPONENTS]
+
+
+def strain_since_change(d: Cycle, strain: np.ndarray) -> np.ndarray:
+    """Strain since the last change of direction of a cycle's samples (changes at 0 and ``rotate_at``)."""
+    return np.where(strain >= d.rotate_at - 1e-9, strain - d.rotate_at, strain)
+
+
+def sample_strains(d: Cycle) -> np.ndarray:
+    """The cycle strains of ``global_fit.residuals``' rows for ``d`` (restart segments in their order)."""
+    if not d.restarts:
+        return d.strain
+    return np.concatenate([d.strain[d.segment_mask(k)] for k in range(len(d.restarts))])
+
+
+def residual_map(fit: global_fit.GlobalFit, data: list[Cycle]) -> list[dict]:
+    """Per run, quantity (A_ij, tau_ij/p) and window of ``WINDOWS``: samples, chi^2, its share of the total and its
+    chi^2 per sample over the fit's mean per sample; largest share first."""
+    r = global_fit.residuals(fit.values, data, fit.params, fit.names)
+    rows, at = [], 0
+    for d in data:
+        since = strain_since_change(d, sample_strains(d))
+        window = np.digitize(since, WINDOWS[1:-1])
+        for label in LABELS:
+            for quantity in (f"A{label}", f"tau{label}/p"):
+                block = r[at:at + len(since)] ** 2
+                at += len(since)
+                for w in range(len(WINDOWS) - 1):
+                    pick = window == w
+                    if pick.any():
+                        rows.append({"theta_deg": d.theta_deg, "rotate_at": d.rotate_at, "quantity": quantity,
+                                     "window": [WINDOWS[w], WINDOWS[w + 1]], "samples": int(pick.sum()),
+                                     "chi2": float(block[pick].sum())})
+    if at != len(r):
+        raise ValueError(f"residual rows {len(r)} != mapped samples {at}")
+    total, count = sum(x["chi2"] for x in rows), sum(x["samples"] for x in rows)
+    for x in rows:
+        x["share"] = x["chi2"] / total
+        x["per_sample_over_mean"] = (x["chi2"] / x["samples"]) / (total / count)
+    return sorted(rows, key=lambda x: -x["share"])
