@@ -62,6 +62,7 @@ comma := ,
 $(call check,THETA,$(NUMBER_CHARS),a number)
 $(call check,ROTATE_AT,$(NUMBER_CHARS),a number)
 $(call check,FIT_FROM,$(NUMBER_CHARS),a number)
+$(call check,STRESS,$(LOWER),shear or all)
 $(call check,THREADS,$(DIGITS),a whole number)
 $(call check,ENGINE,$(LOWER),yade or lammps)
 $(call check,RANKS,$(DIGITS),a whole number)
@@ -211,9 +212,9 @@ demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 
 demo-dem-%: | $(VENV_STAMP)
 	$(PY) -m pipeline.runs run --theta $* --preset quick
 
-fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs [FIT_FROM=0.005] -> results/<data set>/fit/params.json, fit.json, fit.h5
+fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs [FIT_FROM=0.005] [STRESS=all] -> results/<data set>/fit/params.json, fit.json, fit.h5
 
-FIT_OPTIONS := $(if $(FIT_FROM),--fit-from $(FIT_FROM))
+FIT_OPTIONS := $(if $(FIT_FROM),--fit-from $(FIT_FROM)) $(if $(STRESS),--stress $(STRESS))
 # the options of the last fit: a fit with other options is a new fit
 $(FIT_DIR)/options.txt: FORCE
 	@mkdir -p $(@D); echo '$(FIT_OPTIONS)' | cmp -s - $@ || echo '$(FIT_OPTIONS)' > $@

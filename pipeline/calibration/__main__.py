@@ -19,6 +19,7 @@ from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
 from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
+from . import global_fit
 from .calibrate import Settings, fit, parse_hold
 from .text import print_report
 
@@ -40,13 +41,16 @@ def main(argv=None) -> int:
                              "fit what follows (nominal strain, a multiple of the sampling step; default 0: all)")
     parser.add_argument("--persistence-exponent", type=float, default=0.75, metavar="K",
                         help="k of Lambda = S^k (Eq. 12), held (default 3/4, the paper's)")
+    parser.add_argument("--stress", default=global_fit.STRESS_DEFAULT, choices=sorted(global_fit.STRESS_FITS),
+                        help="the components of tau/p fitted: shear (12, 32, 13; the paper's, default) or all "
+                             "(the diagonal too, which carries normal-stress differences the model does not give)")
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="also refit N >= 2 resamplings of the cycles (bootstrap standard deviations)")
     args = parser.parse_args(argv)
     if args.bootstrap is not None and args.bootstrap < 2:
         raise CalibrationError(f"bootstrap={args.bootstrap}: a bootstrap needs at least 2 resamples")
     settings = Settings(args.window, definitions_from(args), parse_hold(args.hold), args.fit_from,
-                        args.persistence_exponent, args.bootstrap or 0, args.jackknife)
+                        args.persistence_exponent, args.bootstrap or 0, args.jackknife, args.stress)
     if args.runs:
         reversals, cross, left_out = [load(p) for p in args.runs], (), ()
         out = args.out or preset_output(check_folder_name(args.preset or "custom"), "fit")

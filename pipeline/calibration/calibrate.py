@@ -42,8 +42,10 @@ class Settings:
     persistence_exponent: float = 0.75
     bootstrap: int = 0
     jackknife: bool = False
+    stress: str = global_fit.STRESS_DEFAULT  # the components of tau/p fitted (global_fit.STRESS_FITS)
 
     def __post_init__(self):
+        global_fit.check_stress(self.stress)
         if not math.isfinite(self.window) or self.window <= 0:
             raise CalibrationError(f"window={self.window} must be a positive strain")
         if not math.isfinite(self.fit_from) or not 0 <= self.fit_from < 0.5:
@@ -91,7 +93,8 @@ class Calibration:
     def to_dict(self) -> dict:
         s = self.settings
         return {"method": "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18), then a global least-squares refinement",
-                "definitions": dataclasses.asdict(s.definitions), "held": s.hold, "fit_from": s.fit_from,
+                "definitions": dataclasses.asdict(s.definitions), "stress_fitted": s.stress, "held": s.hold,
+                "fit_from": s.fit_from,
                 "persistence_exponent": s.persistence_exponent,
                 "jaumann_window_strain": s.window, "runs": self.per_run, "estimates": self.estimates,
                 "sensitivity": self.sensitivity,
@@ -186,7 +189,7 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
     refined = dilatancy = boot = noise = identifiable = jack = undetermined_dilatancy = None
     next_runs = []
     if refine:
-        data, noise = global_fit.prepare([*reversals, *cross_runs], settings.fit_from)
+        data, noise = global_fit.prepare([*reversals, *cross_runs], settings.fit_from, settings.stress)
         refined = global_fit.refine(data, start, free, noise=noise)
         try:
             dilatancy = global_fit.refine_dilatancy(data, refined.params)
@@ -195,7 +198,7 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
         identifiable = identifiability.summary(refined, data, hold, measured=noise.measured)
         if not hold and noise.measured:
             rotations = [(r.spec["theta_deg"], r.spec["rotate_at_strain"]) for r in left_out]
-            next_runs = design.rank(refined, noise, [*reversals, *cross_runs], rotations)
+            next_runs = design.rank(refined, noise, [*reversals, *cross_runs], rotations, settings.stress)
         if settings.bootstrap:
             boot = global_fit.bootstrap(data, noise, refined, settings.bootstrap, progress=_progress("bootstrap"))
             boot["stepwise"] = stepwise_bootstrap(reversals, settings.bootstrap, window)

@@ -2,8 +2,9 @@
 
 ``python -m pipeline.calibration.definitions [--preset P] [--engine E] [--set K=V] [--out DIR]`` refits the
 preset's runs (its data set) with each strain measure (bulk, nominal) x packing fraction (central, gap) x
-pressure (target, wall) and writes ``definitions.md`` and ``definitions.json`` beside the fit: the parameters
-with their standard errors from the DEM's noise (measured under each definition), the misfit, and Table 2 tested as a
+pressure (target, wall) x stress components fitted (shear, all: ``global_fit.STRESS_FITS``) and writes
+``definitions.md`` and ``definitions.json`` beside the fit: the parameters with their standard errors from the
+DEM's noise (measured under each definition), the misfit, and Table 2 tested as a
 hypothesis on the same data (its chi^2 rise and whether it lies in the joint 95 % region).
 """
 
@@ -30,11 +31,11 @@ NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
 
 
 def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
-            persistence_exponent: float = 0.75) -> dict:
+            persistence_exponent: float = 0.75, stress: str = global_fit.STRESS_DEFAULT) -> dict:
     """The global fit of ``runs`` read with ``definitions`` (restarted ``fit_from`` past each change of direction,
     with the persistence exponent held at ``persistence_exponent``): parameters, standard errors from the noise,
     status, misfit, chi^2, Table 2 as a hypothesis, and the share of chi^2 within 0.05 strain after a change."""
-    data, noise = global_fit.prepare([r.with_definitions(definitions) for r in runs], fit_from)
+    data, noise = global_fit.prepare([r.with_definitions(definitions) for r in runs], fit_from, stress)
     start = model.Params().replace(persistence_exponent=persistence_exponent)
     refined = global_fit.refine(data, start, noise=noise)
     se = dict(zip(refined.names, refined.standard_errors.tolist(), strict=True))
@@ -47,7 +48,7 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
         note = f"Eq. 18's c2_coef and Phi_c not determined ({exc}): Table 2's shown"
         se.update({n: float("nan") for n in ("c2_coef", "phi_c")})
     summary = identifiability.summary(refined, data)
-    return {"definitions": dataclasses.asdict(definitions), "fit_from": fit_from,
+    return {"definitions": dataclasses.asdict(definitions), "stress_fitted": stress, "fit_from": fit_from,
             "persistence_exponent": persistence_exponent, "dilatancy_note": note,
             "params": {n: getattr(params, n) for n in NAMES},
             "standard_errors": {n: se[n] for n in NAMES},
@@ -85,25 +86,28 @@ def preset_fit_runs(chosen: selection.DataSet) -> list:
 
 def compare_definitions(runs: list) -> list[dict]:
     rows = []
-    for strain, phi, pressure in itertools.product(*Definitions.CHOICES.values()):
+    for stress, (strain, phi, pressure) in itertools.product(global_fit.STRESS_FITS,
+                                                             itertools.product(*Definitions.CHOICES.values())):
         definitions = Definitions(strain, phi, pressure)
-        rows.append(fit_row(runs, definitions))
+        rows.append(fit_row(runs, definitions, stress=stress))
         t = rows[-1]["table2"]
-        print(f"{definitions.label()}: misfit {rows[-1]['misfit']:.2f}, Table 2 chi^2 {t['relative_rise']:+.1%}",
-              flush=True)
+        print(f"{definitions.label()}, tau {stress}: misfit {rows[-1]['misfit']:.2f}, "
+              f"Table 2 chi^2 {t['relative_rise']:+.1%}", flush=True)
     return rows
 
 
 def markdown(rows: list[dict], label: str) -> str:
-    head = ("| strain | Φ | p | " + " | ".join(NAMES)
+    head = ("| τ fitted | strain | Φ | p | " + " | ".join(NAMES)
             + " | misfit | Table 2: χ² rise | in 95 % region (noise / widened) | mean Φ |")
     lines = [f"# The global fit under each definition: `{label}`", "",
              "± one standard error from the DEM's measured noise (correlated along strain; not scaled by the "
              "misfit). Φc and c2_coef: Eq. 18 on Φ, its scatter taken as white. *misfit*: χ² per degree of "
-             "freedom in noise units (1 = within the noise). Table 2 is tested on its flow rule and fabric law "
+             "freedom in noise units (1 = within the noise). *τ fitted*: the components of τ/p fitted, shear "
+             "(12, 32, 13: the paper's) or all (the diagonal too, where the DEM's normal-stress differences lie). "
+             "Table 2 is tested on its flow rule and fabric law "
              "(C, n, m, a_i, b_i): the rise of χ² above the best fit, and whether that lies inside the joint 95 % "
              "region from the noise, and inside it widened by the misfit.", "",
-             head, "|" + "---|" * (len(NAMES) + 7)]
+             head, "|" + "---|" * (len(NAMES) + 8)]
     yes = {True: "yes", False: "no", None: "n/a"}
     for r in rows:
         d, p, se, t = r["definitions"], r["params"], r["standard_errors"], r["table2"]
@@ -111,10 +115,10 @@ def markdown(rows: list[dict], label: str) -> str:
                            else f"{p[n]:+.4g} (open)" for n in NAMES)
         inside = (f"{yes[t['inside']['95']]} / {yes[t['inside_misfit_widened']['95']]}" if t["quantiles"]
                   else "n/a")
-        lines.append(f"| {d['strain']} | {d['phi']} | {d['pressure']} | {cells} | {r['misfit']:.2f} | "
-                     f"{t['relative_rise']:+.1%} | {inside} | {r['mean_packing_fraction']:.3f} |")
+        lines.append(f"| {r['stress_fitted']} | {d['strain']} | {d['phi']} | {d['pressure']} | {cells} | "
+                     f"{r['misfit']:.2f} | {t['relative_rise']:+.1%} | {inside} | {r['mean_packing_fraction']:.3f} |")
     paper = model.Params()
-    lines.append("| Table 2 | | | " + " | ".join(f"{getattr(paper, n):+.4g}" for n in NAMES) + " | | | | |")
+    lines.append("| Table 2 | | | | " + " | ".join(f"{getattr(paper, n):+.4g}" for n in NAMES) + " | | | | |")
     return "\n".join(lines) + "\n"
 
 

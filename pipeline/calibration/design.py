@@ -54,7 +54,8 @@ def candidates(existing_rotations: list[tuple[float, float]], n_cycles: int) -> 
     return out
 
 
-def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel, params: model.Params):
+def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel, params: model.Params,
+                   stress: str = global_fit.STRESS_DEFAULT):
     """A pseudo-run of ``c``: the model's cycle as data (the values do not matter, only the Jacobian) with the
     noise scales of an ``n_cycles`` mean."""
     strain = np.arange(round(period / c.sample_strain)) * c.sample_strain
@@ -62,7 +63,7 @@ def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel,
                   np.zeros((len(strain), 3, 3)), np.ones((len(strain), 3, 3)), np.ones((len(strain), 3, 3)),
                   np.zeros(len(strain)))
     pred = probe.prediction(params)
-    scales = global_fit.noise_scales(len(strain), noise, c.n_cycles)
+    scales = global_fit.noise_scales(len(strain), noise, c.n_cycles, stress)
     return dataclasses.replace(probe, A=pred.A, tau=pred.tau, A_scale=scales[0], tau_scale=scales[1],
                                phi=pred.packing_fraction)
 
@@ -87,9 +88,11 @@ def information(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit) -> np
     return info
 
 
-def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rotations: list) -> list[dict]:
+def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rotations: list,
+         stress: str = global_fit.STRESS_DEFAULT) -> list[dict]:
     """Every candidate with its effect on the weakest direction and the worst relative error, best per
-    CPU-hour first (runs that cost nothing first of all)."""
+    CPU-hour first (runs that cost nothing first of all); last, any whose model cycle fails at the best fit
+    (with its ``error``)."""
     scale = np.where(fit.values != 0, np.abs(fit.values), 1.0)
     V = fit.covariance
     if V is None or not np.all(np.isfinite(V)):
@@ -106,9 +109,13 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rota
         return float(np.sqrt(weakest @ cov @ weakest)), float(np.max(np.sqrt(np.diag(cov)) / scale))
 
     before = measures(V)
-    out = []
+    out, failed = [], []
     for c in candidates(existing_rotations, spec["n_cycles"]):
-        data = candidate_data(c, spec["period_strain"], ratio, noise, fit.params)
+        try:
+            data = candidate_data(c, spec["period_strain"], ratio, noise, fit.params, stress)
+        except (model.SolverError, model.ParameterError) as exc:  # the best fit's cycle fails for this protocol
+            failed.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "error": str(exc)})
+            continue
         after = measures(np.linalg.pinv(present + information(data, noise, fit), hermitian=True))
         hours = c.cost_factor * c.strain_run(spec["period_strain"], spec["pre_strain"]) * seconds_per_strain / 3600
         gain = 1 - after[0] / before[0]
@@ -117,4 +124,4 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rota
                     "weakest_before": before[0], "weakest_after": after[0],
                     "worst_relative_se_before": before[1], "worst_relative_se_after": after[1],
                     "gain_per_cpu_hour": gain / hours if hours > 0 else float("inf")})
-    return sorted(out, key=lambda r: -r["gain_per_cpu_hour"])
+    return sorted(out, key=lambda r: -r["gain_per_cpu_hour"]) + failed

@@ -57,7 +57,8 @@ def table2_test(fit: global_fit.GlobalFit, data: list, paper: model.Params = mod
     chi2 = float(np.sum(global_fit.residuals(values, data, fit.params, fit.names) ** 2))
     rise = chi2 - fit.chi2
     quantiles = chi2_rise_quantiles(fit)
-    out = {"chi2_rise": rise, "relative_rise": rise / fit.chi2, "misfit": fit.misfit, "quantiles": quantiles}
+    relative = rise / fit.chi2 if fit.chi2 > 0 else (np.inf if rise > 0 else 0.0)  # exact data: chi2 = 0
+    out = {"chi2_rise": rise, "relative_rise": float(relative), "misfit": fit.misfit, "quantiles": quantiles}
     if quantiles is not None:
         out["inside"] = {level: bool(rise <= q) for level, q in quantiles.items()}
         out["inside_misfit_widened"] = {level: bool(rise <= q * max(fit.misfit, 1.0)) for level, q in quantiles.items()}

@@ -49,6 +49,8 @@ def residual_map(fit: global_fit.GlobalFit, data: list[Cycle]) -> list[dict]:
     if at != len(r):
         raise ValueError(f"residual rows {len(r)} != mapped samples {at}")
     total, count = sum(x["chi2"] for x in rows), sum(x["samples"] for x in rows)
+    if total == 0:  # exact data: nothing to map
+        return []
     for x in rows:
         x["share"] = x["chi2"] / total
         x["per_sample_over_mean"] = (x["chi2"] / x["samples"]) / (total / count)

@@ -51,12 +51,13 @@ def print_global(report: dict) -> None:
 
 
 def print_next_runs(report: dict, count: int = 5) -> None:
-    if not report["next_runs"]:
+    ranked = [r for r in report["next_runs"] if "error" not in r]
+    if not ranked:
         return
-    first = report["next_runs"][0]
+    first = ranked[0]
     print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first['weakest_before']:.2g}; "
           "fit.json: next_runs):")
-    for r in report["next_runs"][:count]:
+    for r in ranked[:count]:
         print(f"  {r['run']}: ±{r['weakest_after']:.2g}, {r['cpu_hours']:.2f} CPU-hours")
 
 

@@ -88,7 +88,7 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
                   f"above the best fit, a rise of {t['chi2_rise']:.0f} against {t['quantiles']['95']:.0f} for the "
                   f"95 % region from the noise: {verdict[t['inside']['95']]} it; "
                   f"{verdict[t['inside_misfit_widened']['95']]} it when the region is widened by the misfit."]
-    runs = fit_json.get("next_runs") or []
+    runs = [r for r in fit_json.get("next_runs") or [] if "error" not in r]  # last: cycles the model fails
     if runs:
         lines += ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
                   f"Its relative ± is {runs[0]['weakest_before']:.2g} now (fit.json: next_runs, every candidate).", "",

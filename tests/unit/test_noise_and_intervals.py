@@ -48,9 +48,13 @@ def test_68_percent_intervals_cover_the_truth_at_their_rate_and_white_noise_ones
 
 
 def test_a_parameter_the_data_cannot_fix_has_a_flat_profile_and_is_reported_not_determined(tmp_path):
-    """At steady shear (theta = 0) S is constant, so tau fixes only n + m S: n and m slide together."""
+    """At steady shear (theta = 0) S is constant, so tau fixes only n + m S: n and m slide together. C is fixed
+    there by tau's diagonal alone (tau11 = C A11); with the shear components (the default) it slides with n + m S."""
     runs = [synthetic_run(tmp_path, 0.0, name=f"z{s}", seed=s, **NOISE) for s in range(2)]
     data, nm = global_fit.prepare(runs)
+    shear = global_fit.refine(data, TRUE, names=("C", "n", "m"), noise=nm)
+    assert np.all(np.isinf(shear.standard_errors))
+    data, nm = global_fit.prepare(runs, stress="all")
     best = global_fit.refine(data, TRUE, names=("C", "n", "m"), noise=nm)
     assert np.isinf(best.standard_errors[2]) and np.isfinite(best.standard_errors[0])
     summary = identifiability.summary(best, data, hold={"a1": TRUE.a1})
@@ -136,17 +140,31 @@ def test_without_a_measured_noise_there_are_no_intervals_and_no_verdict_on_table
 
 
 @pytest.mark.slow
-def test_the_next_runs_are_as_long_as_the_data_sets_and_priced_by_its_cpu_time(tmp_path):
+def test_the_next_runs_are_as_long_as_the_data_sets_and_priced_by_its_cpu_time(tmp_path, monkeypatch):
     """A data set of three-cycle runs at one CPU-hour per unit strain: every new candidate runs three cycles (the
-    longer one six) and costs its strain in hours; more data never widens the weakest direction."""
+    longer one six) and costs its strain in hours; more data never widens the weakest direction; a candidate whose
+    model cycle fails at the best fit comes last, with its error, instead of ending the fit."""
+    from pipeline.calibration import design
     from pipeline.calibration.calibrate import calibrate
     from tests.helpers.synthetic import PERIOD, PRE
+
+    made = design.candidate_data
+
+    def failing_at_150(c, *args):
+        if c.theta_deg == 150.0:
+            raise model.SolverError("dop853: too many steps")
+        return made(c, *args)
+
+    monkeypatch.setattr(design, "candidate_data", failing_at_150)
 
     runs = [synthetic_run(tmp_path, theta=t, name=f"n{int(t)}", n_cycles=3, seed=int(t), **NOISE)
             for t in (180.0, 90.0)]
     for run in runs:
         run.parameters["cpu_seconds"] = 3600.0 * (PRE + 3 * PERIOD)
-    rows = {r["run"]: r for r in calibrate(runs[:1], tuple(runs[1:])).next_runs}
+    ranked = calibrate(runs[:1], tuple(runs[1:])).next_runs
+    assert ranked[-1] == {"run": "another seed at theta = 150", "theta_deg": 150.0, "rotate_at": 0.7,
+                          "error": "dop853: too many steps"}
+    rows = {r["run"]: r for r in ranked[:-1]}
     seed = rows["another reversal seed (theta = 180)"]
     assert seed["n_cycles"] == 3 and seed["cpu_hours"] == pytest.approx(PRE + 3 * PERIOD)
     assert rows["a reversal run for 6 cycles instead of 3"]["cpu_hours"] == pytest.approx(PRE + 6 * PERIOD)

@@ -62,7 +62,7 @@ def own_fit(run) -> dict:
     """The global fit on this run alone, and the RMSE of its cycle with that fit and with Table 2; the
     dilatancy (Eq. 18) fitted after it where one run fixes it (its failure is recorded, not fatal)."""
     try:
-        data, noise = global_fit.prepare([run])
+        data, noise = global_fit.prepare([run], stress="all")  # every summary of the ladder was fitted so
         fit = global_fit.refine(data, model.Params(), noise=noise)
     except (CalibrationError, model.ParameterError, model.SolverError) as exc:
         return {"error": str(exc)}
