@@ -42,7 +42,7 @@ def main(argv=None) -> int:
     parser.add_argument("--persistence-exponent", type=float, default=0.75, metavar="K",
                         help="k of Lambda = S^k (Eq. 12), held (default 3/4, the paper's)")
     parser.add_argument("--stress", default=global_fit.STRESS_DEFAULT, choices=sorted(global_fit.STRESS_FITS),
-                        help="the components of tau/p fitted: shear (12, 32, 13; the paper's, default) or all "
+                        help="the components of tau/p fitted: shear (12, 32: tau:D'; the paper's, default) or all "
                              "(the diagonal too, which carries normal-stress differences the model does not give)")
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="also refit N >= 2 resamplings of the cycles (bootstrap standard deviations)")

@@ -103,7 +103,7 @@ def markdown(rows: list[dict], label: str) -> str:
              "± one standard error from the DEM's measured noise (correlated along strain; not scaled by the "
              "misfit). Φc and c2_coef: Eq. 18 on Φ, its scatter taken as white. *misfit*: χ² per degree of "
              "freedom in noise units (1 = within the noise). *τ fitted*: the components of τ/p fitted, shear "
-             "(12, 32, 13: the paper's) or all (the diagonal too, where the DEM's normal-stress differences lie). "
+             "(12 and 32: the paper's) or all (the diagonal too, where the DEM's normal-stress differences lie). "
              "Table 2 is tested on its flow rule and fabric law "
              "(C, n, m, a_i, b_i): the rise of χ² above the best fit, and whether that lies inside the joint 95 % "
              "region from the noise, and inside it widened by the misfit.", "",

@@ -33,11 +33,12 @@ FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")
 
 
 #: the components of tau/p each choice fits (A is fitted over every one of ``COMPONENTS``). "shear", the default,
-#: is the paper's (Sec. 4): C from tau12 (Eq. 15), Y from tau:D' (Eq. 16), which has no diagonal part in these
-#: flows, the fabric law from every component of A (Eq. 9). tau's diagonal carries the DEM's normal-stress
-#: differences (tau33/p about +0.07 in steady flow), which tau = C A + Y D'/|D'| cannot give with |A_ii| < 0.004:
-#: fitted, they pull the fabric law's a_i (docs/calibration.md). "all" fits them too.
-STRESS_FITS = {"shear": ((0, 1), (2, 1), (0, 2)), "all": COMPONENTS}
+#: is the paper's (Sec. 4): C from tau12 (Eq. 15), Y from tau:D' (Eq. 16), whose D' has only the 12 and 32
+#: components (the gradient along e2), the fabric law from every component of A (Eq. 9). The others carry the DEM's
+#: normal-stress differences (tau33/p about +0.07 in steady flow; rotated in the wall plane they give tau13 at
+#: oblique angles), which tau = C A + Y D'/|D'| cannot give with |A_ii| < 0.004: fitted, they pull the fabric law's
+#: a_i and C (docs/calibration.md). "all" fits them too.
+STRESS_FITS = {"shear": ((0, 1), (2, 1)), "all": COMPONENTS}
 STRESS_DEFAULT = "shear"
 
 

@@ -447,7 +447,7 @@ def test_a_single_runs_stepwise_errors_cover_the_spread_of_its_noise_draws(tmp_p
 
 def test_the_stress_fitted_is_shear_by_default_and_a_bad_choice_is_one_line():
     shear = global_fit.noise_scales(4, None, 2)[1]
-    assert np.all(np.isinf(shear[:, [0, 1], [0, 1]])) and np.all(shear[:, [0, 2, 0], [1, 1, 2]] == 1)
+    assert np.all(np.isinf(shear[:, [0, 1, 0], [0, 1, 2]])) and np.all(shear[:, [0, 2], [1, 1]] == 1)
     assert np.all(np.isfinite(global_fit.noise_scales(4, None, 2, "all")[1]))
     assert np.all(global_fit.noise_scales(4, None, 2)[0] == 1)  # A: every component, whatever the stress fitted
     with pytest.raises(CalibrationError, match="stress='normal': the stress components fitted are one of shear, all"):
