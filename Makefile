@@ -285,7 +285,7 @@ $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 &: $(FIT_DIR)/params.json 
 figures: results/$(DATA_SET)/report.md ## Figs. 3-9 and report.md -> results/<data set>/figures/, report.md
 
 results/$(DATA_SET)/report.md: $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 $(FIT_DIR)/fit.json \
-		$(FIT_DIR)/fit.h5 $(wildcard pipeline/figures/*.py)
+		$(FIT_DIR)/fit.h5 $(wildcard pipeline/figures/*.py $(FIT_DIR)/fit_from.json)
 	$(PY) -m pipeline.figures $(DATA_ARGS)
 
 clean: ## remove generated results (keeps the venv and the DEM runs under results/<preset>/dem/)
