@@ -26,6 +26,7 @@ from ..dataset.lookup import fit_runs
 from ..errors import CalibrationError, PipelineError
 from ..paths import preset_output
 from . import global_fit, identifiability
+from .residual_map import strain_since_change
 
 NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
 
@@ -68,7 +69,7 @@ def early_share(refined, data: list, start: model.Params) -> float:
     res = global_fit.residuals(refined.values, data, start, refined.names)
     weights = []
     for d in data:
-        since = np.where(d.strain < d.rotate_at - 1e-9, d.strain, d.strain - d.rotate_at)
+        since = strain_since_change(d, d.strain)
         early = since < EARLY_STRAIN - 1e-9
         for _ in range(2 * len(global_fit.COMPONENTS)):
             weights.append(early)
