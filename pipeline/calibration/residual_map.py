@@ -29,17 +29,20 @@ def sample_strains(d: Cycle) -> np.ndarray:
 
 
 def residual_map(fit: global_fit.GlobalFit, data: list[Cycle]) -> list[dict]:
-    """Per run, quantity (A_ij, tau_ij/p) and window of ``WINDOWS``: samples, chi^2, its share of the total and its
-    chi^2 per sample over the fit's mean per sample; largest share first."""
+    """Per run, fitted quantity (A_ij, tau_ij/p) and window of ``WINDOWS``: samples, chi^2, its share of the total
+    and its chi^2 per sample over the fit's mean per sample; largest share first. A component the fit leaves out
+    (an infinite scale: ``global_fit.STRESS_FITS``) has no row and no samples in the mean."""
     r = global_fit.residuals(fit.values, data, fit.params, fit.names)
     rows, at = [], 0
     for d in data:
         since = strain_since_change(d, sample_strains(d))
         window = np.digitize(since, WINDOWS[1:-1])
-        for label in LABELS:
-            for quantity in (f"A{label}", f"tau{label}/p"):
+        for label, (i, j) in zip(LABELS, COMPONENTS, strict=True):
+            for quantity, scale in ((f"A{label}", d.A_scale), (f"tau{label}/p", d.tau_scale)):
                 block = r[at:at + len(since)] ** 2
                 at += len(since)
+                if not np.isfinite(scale[:, i, j]).all():
+                    continue
                 for w in range(len(WINDOWS) - 1):
                     pick = window == w
                     if pick.any():

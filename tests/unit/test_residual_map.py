@@ -37,3 +37,15 @@ def test_strain_since_change_restarts_at_each_turn(tmp_path):
     d = Cycle.from_run(synthetic_run(tmp_path, n_cycles=1))
     since = strain_since_change(d, np.array([0.0, 0.3, 0.69, 0.7, 1.0]))
     np.testing.assert_allclose(since, [0.0, 0.3, 0.69, 0.0, 0.3], atol=1e-12)
+
+
+def test_components_the_fit_leaves_out_have_no_rows_and_no_samples(tmp_path):
+    from pipeline.calibration.global_fit import noise_scales
+
+    d = Cycle.from_run(synthetic_run(tmp_path, noise=0.002))
+    d = d.with_scales(*noise_scales(len(d.strain), None, d.n_cycles, "shear"))
+    fit = SimpleNamespace(values=np.array([getattr(TRUE, n) for n in global_fit.FREE]), params=TRUE,
+                          names=global_fit.FREE)
+    rows = residual_map(fit, [d])
+    assert {r["quantity"] for r in rows} == {"A12", "A32", "A11", "A22", "A13", "tau12/p", "tau32/p"}
+    assert sum(r["samples"] for r in rows) == 7 * len(d.strain)
