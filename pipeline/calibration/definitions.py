@@ -26,7 +26,7 @@ from ..dataset.lookup import fit_runs
 from ..errors import CalibrationError, PipelineError
 from ..paths import preset_output
 from . import global_fit, identifiability
-from .residual_map import strain_since_change
+from .residual_map import residual_map
 
 NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
 
@@ -55,7 +55,7 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
             "standard_errors": {n: se[n] for n in NAMES},
             "status": {n: p["status"] for n, p in summary["parameters"].items()},
             "misfit": refined.misfit, "chi2": refined.chi2, "table2": summary["table2"],
-            "chi2_share_after_changes": early_share(refined, data, start),
+            "chi2_share_after_changes": early_share(refined, data),
             "mean_packing_fraction": float(np.mean(np.concatenate([d.phi for d in data])))}
 
 
@@ -63,18 +63,11 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
 EARLY_STRAIN = 0.05
 
 
-def early_share(refined, data: list, start: model.Params) -> float:
+def early_share(refined, data: list) -> float:
     """The share of the best fit's chi^2 that lies within ``EARLY_STRAIN`` after a change of direction (in
     a cycle, 2 of 280 samples per 0.005: a uniform misfit would give 2 * 0.05 / 1.4 = 7 %)."""
-    res = global_fit.residuals(refined.values, data, start, refined.names)
-    weights = []
-    for d in data:
-        since = strain_since_change(d, d.strain)
-        early = since < EARLY_STRAIN - 1e-9
-        for _ in range(2 * len(global_fit.COMPONENTS)):
-            weights.append(early)
-    early = np.concatenate(weights)
-    return float(np.sum(res[early] ** 2) / np.sum(res**2))
+    rows = residual_map(refined, data, (0.0, EARLY_STRAIN - 1e-9, np.inf))
+    return float(sum(r["share"] for r in rows if r["window"][0] == 0.0)) if rows else float("nan")
 
 
 def preset_fit_runs(chosen: selection.DataSet) -> list:

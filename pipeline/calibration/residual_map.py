@@ -28,26 +28,27 @@ def sample_strains(d: Cycle) -> np.ndarray:
     return np.concatenate([d.strain[d.segment_mask(k)] for k in range(len(d.restarts))])
 
 
-def residual_map(fit: global_fit.GlobalFit, data: list[Cycle]) -> list[dict]:
-    """Per run, fitted quantity (A_ij, tau_ij/p) and window of ``WINDOWS``: samples, chi^2, its share of the total
-    and its chi^2 per sample over the fit's mean per sample; largest share first. A component the fit leaves out
+def residual_map(fit: global_fit.GlobalFit, data: list[Cycle], windows: tuple = WINDOWS) -> list[dict]:
+    """Per run, fitted quantity (A_ij, tau_ij/p) and window of ``windows`` (edges in strain since a change):
+    samples, chi^2, its share of the total and its chi^2 per sample over the fit's mean per sample; largest share
+    first. A component the fit leaves out
     (an infinite scale: ``global_fit.STRESS_FITS``) has no row and no samples in the mean."""
     r = global_fit.residuals(fit.values, data, fit.params, fit.names)
     rows, at = [], 0
     for d in data:
         since = strain_since_change(d, sample_strains(d))
-        window = np.digitize(since, WINDOWS[1:-1])
+        window = np.digitize(since, windows[1:-1])
         for label, (i, j) in zip(LABELS, COMPONENTS, strict=True):
             for quantity, scale in ((f"A{label}", d.A_scale), (f"tau{label}/p", d.tau_scale)):
                 block = r[at:at + len(since)] ** 2
                 at += len(since)
                 if not np.isfinite(scale[:, i, j]).all():
                     continue
-                for w in range(len(WINDOWS) - 1):
+                for w in range(len(windows) - 1):
                     pick = window == w
                     if pick.any():
                         rows.append({"theta_deg": d.theta_deg, "rotate_at": d.rotate_at, "quantity": quantity,
-                                     "window": [WINDOWS[w], WINDOWS[w + 1]], "samples": int(pick.sum()),
+                                     "window": [windows[w], windows[w + 1]], "samples": int(pick.sum()),
                                      "chi2": float(block[pick].sum())})
     if at != len(r):
         raise ValueError(f"residual rows {len(r)} != mapped samples {at}")
