@@ -202,6 +202,11 @@ class Scene:
             time.sleep(0.05)
         O.wait()
 
+    @staticmethod
+    def agreed_stop(stop):
+        """The stop this (single) process acts on: a copy, as the handlers may count on."""
+        return dict(stop)
+
     def checkpoint_bytes(self):
         return os.path.getsize(self.checkpoint) if os.path.exists(self.checkpoint) else 0
 

@@ -324,7 +324,8 @@ def run_scene(scene):
     (one thread). A first SIGINT/SIGTERM stops at the next checkpoint; a second one stops within a few steps (the
     run then resumes correctly but not bit-identically). ``scene`` provides ``start()`` (build or resume; the
     Protocol), ``advance(run, stop)`` (to the next checkpoint iteration or until the run stops itself),
-    ``save(run)``, ``checkpoint_bytes()``, ``reload()`` and ``meta()`` (its entries of ``raw.npz``)."""
+    ``agreed_stop(stop)`` (the stop requests every process of the scene acts on), ``save(run)``,
+    ``checkpoint_bytes()``, ``reload()`` and ``meta()`` (its entries of ``raw.npz``)."""
     stop = stop_on_signals(lambda: next_stop(scene))
     run = scene.start()
     run_dir = run.run_dir
@@ -354,12 +355,13 @@ def run_scene(scene):
         if not regular:
             print(f"interrupted: checkpoint at iteration {run.iteration()} (off the regular checkpoints: "
                   "the resumed run will not be bit-identical)", flush=True)
-            sys.exit(128 + stop["signal"])
+            sys.exit(128 + scene.agreed_stop(stop)["signal"])
         run = scene.reload()
-        if stop["count"] >= 1:
+        asked = scene.agreed_stop(stop)
+        if asked["count"] >= 1:
             print(f"interrupted: checkpoint at iteration {run.iteration()}; rerun the same command to resume",
                   flush=True)
-            sys.exit(128 + stop["signal"])
+            sys.exit(128 + asked["signal"])
 
 
 def main(run_dir, make_scene, last_checkpoint_bytes):

@@ -221,9 +221,7 @@ class Scene:
     def control(self, _ptr=None):
         """``fix python/invoke``'s entry point; an exception stops the run with its message."""
         try:
-            if COMM is not None:  # every rank stops together, whichever got the signal first
-                self.stop["count"] = COMM.allreduce(self.stop["count"], op=MPI.MAX)
-            if self.stop["count"] >= 2:  # a second signal: stop now
+            if self.agreed_stop(self.stop)["count"] >= 2:  # a second signal: stop now
                 self.run.stop_after_this_step()
             self.run.control()
         except Exception as exc:  # noqa: BLE001 - reported to the user and turned into exit status 3
@@ -255,9 +253,17 @@ class Scene:
         """Run to the next checkpoint iteration, or until the driver stops the run (``fix halt``)."""
         self.stop = stop
         self.lmp.command(f"run {run.state['next_checkpoint'] - run.iteration()}")
-        if COMM is not None:
-            stop["count"] = COMM.allreduce(stop["count"], op=MPI.MAX)
-            stop["signal"] = COMM.allreduce(stop["signal"], op=MPI.MAX)
+
+    @staticmethod
+    def agreed_stop(stop):
+        """The stop every rank acts on: the most signals any rank has counted (with that rank's signal), taken at
+        one collective call. A signal reaches the ranks at different moments (rank 0 alone syncs and hashes each
+        checkpoint), so a rank deciding on its own count could go on running while another stops, and both would
+        wait for each other for ever. The handlers may count on after the call: decide on the returned copy."""
+        if COMM is None:
+            return dict(stop)
+        count, signum = COMM.allreduce((stop["count"], stop["signal"]), op=MPI.MAX)
+        return {"count": count, "signal": signum}
 
     def checkpoint_bytes(self):
         return sum(os.path.getsize(os.path.join(self.run_dir, name)) for name in os.listdir(self.run_dir)

@@ -170,6 +170,50 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
     assert refused.returncode == 2 and "MPI ranks are for ENGINE=lammps" in refused.stderr
 
 
+#: the scene under mpirun, where a warning reaches rank 0 alone, just after it wrote its first checkpoint: the
+#: moment rank 1 (which neither syncs nor hashes the restart file) may have decided already to run on
+WARNED_RANK_0_AT_A_CHECKPOINT = """
+import os, signal, sys
+from dem import lammps_scene
+
+save = lammps_scene.Scene.save
+
+
+def save_then_warn_rank_0(self, run):
+    save(self, run)
+    mark = os.path.join(self.run_dir, "warned")
+    if lammps_scene.RANK == 0 and not os.path.exists(mark):
+        open(mark, "w").close()
+        os.kill(os.getpid(), signal.SIGUSR1)
+
+
+lammps_scene.Scene.save = save_then_warn_rank_0
+lammps_scene.main(sys.argv[1])
+"""
+
+
+def test_a_warning_that_reaches_one_rank_during_a_checkpoint_stops_every_rank(tmp_path):
+    """Two ranks decide together whether to stop after a checkpoint: a warning that reached rank 0 alone, while it
+    synced its restart file, stops both ranks there (exit 138), instead of rank 0 stopping while rank 1 runs on and
+    both wait for each other for ever (the deadlock a SLURM warning met under load). The same folder then resumes
+    to the end."""
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "spec.json").write_text(json.dumps(tiny_spec("lammps").to_dict()))
+    mpirun = ["mpirun", "-np", "2", "--allow-run-as-root", "--oversubscribe", yade_command.yade_python()]
+    try:
+        warned = subprocess.run([*mpirun, "-c", WARNED_RANK_0_AT_A_CHECKPOINT, run_dir], capture_output=True,
+                                text=True, cwd=run_dir, env=yade_command.environment(), timeout=180)
+    except subprocess.TimeoutExpired as exc:
+        raise AssertionError(f"the ranks never stopped:\n{exc.stdout}") from None
+    assert (run_dir / "warned").exists(), warned.stdout + warned.stderr
+    assert warned.returncode == 138, warned.stdout + warned.stderr
+    assert "interrupted: checkpoint at iteration" in warned.stdout
+    resumed = subprocess.run([*mpirun, "-m", "dem.lammps_scene", run_dir], capture_output=True, text=True,
+                             cwd=run_dir, env=yade_command.environment(), timeout=180)
+    assert resumed.returncode == 0 and "done:" in resumed.stdout, resumed.stdout + resumed.stderr
+
+
 def catches(pid: int, signum: int) -> bool:
     """Whether process ``pid`` has a handler for ``signum`` (its ``SigCgt`` mask in /proc)."""
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
