@@ -24,6 +24,7 @@ import json
 import math
 import os
 import sys
+import traceback
 
 import numpy as np
 
@@ -361,7 +362,28 @@ def main(run_dir, continued=False):
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - for the life of the process
         sys.stderr = open(os.path.join(run_dir, f"rank{RANK}.log"), "a", buffering=1)  # noqa: SIM115
     last = sum(os.path.getsize(os.path.join(run_dir, n)) for n in os.listdir(run_dir) if n.startswith("restart_"))
-    driver.main(run_dir, lambda path: Scene(path, continued), last)
+    try:
+        driver.main(run_dir, lambda path: Scene(path, continued), last)
+    except SystemExit as exc:
+        end_every_rank(exc.code)
+        raise
+    except BaseException:
+        traceback.print_exc()
+        end_every_rank(1)
+        raise
+
+
+def end_every_rank(code):
+    """Where this rank ends with an error the others may not share (rank 0 alone writes the files: a full disk, a
+    quota), end them all with its exit status (``MPI_Abort``, after its error line): a rank that exits alone waits
+    in ``MPI_Finalize`` for the others, which wait for it in the next step, for ever. A stop on a signal is agreed
+    by every rank (``Scene.agreed_stop``), and so is the end of the run."""
+    status = 0 if code is None else code if isinstance(code, int) else 1
+    if COMM is None or COMM.size == 1 or status == 0 or status - 128 in driver.STOP_SIGNALS:
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    COMM.Abort(status)
 
 
 if __name__ == "__main__":

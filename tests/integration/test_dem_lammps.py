@@ -170,47 +170,70 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
     assert refused.returncode == 2 and "MPI ranks are for ENGINE=lammps" in refused.stderr
 
 
-#: the scene under mpirun, where a warning reaches rank 0 alone, just after it wrote its first checkpoint: the
-#: moment rank 1 (which neither syncs nor hashes the restart file) may have decided already to run on
-WARNED_RANK_0_AT_A_CHECKPOINT = """
-import os, signal, sys
-from dem import lammps_scene
+#: the scene under mpirun with a fault at rank 0 alone, just after (warning) or in (quota) its first checkpoint:
+#: the moment rank 1, which neither syncs nor hashes the restart file, may have decided already to run on
+RANK_0_ALONE = """
+import errno, os, signal, sys
+from dem import driver, lammps_scene
 
-save = lammps_scene.Scene.save
+mark = os.path.join(sys.argv[1], "faulted")
+save, save_npz = lammps_scene.Scene.save, driver.save_npz
 
 
-def save_then_warn_rank_0(self, run):
-    save(self, run)
-    mark = os.path.join(self.run_dir, "warned")
+def first_time_at_rank_0():
     if lammps_scene.RANK == 0 and not os.path.exists(mark):
         open(mark, "w").close()
+        return True
+    return False
+
+
+def save_then_warn(self, run):
+    save(self, run)
+    if first_time_at_rank_0():
         os.kill(os.getpid(), signal.SIGUSR1)
 
 
-lammps_scene.Scene.save = save_then_warn_rank_0
+def over_quota(path, columns):
+    if first_time_at_rank_0():
+        raise OSError(errno.EDQUOT, os.strerror(errno.EDQUOT), path)
+    save_npz(path, columns)
+
+
+if sys.argv[2] == "warning":
+    lammps_scene.Scene.save = save_then_warn
+else:
+    driver.save_npz = over_quota
 lammps_scene.main(sys.argv[1])
 """
 
 
-def test_a_warning_that_reaches_one_rank_during_a_checkpoint_stops_every_rank(tmp_path):
-    """Two ranks decide together whether to stop after a checkpoint: a warning that reached rank 0 alone, while it
-    synced its restart file, stops both ranks there (exit 138), instead of rank 0 stopping while rank 1 runs on and
-    both wait for each other for ever (the deadlock a SLURM warning met under load). The same folder then resumes
-    to the end."""
+def two_ranks(run_dir, *args):
+    """The tiny run's scene in ``run_dir`` on two ranks (``mpirun``), as the launcher starts it; a hang fails."""
+    command = ["mpirun", "-np", "2", "--allow-run-as-root", "--oversubscribe", yade_command.yade_python(), *args]
+    try:
+        return subprocess.run(command, capture_output=True, text=True, cwd=run_dir, env=yade_command.environment(),
+                              timeout=180)
+    except subprocess.TimeoutExpired as exc:
+        raise AssertionError(f"the ranks never stopped:\n{exc.stdout}") from None
+
+
+@pytest.mark.parametrize(("fault", "status", "message"), [
+    ("warning", 138, "interrupted: checkpoint at iteration"),
+    ("quota", 4, "Disk quota exceeded"),
+])
+def test_a_fault_at_one_rank_during_a_checkpoint_ends_every_rank(tmp_path, fault, status, message):
+    """A warning that reached rank 0 alone while it synced its restart file stops both ranks there (the ranks
+    decide together), and a quota that rank 0 alone meets (it alone writes) ends both with its exit status and
+    its one error line, instead of one rank running on while the other waits for it for ever (the deadlock a
+    SLURM warning met under load). The same folder then resumes to the end."""
     run_dir = tmp_path / "run"
     run_dir.mkdir()
     (run_dir / "spec.json").write_text(json.dumps(tiny_spec("lammps").to_dict()))
-    mpirun = ["mpirun", "-np", "2", "--allow-run-as-root", "--oversubscribe", yade_command.yade_python()]
-    try:
-        warned = subprocess.run([*mpirun, "-c", WARNED_RANK_0_AT_A_CHECKPOINT, run_dir], capture_output=True,
-                                text=True, cwd=run_dir, env=yade_command.environment(), timeout=180)
-    except subprocess.TimeoutExpired as exc:
-        raise AssertionError(f"the ranks never stopped:\n{exc.stdout}") from None
-    assert (run_dir / "warned").exists(), warned.stdout + warned.stderr
-    assert warned.returncode == 138, warned.stdout + warned.stderr
-    assert "interrupted: checkpoint at iteration" in warned.stdout
-    resumed = subprocess.run([*mpirun, "-m", "dem.lammps_scene", run_dir], capture_output=True, text=True,
-                             cwd=run_dir, env=yade_command.environment(), timeout=180)
+    stopped = two_ranks(run_dir, "-c", RANK_0_ALONE, run_dir, fault)
+    text = stopped.stdout + stopped.stderr
+    assert (run_dir / "faulted").exists() and stopped.returncode == status, text
+    assert message in text and "Traceback" not in text
+    resumed = two_ranks(run_dir, "-m", "dem.lammps_scene", run_dir)
     assert resumed.returncode == 0 and "done:" in resumed.stdout, resumed.stdout + resumed.stderr
 
 
