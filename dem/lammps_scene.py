@@ -320,6 +320,7 @@ class Scene:
         driver.block_stop_signals()  # a warning from here on waits for the new process's handlers
         if self.stop["count"]:
             return self.run
+        self.lmp.finalize()  # LAMMPS and MPI: its log file and sockets would stay open across ``exec``
         sys.stdout.flush()
         sys.stderr.flush()
         os.execv(sys.executable, [sys.executable, "-m", "dem.lammps_scene", self.run_dir, CONTINUE])

@@ -2,10 +2,12 @@
 behind the same driver, spec and files as Yade's."""
 
 import json
+import os
 import signal
 import subprocess
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -235,6 +237,34 @@ def test_a_fault_at_one_rank_during_a_checkpoint_ends_every_rank(tmp_path, fault
     assert message in text and "Traceback" not in text
     resumed = two_ranks(run_dir, "-m", "dem.lammps_scene", run_dir)
     assert resumed.returncode == 0 and "done:" in resumed.stdout, resumed.stdout + resumed.stderr
+
+
+def descriptors_and_children(pid: int) -> tuple[Counter, list[str]]:
+    """What process ``pid`` holds open (how many of each file, pipe or socket; not the checkpoint's own files,
+    open for a moment), and the commands of its child processes."""
+    held = Counter(os.readlink(fd).split("[")[0] for fd in Path(f"/proc/{pid}/fd").iterdir())
+    held = Counter({k: n for k, n in held.items() if not Path(k).name.startswith(("restart_", "samples_"))})
+    children = subprocess.run(["pgrep", "-a", "-P", str(pid)], capture_output=True, text=True).stdout.splitlines()
+    return held, children
+
+
+def test_a_one_rank_scene_holds_as_many_files_and_processes_at_its_end_as_at_its_start(tmp_path):
+    """A one-rank scene ``exec``s itself at each of its checkpoints (the tiny run has about 37): it starts MPI as an
+    isolated singleton, so no ``orted`` daemon is spawned (one more per checkpoint, about 20 MB each, before), and
+    closes LAMMPS first, so its log file is not left open (one more descriptor per checkpoint)."""
+    proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=tmp_path), cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    seen, lines = [], []
+    for line in proc.stdout:
+        lines.append(line)
+        if "strain" in line and ("[  0%]" in line or "[ 80%]" in line):
+            scene = subprocess.run(["pgrep", "-f", "dem.lammps_scene"], capture_output=True, text=True)
+            pids = [int(p) for p in scene.stdout.split() if Path(f"/proc/{p}/cwd").resolve().is_relative_to(tmp_path)]
+            seen.append(descriptors_and_children(pids[0]))
+    assert proc.wait() == 0, "".join(lines)
+    (first, none), (last, still_none) = seen
+    assert none == [] and still_none == [], seen
+    assert last == first, seen
 
 
 def catches(pid: int, signum: int) -> bool:
