@@ -365,23 +365,22 @@ def main(run_dir, continued=False):
     last = sum(os.path.getsize(os.path.join(run_dir, n)) for n in os.listdir(run_dir) if n.startswith("restart_"))
     try:
         driver.main(run_dir, lambda path: Scene(path, continued), last)
-    except SystemExit as exc:
-        end_every_rank(exc.code)
-        raise
-    except BaseException:
-        traceback.print_exc()
-        end_every_rank(1)
+    except BaseException as exc:
+        end_every_rank(exc)
         raise
 
 
-def end_every_rank(code):
+def end_every_rank(exc):
     """Where this rank ends with an error the others may not share (rank 0 alone writes the files: a full disk, a
     quota), end them all with its exit status (``MPI_Abort``, after its error line): a rank that exits alone waits
     in ``MPI_Finalize`` for the others, which wait for it in the next step, for ever. A stop on a signal is agreed
     by every rank (``Scene.agreed_stop``), and so is the end of the run."""
+    code = exc.code if isinstance(exc, SystemExit) else 1
     status = 0 if code is None else code if isinstance(code, int) else 1
     if COMM is None or COMM.size == 1 or status == 0 or status - 128 in driver.STOP_SIGNALS:
         return
+    if not isinstance(exc, SystemExit):
+        traceback.print_exception(exc)  # the abort ends this process before Python would print it
     sys.stdout.flush()
     sys.stderr.flush()
     COMM.Abort(status)
