@@ -13,7 +13,7 @@ def new_lammps(ranks_comm=None, log=None):
 
     Outside ``mpirun`` this LAMMPS starts MPI as a singleton, which would spawn an ``orted`` daemon that lives as
     long as the pipe to it stays open, and a scene that ``exec``s itself at each checkpoint keeps it open: one more
-    daemon (about 20 MB) and three more descriptors per checkpoint. An isolated singleton spawns none."""
+    daemon (about 20 MB) and about five more descriptors per checkpoint. An isolated singleton spawns none."""
     if ranks_comm is None and "OMPI_COMM_WORLD_SIZE" not in os.environ:
         os.environ["OMPI_MCA_ess_singleton_isolated"] = "1"
     try:
