@@ -214,7 +214,7 @@ class Scene:
             self.spec = json.load(fh)
         self.lmp = None
         self.run = None
-        self.stop = {"count": 0}
+        self.stop = {"count": 0, "signal": 0}  # the driver's (``stop_on_signals``) from the first ``advance``
         import __main__
 
         setattr(__main__, CONTROL, self.control)
