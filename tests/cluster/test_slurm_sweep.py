@@ -7,6 +7,7 @@ task. `make test-cluster` runs it (Debian's slurm-wlm and munge)."""
 
 import getpass
 import os
+import re
 import shutil
 import signal
 import socket
@@ -272,6 +273,35 @@ def test_bad_sweeps_are_refused_before_anything_is_submitted(cluster, tmp_path):
     assert not (tmp_path / "sweeps").exists()
     out = subprocess.run(["squeue", "-h"], capture_output=True, text=True).stdout
     assert "gb-tiny" not in out
+
+
+def test_a_rerun_submits_no_queued_run_twice_and_a_controller_out_of_reach_is_said(cluster, tmp_path):
+    """The node drained, so that the tasks stay queued: a rerun of the sweep submits nothing; with the controller
+    out of reach, status says the queue is unread (not "rerun") and a rerun refuses in one line."""
+    subprocess.run(["scontrol", "update", "NodeName=localhost", "State=DRAIN", "Reason=queued-test"], check=True)
+    args = ("run", "--preset", "tiny", "--thetas", "30 90", "--launch", "slurm", *SLURM, "--results", str(tmp_path))
+    try:
+        first, again = sweep_cli(*args), sweep_cli(*args)
+        assert "submitted job array" in first.stdout, first.stdout + first.stderr
+        assert again.returncode == 0 and "nothing submitted" in again.stdout, again.stdout + again.stderr
+        plan = sweep_plan.read_plan(tmp_path)
+        assert len((plan.folder / "jobs.txt").read_text().split()) == 1
+        assert [r["state"] for r in sweep_status.status(plan)] == ["queued", "queued"]
+        dead = tmp_path / "unreachable.conf"
+        conf = (cluster / "slurm.conf").read_text()
+        dead.write_text(re.sub(r"SlurmctldPort=\d+", f"SlurmctldPort={free_port()}", conf))
+        env = {**os.environ, "SLURM_CONF": str(dead)}
+        status = subprocess.run([sys.executable, "-m", "pipeline.runs.sweep", "status", "--results", str(tmp_path)],
+                                cwd=ROOT, capture_output=True, text=True, env=env).stdout
+        assert status.count("SLURM's queue unread (squeue: ") == 2 and "rerun the sweep" not in status, status
+        third = subprocess.run([sys.executable, "-m", "pipeline.runs.sweep", *args], cwd=ROOT, capture_output=True,
+                               text=True, env=env)
+        assert third.returncode == 2 and "nothing was submitted" in third.stderr, third.stderr
+        assert len(third.stderr.strip().splitlines()) == 1
+        assert len((plan.folder / "jobs.txt").read_text().split()) == 1
+    finally:
+        subprocess.run(["scancel", f"--name={sweep_plan.read_plan(tmp_path).job_name}"], capture_output=True)
+        subprocess.run(["scontrol", "update", "NodeName=localhost", "State=RESUME"], check=True)
 
 
 def warn_once_running(base, plan, job, percent):

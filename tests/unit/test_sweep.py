@@ -122,6 +122,27 @@ def test_sweep_status_shows_damaged_runs_on_one_line_each(tmp_path):
     assert "is damaged" in rows[0]["detail"] and "failed.json is damaged" in rows[1]["detail"]
 
 
+def test_a_submitted_sweep_whose_queue_cannot_be_read_is_neither_told_to_rerun_nor_submitted_again(tmp_path,
+                                                                                                     monkeypatch):
+    sweep = plan("reduced", "30 60", results=tmp_path)
+    a, _ = sweep.tasks
+    a.run_dir.mkdir(parents=True)
+    (a.run_dir / "checkpoint.json").write_text("{}")
+    assert "rerun the sweep" in status(sweep)[0]["detail"]  # never submitted: rerunning is the way on
+    sweep.folder.mkdir(parents=True, exist_ok=True)
+    (sweep.folder / "jobs.txt").write_text("41\n")
+    monkeypatch.setenv("PATH", str(tmp_path / "no-slurm-here"))  # a login shell without the SLURM module
+    rows = status(sweep)
+    assert [r["state"] for r in rows] == ["stopped", "not started"]
+    for row in rows:
+        assert "SLURM's queue unread (squeue is not on PATH)" in row["detail"]
+        assert "rerun the sweep" not in row["detail"]
+    config = slurm.load_cluster_config()["slurm"]
+    with pytest.raises(slurm.QueueUnreadable, match="cannot tell which runs of sweep .* are queued already"):
+        slurm.submit(sweep, config)
+    assert not (sweep.folder / "job.sh").exists()
+
+
 def test_the_batch_script_quotes_its_log_path_and_requeues_only_what_can_resume(tmp_path):
     folder = tmp_path / "a clone with spaces"
     sweep = plan("reduced", "180", results=folder)

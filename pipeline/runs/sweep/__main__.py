@@ -82,7 +82,7 @@ def main(argv=None) -> int:
     if args.launch == "local":
         return run_local(sweep, jobs, ranks)
     job = submit(sweep, slurm)
-    print("every run is done: nothing submitted" if job is None else
+    print("every run is done or queued: nothing submitted" if job is None else
           f"submitted job array {job} ({sweep.folder / 'job.sh'}); follow it with `make sweep-status`")
     return 0
 

@@ -23,6 +23,10 @@ TIME_LIMIT = re.compile(r"(?:(\d+)-)?(\d{1,2}):(\d{2}):(\d{2})")
 MEMORY = re.compile(r"\d+[KMGT]?")
 
 
+class QueueUnreadable(PipelineError):
+    """A submitted sweep's SLURM queue cannot be read (no ``squeue``, or it failed)."""
+
+
 def load_cluster_config(path: Path = CLUSTER_FILE) -> dict:
     with open(path, "rb") as fh:
         return tomllib.load(fh)
@@ -108,8 +112,14 @@ def job_script(sweep: Sweep, config: dict, indices: list[int]) -> str:
 
 
 def submit(sweep: Sweep, config: dict) -> str | None:
-    """Submit the runs that are not done as one job array; returns the job id (None when all are done)."""
-    todo = [k for k, t in enumerate(sweep.tasks) if not t.output.exists()]
+    """Submit the runs that are neither done nor in SLURM's queue already (a rerun submits no run twice) as one job
+    array; returns the job id (None when there is none to submit)."""
+    try:
+        queued = queue(sweep)
+    except QueueUnreadable as exc:
+        raise QueueUnreadable(f"{exc}: cannot tell which runs of sweep {sweep.ident} are queued already, so nothing "
+                              "was submitted") from None
+    todo = [k for k, t in enumerate(sweep.tasks) if not t.output.exists() and k not in queued]
     if not todo:
         return None
     (sweep.folder / "tasks").mkdir(parents=True, exist_ok=True)
@@ -127,11 +137,18 @@ def submit(sweep: Sweep, config: dict) -> str | None:
 
 
 def queue(sweep: Sweep) -> dict[int, tuple[str, str]]:
-    """``{task index: (state, reason)}`` of the sweep's tasks in SLURM's queue: one ``squeue`` call."""
-    if shutil.which("squeue") is None or not (sweep.folder / "jobs.txt").exists():
+    """``{task index: (state, reason)}`` of the sweep's tasks in SLURM's queue: one ``squeue`` call (empty for a
+    sweep never submitted). Raises ``QueueUnreadable`` for a submitted sweep whose queue cannot be read: its
+    tasks may still be queued, so a rerun could submit them twice."""
+    if not (sweep.folder / "jobs.txt").exists():
         return {}
+    if shutil.which("squeue") is None:
+        raise QueueUnreadable("squeue is not on PATH")
     proc = subprocess.run(["squeue", "-h", "-r", f"--name={sweep.job_name}", "-o", "%K|%T|%r"],
                           capture_output=True, text=True)
+    if proc.returncode != 0:
+        last = (proc.stderr.strip().splitlines() or [f"exit {proc.returncode}"])[-1]
+        raise QueueUnreadable(last if last.startswith("squeue:") else f"squeue: {last}")
     out = {}
     for line in proc.stdout.splitlines():
         index, state, reason = (line.split("|") + ["", ""])[:3]

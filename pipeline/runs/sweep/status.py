@@ -4,12 +4,16 @@ from __future__ import annotations
 
 from ..state import progress, run_state
 from .plan import Sweep
-from .slurm import queue
+from .slurm import QueueUnreadable, queue
 
 
 def status(sweep: Sweep) -> list[dict]:
-    """One row per run: label, state (done, running, queued, failed, stopped, not started) and detail."""
-    queued = queue(sweep)
+    """One row per run: label, state (done, running, queued, failed, stopped, not started) and detail. When a
+    submitted sweep's queue cannot be read, a run that is not done or running says so instead of "rerun"."""
+    try:
+        queued, unread = queue(sweep), ""
+    except QueueUnreadable as exc:
+        queued, unread = {}, f"SLURM's queue unread ({exc}): it may be queued, check before rerunning"
     rows = []
     for k, task in enumerate(sweep.tasks):
         state, detail = run_state(task.run_dir, task.output)
@@ -18,6 +22,8 @@ def status(sweep: Sweep) -> list[dict]:
             state, detail = "running", progress(task.run_dir)
         elif state in ("stopped", "not started") and slurm_state:
             state, detail = "queued", f"{slurm_state.lower()} ({reason})"
+        elif unread and state in ("stopped", "not started"):
+            detail = unread
         elif state == "stopped":
             detail = "resumable from its checkpoint: rerun the sweep"
         rows.append({"task": k, "run": task.label, "state": state, "detail": detail})
