@@ -45,6 +45,12 @@ def progress(run_dir: Path) -> str:
     return f"{s['percent']:.0f} %, {s.get('steps_per_second', 0):.0f} steps/s, ETA {eta_text}"
 
 
+def reached(run_dir: Path) -> str:
+    """``, reached 42 %``: how far a run that is not running got (its last report), '' before its first."""
+    s = read_json(Path(run_dir) / STATUS)
+    return f", reached {s['percent']:.0f} %" if s and isinstance(s.get("percent"), (int, float)) else ""
+
+
 def run_state(run_dir: Path, output: Path) -> tuple[str, str]:
     """(state, detail) of the run whose folder is ``run_dir`` and whose HDF5 file is ``output``."""
     run_dir = Path(run_dir)
@@ -56,5 +62,5 @@ def run_state(run_dir: Path, output: Path) -> tuple[str, str]:
     if is_locked(run_dir):
         return "running", progress(run_dir)
     if any((run_dir / name).exists() for name in CHECKPOINTS):
-        return "stopped", "resumable from its checkpoint: rerun the same command"
+        return "stopped", f"resumable from its checkpoint{reached(run_dir)}: rerun the same command"
     return "not started", ""

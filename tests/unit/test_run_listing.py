@@ -22,6 +22,7 @@ def test_each_state_is_read_from_the_files_a_run_leaves(tmp_path):
     assert run_state(run_dir, out)[0] == "stopped"
     write_status(run_dir / "status.json", {"percent": 41.6, "steps_per_second": 1800.4, "eta_seconds": 725.0})
     assert progress(run_dir) == "42 %, 1800 steps/s, ETA 12m05s"
+    assert run_state(run_dir, out) == ("stopped", "resumable from its checkpoint, reached 42 %: rerun the same command")
     (run_dir / "failed.json").write_text('{"reason": "wall normal stress off target"}')
     assert run_state(run_dir, out) == ("failed", "wall normal stress off target")
     (run_dir / "failed.json").write_text("not json")

@@ -128,12 +128,14 @@ def test_a_submitted_sweep_whose_queue_cannot_be_read_is_neither_told_to_rerun_n
     a, _ = sweep.tasks
     a.run_dir.mkdir(parents=True)
     (a.run_dir / "checkpoint.json").write_text("{}")
-    assert "rerun the sweep" in status(sweep)[0]["detail"]  # never submitted: rerunning is the way on
+    (a.run_dir / "status.json").write_text('{"percent": 49.2}')
+    assert status(sweep)[0]["detail"] == "resumable from its checkpoint, reached 49 %: rerun the sweep"  # unsubmitted
     sweep.folder.mkdir(parents=True, exist_ok=True)
     (sweep.folder / "jobs.txt").write_text("41\n")
     monkeypatch.setenv("PATH", str(tmp_path / "no-slurm-here"))  # a login shell without the SLURM module
     rows = status(sweep)
     assert [r["state"] for r in rows] == ["stopped", "not started"]
+    assert rows[0]["detail"].endswith("check before rerunning, reached 49 %")
     for row in rows:
         assert "SLURM's queue unread (squeue is not on PATH)" in row["detail"]
         assert "rerun the sweep" not in row["detail"]

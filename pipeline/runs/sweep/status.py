@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..state import progress, run_state
+from ..state import progress, reached, run_state
 from .plan import Sweep
 from .slurm import QueueUnreadable, queue
 
@@ -21,11 +21,11 @@ def status(sweep: Sweep) -> list[dict]:
         if state in ("stopped", "not started") and slurm_state in ("RUNNING", "COMPLETING"):
             state, detail = "running", progress(task.run_dir)
         elif state in ("stopped", "not started") and slurm_state:
-            state, detail = "queued", f"{slurm_state.lower()} ({reason})"
+            state, detail = "queued", f"{slurm_state.lower()} ({reason}){reached(task.run_dir)}"
         elif unread and state in ("stopped", "not started"):
-            detail = unread
+            detail = unread + reached(task.run_dir)
         elif state == "stopped":
-            detail = "resumable from its checkpoint: rerun the sweep"
+            detail = f"resumable from its checkpoint{reached(task.run_dir)}: rerun the sweep"
         rows.append({"task": k, "run": task.label, "state": state, "detail": detail})
     return rows
 
