@@ -35,10 +35,16 @@ def read_json(path: Path) -> dict | None:
     return value if isinstance(value, dict) else None
 
 
+def last_report(run_dir: Path) -> dict | None:
+    """The scene's last progress report (``status.json``), None before its first or where it is damaged."""
+    s = read_json(Path(run_dir) / STATUS)
+    return s if s and isinstance(s.get("percent"), (int, float)) else None
+
+
 def progress(run_dir: Path) -> str:
     """``42 %, 1800 steps/s, ETA 12m`` from the scene's ``status.json`` ('' before its first report)."""
-    s = read_json(Path(run_dir) / STATUS)
-    if not s or not isinstance(s.get("percent"), (int, float)):
+    s = last_report(run_dir)
+    if s is None:
         return ""
     eta = s.get("eta_seconds")
     eta_text = "?" if not isinstance(eta, (int, float)) else f"{int(eta) // 60}m{int(eta) % 60:02d}s"
@@ -47,8 +53,8 @@ def progress(run_dir: Path) -> str:
 
 def reached(run_dir: Path) -> str:
     """``, reached 42 %``: how far a run that is not running got (its last report), '' before its first."""
-    s = read_json(Path(run_dir) / STATUS)
-    return f", reached {s['percent']:.0f} %" if s and isinstance(s.get("percent"), (int, float)) else ""
+    s = last_report(run_dir)
+    return "" if s is None else f", reached {s['percent']:.0f} %"
 
 
 def run_state(run_dir: Path, output: Path) -> tuple[str, str]:
