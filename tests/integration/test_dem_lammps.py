@@ -241,8 +241,14 @@ def test_a_fault_at_one_rank_during_a_checkpoint_ends_every_rank(tmp_path, fault
 
 def descriptors_and_children(pid: int) -> tuple[Counter, list[str]]:
     """What process ``pid`` holds open (how many of each file, pipe or socket; not the checkpoint's own files,
-    open for a moment), and the commands of its child processes."""
-    held = Counter(os.readlink(fd).split("[")[0] for fd in Path(f"/proc/{pid}/fd").iterdir())
+    open for a moment, nor a descriptor closed between the listing and its reading), and the commands of its
+    child processes."""
+    held = Counter()
+    for fd in Path(f"/proc/{pid}/fd").iterdir():
+        try:
+            held[os.readlink(fd).split("[")[0]] += 1
+        except FileNotFoundError:
+            continue
     held = Counter({k: n for k, n in held.items() if not Path(k).name.startswith(("restart_", "samples_"))})
     children = subprocess.run(["pgrep", "-a", "-P", str(pid)], capture_output=True, text=True).stdout.splitlines()
     return held, children
