@@ -27,6 +27,7 @@ SET ?=
 FRESH ?=
 THREADS ?= 1
 BOOT ?= 100
+OVER ?= seeds
 ALLOW_INERTIAL ?=
 # make profile-dem [PRESETS=reduced,paper] [THREADS=1]; make bench-dem [PRESETS=quick,reduced,paper] [ENGINES=yade,lammps]
 ENGINES ?= yade
@@ -68,6 +69,7 @@ $(call check,ENGINE,$(LOWER),yade or lammps)
 $(call check,RANKS,$(DIGITS),a whole number)
 $(call check,ENGINES,$(LOWER) $(comma),yade or yade$(comma)lammps)
 $(call check,BOOT,$(DIGITS),a whole number)
+$(call check,OVER,$(LOWER),seeds or angles)
 $(call check,STRAIN,$(LOWER),bulk or nominal)
 $(call check,PRESETS,$(NAME_CHARS) $(comma),a comma-separated list of presets)
 $(call check,PHI,$(LOWER),central or gap)
@@ -228,9 +230,9 @@ fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 ref
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration $(DATA_ARGS) --bootstrap $(BOOT) --out results/$(DATA_SET)/fit-bootstrap
 
-fit-jackknife: venv ## the fit plus a jackknife over the reversal seeds (a refit per seed) -> results/<data set>/fit-jackknife/
+fit-jackknife: venv ## the fit plus a refit leaving out each reversal seed (OVER=seeds) or each angle (OVER=angles) [FIT_FROM] -> results/<data set>/fit-jackknife-<OVER>/
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration $(DATA_ARGS) --jackknife --out results/$(DATA_SET)/fit-jackknife
+	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --jackknife $(OVER) --out results/$(DATA_SET)/fit-jackknife-$(OVER)
 
 fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<data set>/fit/definitions.md
 	$(SAY_PRESET)

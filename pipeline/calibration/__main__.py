@@ -1,8 +1,8 @@
 """``make fit``: calibrate the model on a preset's DEM runs and write ``results/<preset>/fit/``.
 
 ``python -m pipeline.calibration [--preset P] [--engine E] [--set K=V] [--runs a.h5 ...] [--window 0.05]
-[--fit-from 0.005] [--out DIR] [--bootstrap N] [--jackknife] [--hold NAME=VALUE]``. Without ``--preset``, the
-most faithful preset that has a reversal run is used, and named; the runs are the preset's data set
+[--fit-from 0.005] [--out DIR] [--bootstrap N] [--jackknife [seeds|angles]] [--hold NAME=VALUE]``. Without
+``--preset``, the most faithful preset that has a reversal run is used, and named; the runs are the preset's data set
 (``pipeline.dataset.selection``), the outputs go to ``results/<its folder>/fit``. The work is
 ``calibrate.calibrate``; outputs ``calibrate.write``.
 """
@@ -20,7 +20,7 @@ from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
 from . import global_fit
-from .calibrate import Settings, fit, parse_hold
+from .calibrate import JACKKNIFE_OVER, Settings, fit, parse_hold
 from .text import print_report
 
 
@@ -34,8 +34,9 @@ def main(argv=None) -> int:
     add_definition_arguments(parser)
     parser.add_argument("--hold", action="append", default=[], metavar="NAME=VALUE",
                         help="hold a flow-rule or fabric parameter at VALUE instead of fitting it (repeatable)")
-    parser.add_argument("--jackknife", action="store_true",
-                        help="also refit leaving out one reversal seed at a time (needs 3 or more seeds)")
+    parser.add_argument("--jackknife", nargs="?", const="seeds", default="", choices=JACKKNIFE_OVER,
+                        help="also refit leaving out one reversal seed (seeds, the default; needs 3 or more) or one "
+                             "angle with all its runs (angles; needs 3 or more) at a time")
     parser.add_argument("--fit-from", type=float, default=0.0, metavar="STRAIN",
                         help="restart the model from the DEM's state this far past each change of direction and "
                              "fit what follows (nominal strain, a multiple of the sampling step; default 0: all)")

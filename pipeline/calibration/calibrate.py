@@ -26,6 +26,7 @@ from . import design, global_fit, identifiability
 from .residual_map import residual_map
 from .stepwise import calibrate_run, combine, cross_check_run, fitted_params, sensitivity, stepwise_bootstrap
 
+JACKKNIFE_OVER = ("seeds", "angles")  # what a jackknife can leave out, one at a time
 STEPWISE_RESAMPLES = 40  # resamplings of a single reversal run's cycles that give its stepwise errors
 
 
@@ -33,7 +34,8 @@ STEPWISE_RESAMPLES = 40  # resamplings of a single reversal run's cycles that gi
 class Settings:
     """How to calibrate: the Jaumann smoothing window (strain), the definitions the runs are read with, the
     parameters held (name -> value), the restart strain of the global fit past each change of direction, the
-    persistence exponent k (held), and the optional bootstrap (resamples) and jackknife over seeds."""
+    persistence exponent k (held), the optional bootstrap (resamples), and the optional jackknife, leaving
+    out one reversal seed ("seeds") or one angle with all its runs ("angles") at a time."""
 
     window: float = 0.05
     definitions: Definitions = PAPER_DEFINITIONS
@@ -41,7 +43,7 @@ class Settings:
     fit_from: float = 0.0
     persistence_exponent: float = 0.75
     bootstrap: int = 0
-    jackknife: bool = False
+    jackknife: str = ""  # "", or what to leave out one at a time: JACKKNIFE_OVER
     stress: str = global_fit.STRESS_DEFAULT  # the components of tau/p fitted (global_fit.STRESS_FITS)
 
     def __post_init__(self):
@@ -50,6 +52,8 @@ class Settings:
             raise CalibrationError(f"window={self.window} must be a positive strain")
         if not math.isfinite(self.fit_from) or not 0 <= self.fit_from < 0.5:
             raise CalibrationError(f"fit_from={self.fit_from} must be a strain in [0, 0.5)")
+        if self.jackknife not in ("", *JACKKNIFE_OVER):
+            raise CalibrationError(f"jackknife={self.jackknife!r}: leave out one of {' or '.join(JACKKNIFE_OVER)}")
         if not math.isfinite(self.persistence_exponent) or not 0 < self.persistence_exponent <= 2:
             raise CalibrationError(f"persistence_exponent={self.persistence_exponent} must lie in (0, 2]")
 
@@ -149,12 +153,27 @@ def check_settings(settings: Settings, reversals: list, cross_runs: tuple) -> No
     check_window(settings.window, [*reversals, *cross_runs])
     if settings.bootstrap and settings.bootstrap < 2:
         raise CalibrationError(f"bootstrap={settings.bootstrap}: a bootstrap needs at least 2 resamples")
-    if settings.jackknife and len(reversals) < 3:
-        raise CalibrationError(f"a jackknife over seeds needs at least 3 reversal seeds, not {len(reversals)}")
+    if settings.jackknife:
+        groups = jackknife_groups(settings.jackknife, reversals, cross_runs)
+        if len(groups) < 3:
+            raise CalibrationError(f"a jackknife over {settings.jackknife} needs at least 3 of them, not "
+                                   f"{len(groups)} ({', '.join(groups) or 'none'})")
     if settings.fit_from and settings.bootstrap:
         raise CalibrationError("a bootstrap of a restarted fit (fit_from > 0) is not implemented: leave one out")
     if settings.bootstrap and not any(r.spec["n_cycles"] > 1 for r in (*reversals, *cross_runs)):
         raise CalibrationError("a bootstrap needs runs with more than one cycle (the noise is measured from them)")
+
+
+def jackknife_groups(over: str, reversals: list, cross_runs: tuple) -> dict[str, list[int]]:
+    """The runs a jackknife leaves out together, as indices into ``[*reversals, *cross_runs]``: each reversal
+    seed alone (``"seeds"``), or each angle with all its runs (``"angles"``: every seed of the reversal goes
+    out at once)."""
+    if over == "seeds":
+        return {f"seed {r.spec['seed']}": [i] for i, r in enumerate(reversals)}
+    groups: dict[str, list[int]] = {}
+    for i, r in enumerate([*reversals, *cross_runs]):
+        groups.setdefault(f"theta = {r.spec['theta_deg']:g}", []).append(i)
+    return groups
 
 
 def _progress(label: str):
@@ -203,7 +222,9 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
             boot = global_fit.bootstrap(data, noise, refined, settings.bootstrap, progress=_progress("bootstrap"))
             boot["stepwise"] = stepwise_bootstrap(reversals, settings.bootstrap, window)
         if settings.jackknife:
-            jack = global_fit.jackknife(data, list(range(len(reversals))), refined, progress=_progress("jackknife"))
+            jack = global_fit.jackknife(data, jackknife_groups(settings.jackknife, reversals, cross_runs), refined,
+                                        noise, progress=_progress("jackknife"))
+            jack["over"] = settings.jackknife
     resampled = None
     if len(reversals) == 1 and reversals[0].spec["n_cycles"] > 1:  # one run: its error from its cycles
         resampled = boot["stepwise"] if boot else stepwise_bootstrap(reversals, STEPWISE_RESAMPLES, window)

@@ -109,6 +109,7 @@ class GlobalFit:
     chi2: float = float("nan")
     covariance: np.ndarray | None = None
     white_covariance: np.ndarray | None = None
+    jacobian: np.ndarray | None = None  # of the scaled residuals at the fit, for shift_covariance
 
     def to_dict(self) -> dict:
         cov = lambda m: None if m is None else np.where(np.isfinite(m), m, None).tolist()  # noqa: E731
@@ -192,6 +193,18 @@ def residuals(values: np.ndarray, data: list[Cycle], base: model.Params, names=F
     return np.concatenate(out)
 
 
+def noise_blocks(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None):
+    """(run index, the Jacobian's rows of one run and component, their noise correlation) for each block of
+    the residuals; the noise is independent between blocks (white without a noise model)."""
+    row = 0
+    for i, d in enumerate(data):
+        length = len(d.strain)
+        for k in range(len(COMPONENTS)):
+            sigma = np.eye(2 * length) if noise is None else sample_covariance(noise, k, d)
+            yield i, jac[row:row + 2 * length], sigma
+            row += 2 * length
+
+
 def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None) -> tuple:
     """(sandwich, white) covariance of the estimates: ``H^-1 J^T Sigma J H^-1`` with the noise's correlation
     ``Sigma``, and ``H^-1`` (the noise taken as white). Parameters the data do not fix (a null direction of
@@ -200,21 +213,30 @@ def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseMode
     strength, vectors = np.linalg.eigh(H)
     null = strength <= 1e-10 * max(strength.max(), 1e-300)
     inverse = np.linalg.pinv(H, hermitian=True, rcond=1e-10)
-    meat = np.zeros_like(H)
-    row = 0
-    for d in data:
-        length = len(d.strain)
-        for k in range(len(COMPONENTS)):
-            J = jac[row:row + 2 * length]
-            sigma = np.eye(2 * length) if noise is None else sample_covariance(noise, k, d)
-            meat += J.T @ sigma @ J
-            row += 2 * length
+    meat = sum(J.T @ sigma @ J for _, J, sigma in noise_blocks(jac, data, noise))
     sandwich, white = inverse @ meat @ inverse, inverse.copy()
     loose = np.any(np.abs(vectors[:, null]) > 0.01, axis=1)
     for m in (sandwich, white):
         m[loose, :] = np.inf
         m[:, loose] = np.inf
     return sandwich, white
+
+
+def shift_covariance(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None,
+                     left_out: list[int]) -> np.ndarray:
+    """The covariance, from the noise alone, of (the fit without the runs ``left_out``) - (the fit with all),
+    linearized about the fit with all (``jac``, its Jacobian): each is ``-H^-1 J^T r`` over its own runs, and
+    the noise is independent between runs, so the shift's covariance is the sum over blocks of
+    ``L Sigma L^T`` with ``L = H_kept^-1 J^T`` (kept runs only) ``- H^-1 J^T``."""
+    rows = np.concatenate([np.full(len(J), i) for i, J, _ in noise_blocks(jac, data, None)])
+    kept = jac[~np.isin(rows, left_out)]
+    inverse = np.linalg.pinv(jac.T @ jac, hermitian=True, rcond=1e-10)
+    inverse_kept = np.linalg.pinv(kept.T @ kept, hermitian=True, rcond=1e-10)
+    out = np.zeros_like(inverse)
+    for i, J, sigma in noise_blocks(jac, data, noise):
+        L = (-inverse if i in left_out else inverse_kept - inverse) @ J.T
+        out += L @ sigma @ L.T
+    return out
 
 
 def sample_covariance(noise: noise_model.NoiseModel, k: int, d: Cycle) -> np.ndarray:
@@ -246,7 +268,7 @@ def refine(data: list[Cycle], start: model.Params, names=FREE, max_nfev: int = 2
         corr = cov / np.outer(se, se)
     params = start.replace(**dict(zip(names, map(float, sol.x), strict=True)))
     return GlobalFit(params, tuple(names), sol.x, se, corr, misfit, int(sol.nfev), bool(sol.success), sol.message,
-                     directions(cov, sol.x, names), chi2, cov, white)
+                     directions(cov, sol.x, names), chi2, cov, white, sol.jac)
 
 
 DILATANCY = ("c2_coef", "phi_c")
@@ -334,20 +356,32 @@ def bootstrap(data: list[Cycle], noise: noise_model.NoiseModel, best: GlobalFit,
     return out
 
 
-def jackknife(data: list[Cycle], seeds: list[int], best: GlobalFit, progress=None) -> dict:
-    """Refit ``best``'s parameters leaving out one seed at a time (``seeds``: the indices in ``data`` of
-    the runs that are seeds of one protocol, at least three). The jackknife standard error
-    sqrt((N-1)/N sum (theta_i - mean)^2) carries everything that differs between seeds (the packing, the
-    fit's nonlinearity), which a noise model measured within runs may miss."""
-    if len(seeds) < 3:
-        raise CalibrationError(f"a jackknife over seeds needs at least 3 seeds of one protocol, not {len(seeds)}")
-    values = []
-    for k, left in enumerate(seeds):
-        values.append(refine([d for i, d in enumerate(data) if i != left], best.params, best.names).values)
+def jackknife(data: list[Cycle], groups: dict[str, list[int]], best: GlobalFit,
+              noise: noise_model.NoiseModel | None = None, progress=None) -> dict:
+    """Refit ``best``'s parameters leaving out one group of runs at a time (``groups``: a label for each, and
+    the indices in ``data`` of its runs; at least three groups); ``noise``: the noise model ``best`` was fitted with.
+
+    Over the seeds of one protocol, the jackknife standard error sqrt((N-1)/N sum (theta_i - mean)^2) carries
+    everything that differs between seeds (the packing, the fit's nonlinearity), which a noise model measured
+    within runs may miss. Over the angles, which are no exchangeable draws, it is no standard error; there each
+    refit's shift from ``best`` is told in units of the standard deviation the noise alone would give it
+    (``shift_covariance``): a |z| of many says the group pulls the parameter where the others do not follow,
+    i.e. one parameter set does not fit every group."""
+    if len(groups) < 3:
+        raise CalibrationError(f"a jackknife needs at least 3 groups of runs to leave out, not {len(groups)} "
+                               f"({', '.join(groups) or 'none'})")
+    values, shift_z = [], []
+    for k, left in enumerate(groups.values()):
+        refit = refine([d for i, d in enumerate(data) if i not in left], best.params, best.names)
+        values.append(refit.values)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            noise_only = np.sqrt(np.diag(shift_covariance(best.jacobian, data, noise, left)))
+            shift_z.append(np.where(noise_only > 0, (refit.values - best.values) / noise_only, np.nan))
         if progress:
-            progress(k + 1, len(seeds))
+            progress(k + 1, len(groups))
     v = np.array(values)
-    n = len(seeds)
+    n = len(groups)
     se = np.sqrt((n - 1) / n * np.sum((v - v.mean(axis=0)) ** 2, axis=0))
-    return {"free": list(best.names), "left_out": seeds, "values": v.tolist(), "standard_error": se.tolist(),
-            "over_sandwich": (se / best.standard_errors).tolist()}
+    finite = lambda a: np.where(np.isfinite(a), a, None).tolist()  # noqa: E731
+    return {"free": list(best.names), "left_out": list(groups), "values": v.tolist(), "standard_error": se.tolist(),
+            "over_sandwich": (se / best.standard_errors).tolist(), "shift_z": finite(np.array(shift_z))}

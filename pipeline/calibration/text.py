@@ -91,10 +91,7 @@ def print_report(report: dict, out: Path) -> None:
                           zip(st["free"], st["percentile_2.5"], st["percentile_97.5"], strict=True)
                           if not n.startswith("persistence_exponent")))
     if report.get("jackknife"):
-        j = report["jackknife"]
-        print(f"jackknife over the {len(j['left_out'])} reversal seeds: standard errors "
-              + ", ".join(f"{n} {se:.2g} ({r:.1f}x the noise model's)" for n, se, r in
-                          zip(j["free"], j["standard_error"], j["over_sandwich"], strict=True)))
+        print_jackknife(report["jackknife"])
     one_run = len(next(iter(report["estimates"].values()))["per_run"]) == 1
     print("the paper's stepwise route (Sec. 4), "
           + ("one run ± its error from resamplings of its cycles (docs/calibration.md)" if one_run else
@@ -119,3 +116,21 @@ def print_report(report: dict, out: Path) -> None:
         print(f"note: {note}")
     print(f"wrote {out / 'params.json'} (global fit), fit.json and fit.h5"
           + (", params_stepwise.json" if report["params_stepwise"] else ""))
+
+
+def print_jackknife(j: dict) -> None:
+    """Over seeds, the jackknife's standard errors against the noise model's; over angles (no exchangeable
+    draws: no standard error), each refit without one angle and its shift in noise-only standard deviations."""
+    if j["over"] == "seeds":
+        print(f"jackknife over the {len(j['left_out'])} reversal seeds: standard errors "
+              + ", ".join(f"{n} {se:.2g} ({r:.1f}x the noise model's)" for n, se, r in
+                          zip(j["free"], j["standard_error"], j["over_sandwich"], strict=True)))
+        return
+    print(f"each of the {len(j['left_out'])} angles left out (with all its runs): the refit, and in brackets its "
+          "shift from the fit on all of them in standard deviations of what the noise alone would give it "
+          "(|z| of many: one parameter set does not follow every angle)")
+    for left, values, z in zip(j["left_out"], j["values"], j["shift_z"], strict=True):
+        shifts = ["--" if s is None else f"{s:+.1f}" for s in z]
+        print(f"  without {left}: " + ", ".join(f"{n} {v:+.4g} ({s})" for n, v, s in
+                                               zip(j["free"], values, shifts, strict=True)))
+

@@ -151,6 +151,10 @@ FIT_CASES = [
     (["--runs", "{inp}/theta090.h5"], "not a reversal run"),
     (["--runs", "{inp}/theta180.h5", "--out", "{inp}/a_file/fit"], "a_file is a file"),
     (["--runs", "{inp}/theta180.h5", "--window", "nan"], "window=nan must be a positive strain"),
+    (["--runs", "{inp}/theta180.h5", "--jackknife"], "a jackknife over seeds needs at least 3 of them, not 1"),
+    (["--runs", "{inp}/theta180.h5", "--jackknife", "angles"],
+     "a jackknife over angles needs at least 3 of them, not 1 (theta = 180)"),
+    (["--runs", "{inp}/theta180.h5", "--jackknife", "angle"], "invalid choice: 'angle'"),
 ]
 
 
