@@ -228,8 +228,8 @@ def shift_covariance(jac: np.ndarray, data: list[Cycle], noise: noise_model.Nois
     linearized about the fit with all (``jac``, its Jacobian): each is ``-H^-1 J^T r`` over its own runs, and
     the noise is independent between runs, so the shift's covariance is the sum over blocks of
     ``L Sigma L^T`` with ``L = H_kept^-1 J^T`` (kept runs only) ``- H^-1 J^T``."""
-    rows = np.concatenate([np.full(len(J), i) for i, J, _ in noise_blocks(jac, data, None)])
-    kept = jac[~np.isin(rows, left_out)]
+    run_of_row = np.repeat(np.arange(len(data)), [2 * len(d.strain) * len(COMPONENTS) for d in data])
+    kept = jac[~np.isin(run_of_row, left_out)]
     inverse = np.linalg.pinv(jac.T @ jac, hermitian=True, rcond=1e-10)
     inverse_kept = np.linalg.pinv(kept.T @ kept, hermitian=True, rcond=1e-10)
     out = np.zeros_like(inverse)
