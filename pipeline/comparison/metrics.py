@@ -13,9 +13,14 @@ import numpy as np
 import model
 
 from ..dataset.cycle import Cycle
+from ..dataset.derived import cycle_indices
 from ..dataset.smoothing import relaxation_strain
 
 COMPONENTS = {"A12": ("A", 0, 1), "A32": ("A", 2, 1), "tau12": ("tau", 0, 1), "tau32": ("tau", 2, 1)}
+#: strain after a change of direction where the DEM's component along the new direction peaks (θ = 120°, 150°)
+OVERSHOOT_EARLY = (0.15, 0.30)
+#: the last strain of a segment, whose mean is the segment's steady value
+OVERSHOOT_LATE = 0.2
 
 
 def model_for(run, sets: dict) -> dict[str, tuple[Cycle, model.Result]]:
@@ -77,3 +82,52 @@ def second_law(runs: list, params: model.Params) -> dict:
                                     params=params).w_total.min()) for r in runs)
     return {"c1": params.c1, "C": params.C, "phi_max_dem": phi_max, "phi_c_plus_c3": bound,
             "min_total_work_rate": w_min, "holds": bool(params.c1 == -params.C and phi_max <= bound and w_min >= 0)}
+
+
+def along(X: np.ndarray, phi_deg: float) -> np.ndarray:
+    """The shear component of ``X`` (..., 3, 3) along the direction s = cos(phi) e1 + sin(phi) e3 (the
+    README's rotation sense): s_i X_i2, i.e. X12 at phi = 0 and X32 at 90."""
+    phi = np.radians(phi_deg)
+    return np.cos(phi) * X[..., 0, 1] + np.sin(phi) * X[..., 2, 1]
+
+
+def segment_windows(strain: np.ndarray, start: float, end: float) -> tuple[np.ndarray, np.ndarray]:
+    """Masks of ``strain`` OVERSHOOT_EARLY after ``start`` and the last OVERSHOOT_LATE before ``end``."""
+    early = (strain >= start + OVERSHOOT_EARLY[0] - 1e-9) & (strain <= start + OVERSHOOT_EARLY[1] + 1e-9)
+    late = (strain >= end - OVERSHOOT_LATE - 1e-9) & (strain < end - 1e-9)
+    return early, late
+
+
+def overshoots(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
+    """After each change of direction whose segment is long enough (the turn to theta at ``rotate_at`` and the
+    turn back to e1 at the period's start), the component of A and tau/p along the new shear direction, signed
+    so that its steady value (the segment's last OVERSHOOT_LATE) is positive: its mean OVERSHOOT_EARLY after the
+    change minus the steady value. Positive: it overshoots; negative: it has not yet arrived. The DEM's is the
+    mean over cycles with its standard error (None with one cycle); each parameter set's is the same measure on
+    the model's cycle."""
+    spec = run.spec
+    theta, turn, period = spec["theta_deg"], spec["rotate_at_strain"], spec["period_strain"]
+    grid, idx = cycle_indices(run.series["strain_nominal"], period, spec["sample_strain"], spec["n_cycles"])
+    out = []
+    for label, start, end, phi in (("after the turn to theta", turn, period, theta), ("after the turn back", 0.0,
+                                                                                        turn, 0.0)):
+        if end - start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE or theta == 0:
+            continue
+        row = {"run": run.path.stem, "segment": label, "direction_deg": phi, "cycles": len(idx)}
+        for field, key in (("A", "A"), ("tau", "tau_over_p")):
+            early, late = segment_windows(grid, start, end)
+            x = along(run.series[key][idx], phi)  # (cycles, grid)
+            x = x * np.sign(x[:, late].mean())  # in the steady value's sense (A12 < 0 < tau12 in forward shear)
+            per_cycle = x[:, early].mean(axis=1) - x[:, late].mean(axis=1)
+            n = len(per_cycle)
+            row[field] = {"dem": float(per_cycle.mean()), "steady": float(x[:, late].mean()),  # its magnitude
+                          "dem_se": float(per_cycle.std(ddof=1) / np.sqrt(n)) if n > 1 else None,
+                          "model": {}}
+            for name, (data, pred) in preds.items():
+                early_m, late_m = segment_windows(data.strain, start, end)
+                y = along(getattr(pred, field), phi)
+                y = y * np.sign(y[late_m].mean())
+                row[field]["model"][name] = float(y[early_m].mean() - y[late_m].mean())
+        out.append(row)
+    return out
+

@@ -122,6 +122,25 @@ def jump_lines(rows: list[dict], paper: dict) -> list[str]:
     return lines
 
 
+def overshoot_lines(rows: list[dict], labels: list[str]) -> list[str]:
+    """The overshoot table: DEM (± its standard error over cycles) and each parameter set, per change."""
+    head = " | ".join(f"{field} {who}" for field in ("A", "tau/p") for who in ("DEM", *labels))
+    lines = ["## Overshoot after a change of direction", "",
+             "The component along the new shear direction (A and tau/p, s_i X_i2), signed so that its steady value "
+             "(its mean over the segment's last 0.2 strain) is positive: its mean 0.15-0.30 strain after the change "
+             "minus the steady value. Positive: it overshoots; negative: it has not yet arrived. DEM: mean over "
+             "the run's cycles ± standard error (a rough one from two or three cycles).", "",
+             f"| run | change | {head} |", "|---|---|" + "---|" * (2 + 2 * len(labels))]
+    for r in rows:
+        cells = []
+        for field in ("A", "tau"):
+            v = r[field]
+            cells.append(f"{v['dem']:+.4f}" + ("" if v["dem_se"] is None else f" ± {v['dem_se']:.4f}"))
+            cells += [f"{v['model'][label]:+.4f}" for label in labels]
+        lines.append(f"| {r['run']} ({r['cycles']} cycles) | {r['segment']} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int, fit_from: list | None = None) -> Path:
     """Write report.md from the comparison's ``metrics``, the calibration's ``fit_json`` and, where ``make fit-from``
     has run, its rows."""
@@ -136,6 +155,8 @@ def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int, fit_from
               "| run | parameters | " + " | ".join(components) + " |", "|---|---|" + "---|" * len(components)]
     for e in metrics["errors"]:
         lines.append(f"| {e['run']} | {e['parameters']} | " + " | ".join(f"{e[k]:.2f}" for k in components) + " |")
+    if metrics.get("overshoot"):
+        lines += ["", *overshoot_lines(metrics["overshoot"], list(sets))]
     if "reversal" in metrics:
         r = metrics["reversal"]
         lo, hi = r["table2_packing_fraction_range"]

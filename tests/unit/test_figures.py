@@ -9,6 +9,7 @@ import pytest
 import model
 from pipeline.calibration.calibrate import fit
 from pipeline.comparison.__main__ import compare
+from pipeline.comparison.metrics import along as metrics_along
 from pipeline.dataset.smoothing import relaxation_strain
 from pipeline.figures.__main__ import draw, main
 from pipeline.io import read_params
@@ -41,6 +42,26 @@ def test_comparison_writes_predictions_and_metrics(compared):
     assert metrics["second_law"]["holds"]
 
 
+def test_the_overshoot_of_model_made_runs_is_the_models_and_the_model_arrives_from_below(compared):
+    """Runs made by the model with Table 2's parameters: the DEM's overshoot measure (the component along the
+    new direction, early minus steady, from the cycles) is the model's own by the same measure on its cycle,
+    after both changes of each run; the model approaches its steady value from below (negative)."""
+    _, metrics = compared
+    rows = {(r["run"], r["segment"]): r for r in metrics["overshoot"]}
+    assert set(rows) == {(run, seg) for run in ("theta180", "theta060")
+                         for seg in ("after the turn to theta", "after the turn back")}
+    for r in rows.values():
+        for field in ("A", "tau"):
+            v = r[field]
+            assert v["model"]["Table 2"] < 0 and v["steady"] > 0, r
+            assert abs(v["dem"] - v["model"]["Table 2"]) < 3 * v["dem_se"] + 0.002, r
+    assert rows[("theta180", "after the turn to theta")]["tau"]["model"]["Table 2"] < -0.02  # slow after a reversal
+    X = np.zeros((3, 3))
+    X[0, 1], X[2, 1] = -0.05, 0.02
+    assert metrics_along(X, 0.0) == -0.05 and metrics_along(X, 90.0) == pytest.approx(0.02)
+    assert metrics_along(X, 180.0) == pytest.approx(0.05)
+
+
 def test_figures_and_report_only_read_the_files(compared, tmp_path):
     tmp, _ = compared
     made = draw(tmp / "compare", tmp / "fit", tmp_path)
@@ -51,6 +72,8 @@ def test_figures_and_report_only_read_the_files(compared, tmp_path):
     assert "| C |" in report and "| theta060 | our fit |" in report and "share of the backstress" in report
     assert "relaxation strain after the reversal" in report and "(holds)" in report
     assert "| e-folds | a1 | b1 | a2 | b2 |" in report  # the stepwise calibration's sensitivity
+    assert "## Overshoot after a change of direction" in report
+    assert "| theta060 (2 cycles) | after the turn back |" in report
 
 
 def test_missing_inputs_are_one_line_errors(tmp_path, capsys):
