@@ -1,6 +1,6 @@
 """report.md from ``metrics.json`` and ``fit.json``: our parameters beside Table 2, the model-vs-DEM
-errors per run, the backstress share, Phi, the second law, the relaxation strains, the stepwise route's
-sensitivity. It formats numbers; it computes none."""
+errors per run, the overshoot after each change of direction, the backstress share, Phi, the second law, the
+relaxation strains, the stepwise route's sensitivity. It formats numbers; it computes none."""
 
 from __future__ import annotations
 
