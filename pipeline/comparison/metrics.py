@@ -114,20 +114,23 @@ def overshoots(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
         if end - start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE or theta == 0:
             continue
         row = {"run": run.path.stem, "segment": label, "direction_deg": phi, "cycles": len(idx)}
+        early, late = segment_windows(grid, start, end)
+        model_windows = {name: segment_windows(data.strain, start, end) for name, (data, _) in preds.items()}
         for field, key in (("A", "A"), ("tau", "tau_over_p")):
-            early, late = segment_windows(grid, start, end)
-            x = along(run.series[key][idx], phi)  # (cycles, grid)
-            x = x * np.sign(x[:, late].mean())  # in the steady value's sense (A12 < 0 < tau12 in forward shear)
-            per_cycle = x[:, early].mean(axis=1) - x[:, late].mean(axis=1)
+            per_cycle, steady = early_minus_steady(along(run.series[key][idx], phi), early, late)
             n = len(per_cycle)
-            row[field] = {"dem": float(per_cycle.mean()), "steady": float(x[:, late].mean()),  # its magnitude
+            row[field] = {"dem": float(per_cycle.mean()), "steady": float(steady.mean()),
                           "dem_se": float(per_cycle.std(ddof=1) / np.sqrt(n)) if n > 1 else None,
-                          "model": {}}
-            for name, (data, pred) in preds.items():
-                early_m, late_m = segment_windows(data.strain, start, end)
-                y = along(getattr(pred, field), phi)
-                y = y * np.sign(y[late_m].mean())
-                row[field]["model"][name] = float(y[early_m].mean() - y[late_m].mean())
+                          "model": {name: float(early_minus_steady(along(getattr(pred, field), phi),
+                                                                   *model_windows[name])[0])
+                                    for name, (_, pred) in preds.items()}}
         out.append(row)
     return out
 
+
+def early_minus_steady(x: np.ndarray, early: np.ndarray, late: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(mean over ``early`` - mean over ``late``, the |mean over ``late``|) along the last axis of ``x``, in the
+    sense of the steady value's sign (A12 < 0 < tau12 in forward shear): one per cycle, or scalars for one series."""
+    x = x * np.sign(x[..., late].mean())
+    steady = x[..., late].mean(axis=-1)
+    return x[..., early].mean(axis=-1) - steady, steady
