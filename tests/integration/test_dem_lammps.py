@@ -254,6 +254,26 @@ def descriptors_and_children(pid: int) -> tuple[Counter, list[str]]:
     return held, children
 
 
+def while_lammps_runs(under: Path, timeout: float = 20.0) -> tuple[Counter, list[str]]:
+    """``descriptors_and_children`` of the scene running under ``under``, taken while LAMMPS is open (its log
+    among the files): right after an ``exec`` at a checkpoint the new process has not yet started MPI, and it
+    would hold fewer."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        scene = subprocess.run(["pgrep", "-f", "dem.lammps_scene"], capture_output=True, text=True)
+        for pid in scene.stdout.split():
+            try:
+                if not Path(f"/proc/{pid}/cwd").resolve().is_relative_to(under):
+                    continue
+                held, children = descriptors_and_children(int(pid))
+            except (FileNotFoundError, ProcessLookupError):
+                continue
+            if any(Path(name).name == "lammps.log" for name in held):
+                return held, children
+        time.sleep(0.02)
+    raise AssertionError(f"no scene with LAMMPS open under {under} within {timeout} s")
+
+
 def test_a_one_rank_scene_holds_as_many_files_and_processes_at_its_end_as_at_its_start(tmp_path):
     """A one-rank scene ``exec``s itself at each of its checkpoints (the tiny run has about 37): it starts MPI as an
     isolated singleton, so no ``orted`` daemon is spawned (one more per checkpoint, about 20 MB each, before), and
@@ -264,9 +284,7 @@ def test_a_one_rank_scene_holds_as_many_files_and_processes_at_its_end_as_at_its
     for line in proc.stdout:
         lines.append(line)
         if "strain" in line and ("[  0%]" in line or "[ 80%]" in line):
-            scene = subprocess.run(["pgrep", "-f", "dem.lammps_scene"], capture_output=True, text=True)
-            pids = [int(p) for p in scene.stdout.split() if Path(f"/proc/{p}/cwd").resolve().is_relative_to(tmp_path)]
-            seen.append(descriptors_and_children(pids[0]))
+            seen.append(while_lammps_runs(tmp_path))
     assert proc.wait() == 0, "".join(lines)
     (first, none), (last, still_none) = seen
     assert none == [] and still_none == [], seen
