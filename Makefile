@@ -230,9 +230,11 @@ fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 ref
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration $(DATA_ARGS) --bootstrap $(BOOT) --out results/$(DATA_SET)/fit-bootstrap
 
-fit-jackknife: venv ## the fit plus a refit leaving out each reversal seed (OVER=seeds) or each angle (OVER=angles) [FIT_FROM] -> results/<data set>/fit-jackknife-<OVER>/
+JACKKNIFE_DIR = results/$(DATA_SET)/fit-jackknife-$(OVER)$(if $(FIT_FROM),-from$(FIT_FROM))$(if $(STRESS),-$(STRESS))
+
+fit-jackknife: venv ## the fit plus a refit leaving out each reversal seed (OVER=seeds) or each angle (OVER=angles) [FIT_FROM] [STRESS] -> results/<data set>/fit-jackknife-<OVER>[-from<FIT_FROM>][-<STRESS>]/
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --jackknife $(OVER) --out results/$(DATA_SET)/fit-jackknife-$(OVER)
+	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --jackknife $(OVER) --out $(JACKKNIFE_DIR)
 
 fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<data set>/fit/definitions.md
 	$(SAY_PRESET)

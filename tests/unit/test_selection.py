@@ -109,3 +109,17 @@ def test_make_hands_the_stages_the_data_set_and_its_folder(variables, words):
     preset, engine, sets = words.split()[1], words.split()[3], words.split()[5::2]
     folder = run_spec.run_folder(preset, engine, run_spec.parse_overrides(sets))
     assert f"results/{folder}/fit/options.txt" in proc.stdout
+
+
+def test_each_jackknife_writes_its_own_folder():
+    """``make fit-jackknife`` over angles, over the whole cycle and past the jump, and over seeds: three folders, so
+    one does not replace another's files (``make -n``: nothing runs)."""
+    def out(*variables):
+        proc = subprocess.run(["make", "-n", "fit-jackknife", "PRESET=reduced", *variables], cwd=ROOT,
+                              capture_output=True, text=True)
+        line = next(x for x in proc.stdout.splitlines() if "--jackknife" in x)
+        return line.split("--out", 1)[1].split()[0]
+
+    folders = [out("OVER=angles"), out("OVER=angles", "FIT_FROM=0.005"), out("OVER=seeds")]
+    assert folders == ["results/reduced/fit-jackknife-angles", "results/reduced/fit-jackknife-angles-from0.005",
+                       "results/reduced/fit-jackknife-seeds"]
