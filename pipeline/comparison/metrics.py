@@ -131,6 +131,6 @@ def overshoots(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
 def early_minus_steady(x: np.ndarray, early: np.ndarray, late: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(mean over ``early`` - mean over ``late``, the |mean over ``late``|) along the last axis of ``x``, in the
     sense of the steady value's sign (A12 < 0 < tau12 in forward shear): one per cycle, or scalars for one series."""
-    x = x * np.sign(x[..., late].mean())
     steady = x[..., late].mean(axis=-1)
-    return x[..., early].mean(axis=-1) - steady, steady
+    sign = np.sign(steady.mean())
+    return sign * (x[..., early].mean(axis=-1) - steady), sign * steady

@@ -266,7 +266,7 @@ def while_lammps_runs(under: Path, timeout: float = 20.0) -> tuple[Counter, list
                 if not Path(f"/proc/{pid}/cwd").resolve().is_relative_to(under):
                     continue
                 held, children = descriptors_and_children(int(pid))
-            except (FileNotFoundError, ProcessLookupError):
+            except FileNotFoundError:
                 continue
             if any(Path(name).name == "lammps.log" for name in held):
                 return held, children

@@ -95,6 +95,11 @@ def test_make_reads_one_line_and_a_bad_choice_is_one_line_on_stderr():
         "error: unknown override key(s) nosuch (see dem.toml)"
 
 
+def dry_run(target: str, *variables: str) -> str:
+    """The commands ``make -n target variables...`` would run (nothing runs)."""
+    return subprocess.run(["make", "-n", target, *variables], cwd=ROOT, capture_output=True, text=True).stdout
+
+
 @pytest.mark.parametrize("variables, words", [
     (["PRESET=paper", "ENGINE=lammps", "SET=inertial_number=1e-3 seed=2"],
      "--preset paper --engine lammps --set inertial_number=0.001"),
@@ -103,21 +108,20 @@ def test_make_reads_one_line_and_a_bad_choice_is_one_line_on_stderr():
 ])
 def test_make_hands_the_stages_the_data_set_and_its_folder(variables, words):
     """What ``make fit`` runs, and where it writes: the data set's folder (``make -n``: nothing runs)."""
-    proc = subprocess.run(["make", "-n", "fit", *variables], cwd=ROOT, capture_output=True, text=True)
-    line = next(x for x in proc.stdout.splitlines() if "-m pipeline.calibration" in x)
+    commands = dry_run("fit", *variables)
+    line = next(x for x in commands.splitlines() if "-m pipeline.calibration" in x)
     assert line.split("pipeline.calibration", 1)[1].split() == words.split()
     preset, engine, sets = words.split()[1], words.split()[3], words.split()[5::2]
     folder = run_spec.run_folder(preset, engine, run_spec.parse_overrides(sets))
-    assert f"results/{folder}/fit/options.txt" in proc.stdout
+    assert f"results/{folder}/fit/options.txt" in commands
 
 
 def test_each_jackknife_writes_its_own_folder():
     """``make fit-jackknife`` over angles, over the whole cycle and past the jump, and over seeds: three folders, so
     one does not replace another's files (``make -n``: nothing runs)."""
     def out(*variables):
-        proc = subprocess.run(["make", "-n", "fit-jackknife", "PRESET=reduced", *variables], cwd=ROOT,
-                              capture_output=True, text=True)
-        line = next(x for x in proc.stdout.splitlines() if "--jackknife" in x)
+        line = next(x for x in dry_run("fit-jackknife", "PRESET=reduced", *variables).splitlines()
+                    if "--jackknife" in x)
         return line.split("--out", 1)[1].split()[0]
 
     folders = [out("OVER=angles"), out("OVER=angles", "FIT_FROM=0.005"), out("OVER=seeds")]
