@@ -166,13 +166,13 @@ class History:
         W = np.array([seg.W for seg in self.segments]) / norms[:, None, None]
         packed = PackedSegments(
             end=self.boundaries[1:].copy(),
-            D_unit=D_unit[:, [0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]],
-            W_unit=W[:, [0, 0, 1], [1, 2, 2]],
+            D_unit=np.ascontiguousarray(D_unit[:, [0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]),
+            W_unit=np.ascontiguousarray(W[:, [0, 0, 1], [1, 2, 2]]),
             rate=norms,
             D_dev=D_dev,
         )
-        for array in dataclasses.astuple(packed):
-            array.setflags(write=False)
+        for member in dataclasses.fields(packed):
+            getattr(packed, member.name).setflags(write=False)
         return packed
 
     def segment_index(self, t: np.ndarray) -> np.ndarray:

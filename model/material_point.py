@@ -245,7 +245,8 @@ def _update_parallel(A, phi, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, tau_
 
 
 def _array(name: str, value, shapes: tuple[tuple, ...]) -> np.ndarray:
-    """``value`` as a C-contiguous float array of one of ``shapes``; a one-line error otherwise."""
+    """``value`` as a read-only C-contiguous float array of one of ``shapes`` (one layout, so the kernels
+    compile once whatever the caller hands them); a one-line error otherwise."""
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -253,7 +254,9 @@ def _array(name: str, value, shapes: tuple[tuple, ...]) -> np.ndarray:
     if array.shape not in shapes:
         wanted = " or ".join(str(s) for s in shapes)
         raise SolverError(f"{name} has shape {array.shape}, expected {wanted}")
-    return np.ascontiguousarray(array)
+    view = np.ascontiguousarray(array).view()
+    view.flags.writeable = False
+    return view
 
 
 def _out(out, n: int) -> Update:

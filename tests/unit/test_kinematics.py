@@ -28,6 +28,16 @@ def test_periodic_cycle_segments():
     np.testing.assert_array_equal(h.segment_index(np.array([0.0, 0.39, 0.4, 2.8])), [0, 0, 1, 1])
 
 
+def test_the_packed_segments_are_read_only_and_c_contiguous():
+    """A history caches its packed segments: no caller may change them, and the kernels see one layout."""
+    packed = periodic_cycle(120.0, rotate_at=0.2).packed
+    for name in ("end", "D_unit", "W_unit", "rate", "D_dev"):
+        array = getattr(packed, name)
+        assert array.flags.c_contiguous and not array.flags.writeable, name
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 0.0
+
+
 @pytest.mark.parametrize(
     "kwargs, message",
     [

@@ -142,6 +142,23 @@ def test_in_place_update_and_broadcast_forms():
     assert np.array_equal(state.A, expected.A) and np.array_equal(state.phi, expected.phi)
 
 
+def test_the_kernels_compile_once_whatever_layout_the_caller_hands_them():
+    """Writable, read-only and Fortran-ordered inputs, one- and two-segment histories: one compiled signature
+    per entry kernel (each further one costs seconds of compilation)."""
+    from model import integrator, material_point
+
+    cycle = predict(90)
+    A, phi = cycle.A[:4].copy(), cycle.packing_fraction[:4].copy()
+    L = shear_velocity_gradient(90.0)
+    for L_given in (np.broadcast_to(L, (4, 3, 3)), np.asfortranarray(np.stack([L] * 4)), L.copy()):
+        update(A, phi, L_given, 0.01)
+    integrate(History((Segment(1.0, L),)))
+    integrate(periodic_cycle(90.0, rotate_at=0.1))
+    for kernel in (material_point._check_inputs, material_point._update_serial, integrator.dop853,
+                   integrator.outputs):
+        assert len(kernel.signatures) == 1, (kernel.__name__, kernel.signatures)
+
+
 def test_zero_step_keeps_the_state_and_gives_eq14_stress():
     cycle = predict(150)
     A, phi = cycle.A[:5], cycle.packing_fraction[:5]
