@@ -1,7 +1,8 @@
 """``make fit``: calibrate the model on a preset's DEM runs and write ``results/<preset>/fit/``.
 
 ``python -m pipeline.calibration [--preset P] [--engine E] [--set K=V] [--runs a.h5 ...] [--window 0.05]
-[--fit-from 0.005] [--out DIR] [--bootstrap N] [--jackknife [seeds|angles]] [--hold NAME=VALUE]``. Without
+[--fit-from 0.005] [--out DIR] [--angles 180 90 ...] [--bootstrap N] [--jackknife [seeds|angles]]
+[--hold NAME=VALUE]``. Without
 ``--preset``, the most faithful preset that has a reversal run is used, and named; the runs are the preset's data set
 (``pipeline.dataset.selection``), the outputs go to ``results/<its folder>/fit``. The work is
 ``calibrate.calibrate``; outputs ``calibrate.write``.
@@ -45,6 +46,9 @@ def main(argv=None) -> int:
     parser.add_argument("--stress", default=global_fit.STRESS_DEFAULT, choices=sorted(global_fit.STRESS_FITS),
                         help="the components of tau/p fitted: shear (12, 32: tau:D'; the paper's, default) or all "
                              "(the diagonal too, which carries normal-stress differences the model does not give)")
+    parser.add_argument("--angles", nargs="+", type=float, metavar="THETA",
+                        help="fit only the data set's runs at these angles (degrees, 180 among them); the outputs "
+                             "go to results/<data set>/fit-angles-<thetas>/")
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="also refit N >= 2 resamplings of the cycles (bootstrap standard deviations)")
     args = parser.parse_args(argv)
@@ -52,15 +56,21 @@ def main(argv=None) -> int:
         raise CalibrationError(f"bootstrap={args.bootstrap}: a bootstrap needs at least 2 resamples")
     settings = Settings(args.window, definitions_from(args), parse_hold(args.hold), args.fit_from,
                         args.persistence_exponent, args.bootstrap or 0, args.jackknife, args.stress)
+    if args.runs and args.angles:
+        raise CalibrationError("--angles chooses among a data set's runs: give it without --runs")
     if args.runs:
         reversals, cross, left_out = [load(p) for p in args.runs], (), ()
         out = args.out or preset_output(check_folder_name(args.preset or "custom"), "fit")
     else:
         chosen = selection.from_arguments(args)
         print(f"runs: {chosen.label}")
-        out = args.out or preset_output(chosen.folder, "fit")
         every = preset_runs(chosen)
         reversals, cross = reversal_seeds(chosen), tuple(other_angles(every))
+        name = "fit"
+        if args.angles:
+            cross = only_angles(args.angles, reversals, cross)
+            name = "fit-angles-" + "-".join(f"{theta:g}" for theta in args.angles)
+        out = args.out or preset_output(chosen.folder, name)
         if not reversals:
             given = f' SET="{" ".join(chosen.settings)}"' if chosen.settings else ""
             raise CalibrationError(f"no reversal run of {chosen.label}: run `make dem THETA=180 "
@@ -70,6 +80,20 @@ def main(argv=None) -> int:
     report = fit(reversals, out, cross, left_out, **vars(settings))
     print_report(report, out)
     return 0
+
+
+def only_angles(angles: list[float], reversals: list, cross: tuple) -> tuple:
+    """The runs of ``cross`` at ``angles`` (degrees), after checking that each angle has a run and that the
+    reversal (180) is among them: the global fit needs it."""
+    present = {180.0} if reversals else set()
+    present |= {r.theta_deg for r in cross}
+    for theta in angles:
+        if theta not in present:
+            raise CalibrationError(f"angles: no run at theta = {theta:g} (the data set has "
+                                   f"{', '.join(f'{t:g}' for t in sorted(present))})")
+    if 180.0 not in angles:
+        raise CalibrationError(f"angles={' '.join(f'{t:g}' for t in angles)}: the fit needs the reversal, 180")
+    return tuple(r for r in cross if r.theta_deg in angles)
 
 
 if __name__ == "__main__":

@@ -155,6 +155,9 @@ FIT_CASES = [
     (["--runs", "{inp}/theta180.h5", "--jackknife", "angles"],
      "a jackknife over angles needs at least 3 of them, not 1 (theta = 180)"),
     (["--runs", "{inp}/theta180.h5", "--jackknife", "angle"], "invalid choice: 'angle'"),
+    (["--runs", "{inp}/theta180.h5", "--angles", "180"], "--angles chooses among a data set's runs"),
+    (["--preset", "reduced", "--angles", "180", "75"], "angles: no run at theta = 75 (the data set has 30, 60, 90"),
+    (["--preset", "reduced", "--angles", "90", "60"], "angles=90 60: the fit needs the reversal, 180"),
 ]
 
 

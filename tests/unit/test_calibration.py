@@ -118,6 +118,16 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
                                                                results / "p/dem/theta180.h5"]
 
 
+def test_the_angles_option_keeps_every_run_at_those_angles_and_no_other():
+    from pipeline.calibration.__main__ import only_angles
+
+    chosen = DataSet("reduced")
+    reversals, cross = lookup.reversal_seeds(chosen), tuple(lookup.other_angles(lookup.preset_runs(chosen)))
+    kept = only_angles([180.0, 90.0, 30.0], reversals, cross)
+    assert {r.theta_deg for r in kept} == {90.0, 30.0}
+    assert len(kept) == sum(r.theta_deg in (90.0, 30.0) for r in cross) and len(cross) > len(kept)
+
+
 def test_each_engines_runs_are_found_apart():
     """A LAMMPS run sits in ``<preset>-lammps[-<hash>]/``, which the Yade lookup's ``<preset>-*`` variants also
     match: each engine's lookup keeps its own runs only."""
