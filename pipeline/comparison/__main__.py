@@ -80,6 +80,8 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
                          for label, (data, pred) in preds.items()]}
     result["overshoot"] = [row for run, preds in zip(runs, predictions, strict=True)
                            for row in metrics.overshoots(run, preds)]
+    result["memory"] = [row for run, preds in zip(runs, predictions, strict=True)
+                        for row in metrics.memories(run, preds)]
     reversals = [r for r in runs if r.is_reversal]
     if reversals:
         paper_phi = model.predict(180, params=model.Params()).packing_fraction

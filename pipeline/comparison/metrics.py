@@ -21,6 +21,8 @@ COMPONENTS = {"A12": ("A", 0, 1), "A32": ("A", 2, 1), "tau12": ("tau", 0, 1), "t
 OVERSHOOT_EARLY = (0.15, 0.30)
 #: the last strain of a segment, whose mean is the segment's steady value
 OVERSHOOT_LATE = 0.2
+#: strain windows after a change of direction over which the fabric's memory of the old direction is followed
+MEMORY_WINDOWS = ((0.05, 0.10), (0.10, 0.20), (0.20, 0.30))
 
 
 def model_for(run, sets: dict) -> dict[str, tuple[Cycle, model.Result]]:
@@ -98,6 +100,56 @@ def segment_windows(strain: np.ndarray, start: float, end: float) -> tuple[np.nd
     return early, late
 
 
+def changes(spec: dict):
+    """The cycle's changes of direction: (label, the new segment's start and end, its direction, the old
+    direction, the old segment's start and end), strains in the cycle and directions in degrees."""
+    theta, turn, period = spec["theta_deg"], spec["rotate_at_strain"], spec["period_strain"]
+    yield "after the turn to theta", turn, period, theta, 0.0, 0.0, turn
+    yield "after the turn back", 0.0, turn, 0.0, theta, turn, period
+
+
+def window(strain: np.ndarray, start: float, end: float) -> np.ndarray:
+    """Mask of ``strain`` in [start, end]."""
+    return (strain >= start - 1e-9) & (strain <= end + 1e-9)
+
+
+def old_direction_left(A: np.ndarray, strain: np.ndarray, change: tuple) -> np.ndarray:
+    """The fabric's memory of the old shear direction after ``change`` (one of ``changes``), over each of
+    MEMORY_WINDOWS: A's shear component along the wall-plane direction normal to the new one (t_i A_i2, the part
+    the new shear does not produce), as a fraction of what the old steady fabric (the old segment's last
+    OVERSHOOT_LATE) puts there. 1 right at the change, 0 once the old direction is forgotten. Along the last axis
+    but two of ``A`` (..., samples, 3, 3): one per cycle, or one for one series."""
+    _, start, _, new, old, old_start, old_end = change
+    normal = new + 90.0
+    steady = along(A, old)[..., window(strain, old_end - OVERSHOOT_LATE, old_end)].mean()
+    share = np.cos(np.radians(normal - old)) * steady
+    left = along(A, normal)
+    return np.stack([left[..., window(strain, start + a, start + b)].mean(axis=-1) / share
+                     for a, b in MEMORY_WINDOWS], axis=-1)
+
+
+def memories(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
+    """``old_direction_left`` after each change of direction by an angle whose normal part is not small
+    (|sin| >= 0.25: not the reversal), the DEM's as the mean over cycles with its standard error (None with one
+    cycle), each parameter set's on the model's cycle."""
+    spec = run.spec
+    grid, idx = cycle_indices(run.series["strain_nominal"], spec["period_strain"], spec["sample_strain"],
+                              spec["n_cycles"])
+    out = []
+    for change in changes(spec):
+        label, start, end, new, old = change[:5]
+        if end - start < MEMORY_WINDOWS[-1][1] or abs(np.sin(np.radians(new - old))) < 0.25:
+            continue
+        per_cycle = old_direction_left(run.series["A"][idx], grid, change)
+        n = len(per_cycle)
+        out.append({"run": run.path.stem, "segment": label, "from_deg": old, "direction_deg": new, "cycles": n,
+                    "windows": [list(w) for w in MEMORY_WINDOWS], "dem": per_cycle.mean(axis=0).tolist(),
+                    "dem_se": (per_cycle.std(axis=0, ddof=1) / np.sqrt(n)).tolist() if n > 1 else None,
+                    "model": {name: old_direction_left(pred.A, data.strain, change).tolist()
+                              for name, (data, pred) in preds.items()}})
+    return out
+
+
 def overshoots(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
     """After each change of direction whose segment is long enough (the turn to theta at ``rotate_at`` and the
     turn back to e1 at the period's start), the component of A and tau/p along the new shear direction, signed
@@ -106,12 +158,11 @@ def overshoots(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
     mean over cycles with its standard error (None with one cycle); each parameter set's is the same measure on
     the model's cycle."""
     spec = run.spec
-    theta, turn, period = spec["theta_deg"], spec["rotate_at_strain"], spec["period_strain"]
-    grid, idx = cycle_indices(run.series["strain_nominal"], period, spec["sample_strain"], spec["n_cycles"])
+    grid, idx = cycle_indices(run.series["strain_nominal"], spec["period_strain"], spec["sample_strain"],
+                              spec["n_cycles"])
     out = []
-    for label, start, end, phi in (("after the turn to theta", turn, period, theta), ("after the turn back", 0.0,
-                                                                                        turn, 0.0)):
-        if end - start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE or theta == 0:
+    for label, start, end, phi, *_ in changes(spec):
+        if end - start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE or spec["theta_deg"] == 0:
             continue
         row = {"run": run.path.stem, "segment": label, "direction_deg": phi, "cycles": len(idx)}
         early, late = segment_windows(grid, start, end)

@@ -1,6 +1,7 @@
 """report.md from ``metrics.json`` and ``fit.json``: our parameters beside Table 2, the model-vs-DEM
-errors per run, the overshoot after each change of direction, the backstress share, Phi, the second law, the
-relaxation strains, the stepwise route's sensitivity. It formats numbers; it computes none."""
+errors per run, the overshoot and the memory of the old direction after each change of direction, the backstress
+share, Phi, the second law, the relaxation strains, the stepwise route's sensitivity. It formats numbers; it
+computes none."""
 
 from __future__ import annotations
 
@@ -141,6 +142,26 @@ def overshoot_lines(rows: list[dict], labels: list[str]) -> list[str]:
     return lines
 
 
+def memory_lines(rows: list[dict], labels: list[str]) -> list[str]:
+    """The memory table: per window after the change, the DEM (± its standard error over cycles) and each
+    parameter set."""
+    windows = [f"{a:g}-{b:g}" for a, b in rows[0]["windows"]]
+    head = " | ".join(f"{w}: {who}" for w in windows for who in ("DEM", *labels))
+    lines = ["## Memory of the old direction after a change", "",
+             "The fabric's shear component along the wall-plane direction normal to the new shear direction "
+             "(the part the new shear does not make), as a fraction of what the old direction's steady fabric "
+             "puts there: 1 at the change, 0 once the old direction is forgotten; its mean over each window of "
+             "strain after the change. DEM: mean over the run's cycles ± standard error.", "",
+             f"| run | change | {head} |", "|---|---|" + "---|" * (len(windows) * (1 + len(labels)))]
+    for r in rows:
+        cells = []
+        for k in range(len(windows)):
+            cells.append(f"{r['dem'][k]:+.2f}" + ("" if r["dem_se"] is None else f" ± {r['dem_se'][k]:.2f}"))
+            cells += [f"{r['model'][label][k]:+.2f}" for label in labels]
+        lines.append(f"| {r['run']} ({r['cycles']} cycles) | {r['segment']} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int, fit_from: list | None = None) -> Path:
     """Write report.md from the comparison's ``metrics``, the calibration's ``fit_json`` and, where ``make fit-from``
     has run, its rows."""
@@ -157,6 +178,8 @@ def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int, fit_from
         lines.append(f"| {e['run']} | {e['parameters']} | " + " | ".join(f"{e[k]:.2f}" for k in components) + " |")
     if metrics.get("overshoot"):
         lines += ["", *overshoot_lines(metrics["overshoot"], list(sets))]
+    if metrics.get("memory"):
+        lines += ["", *memory_lines(metrics["memory"], list(sets))]
     if "reversal" in metrics:
         r = metrics["reversal"]
         lo, hi = r["table2_packing_fraction_range"]

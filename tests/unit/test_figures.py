@@ -62,6 +62,20 @@ def test_the_overshoot_of_model_made_runs_is_the_models_and_the_model_arrives_fr
     assert metrics_along(X, 180.0) == pytest.approx(0.05)
 
 
+def test_the_memory_of_model_made_runs_is_the_models_and_fades(compared):
+    """Runs made by the model with Table 2's parameters: the DEM's memory of the old direction (the fabric's part
+    normal to the new direction, as a fraction of the old steady fabric's) is the model's own by the same measure,
+    after both turns at 60 degrees; it fades from near 1/3 to a few per cent; the reversal has no such part."""
+    _, metrics = compared
+    rows = {(r["run"], r["segment"]): r for r in metrics["memory"]}
+    assert set(rows) == {("theta060", "after the turn to theta"), ("theta060", "after the turn back")}
+    for r in rows.values():
+        model_left = r["model"]["Table 2"]
+        assert 0.2 < model_left[0] < 0.5 and model_left[0] > model_left[1] > model_left[2] > 0, r
+        for dem, se, mod in zip(r["dem"], r["dem_se"], model_left, strict=True):
+            assert abs(dem - mod) < 3 * se + 0.02, r
+
+
 def test_figures_and_report_only_read_the_files(compared, tmp_path):
     tmp, _ = compared
     made = draw(tmp / "compare", tmp / "fit", tmp_path)
@@ -73,6 +87,7 @@ def test_figures_and_report_only_read_the_files(compared, tmp_path):
     assert "relaxation strain after the reversal" in report and "(holds)" in report
     assert "| e-folds | a1 | b1 | a2 | b2 |" in report  # the stepwise calibration's sensitivity
     assert "## Overshoot after a change of direction" in report
+    assert "## Memory of the old direction after a change" in report and "| theta060 (" in report
     assert "| theta060 (2 cycles) | after the turn back |" in report
 
 
