@@ -130,15 +130,17 @@ def old_direction_left(A: np.ndarray, strain: np.ndarray, change: tuple) -> np.n
 
 def memories(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
     """``old_direction_left`` after each change of direction by an angle whose normal part is not small
-    (|sin| >= 0.25: not the reversal), the DEM's as the mean over cycles with its standard error (None with one
-    cycle), each parameter set's on the model's cycle."""
+    (|sin| >= 0.25: not the reversal) from an old segment long enough to be steady at its end (not Fig. 7's turn
+    at 0.1 or 0.2), the DEM's as the mean over cycles with its standard error (None with one cycle), each
+    parameter set's on the model's cycle."""
     spec = run.spec
     grid, idx = cycle_indices(run.series["strain_nominal"], spec["period_strain"], spec["sample_strain"],
                               spec["n_cycles"])
     out = []
     for change in changes(spec):
-        label, start, end, new, old = change[:5]
-        if end - start < MEMORY_WINDOWS[-1][1] or abs(np.sin(np.radians(new - old))) < 0.25:
+        label, start, end, new, old, old_start, old_end = change
+        if (end - start < MEMORY_WINDOWS[-1][1] or old_end - old_start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE
+                or abs(np.sin(np.radians(new - old))) < 0.25):
             continue
         per_cycle = old_direction_left(run.series["A"][idx], grid, change)
         n = len(per_cycle)

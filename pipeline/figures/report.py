@@ -151,7 +151,8 @@ def memory_lines(rows: list[dict], labels: list[str]) -> list[str]:
              "The fabric's shear component along the wall-plane direction normal to the new shear direction "
              "(the part the new shear does not make), as a fraction of what the old direction's steady fabric "
              "puts there: 1 at the change, 0 once the old direction is forgotten; its mean over each window of "
-             "strain after the change. DEM: mean over the run's cycles ± standard error.", "",
+             "strain after the change. DEM: mean over the run's cycles ± standard error (a rough one from two or "
+             "three cycles).", "",
              f"| run | change | {head} |", "|---|---|" + "---|" * (len(windows) * (1 + len(labels)))]
     for r in rows:
         cells = []

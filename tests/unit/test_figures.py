@@ -1,6 +1,7 @@
 """`make compare` and `make figures`: the comparison files, then headless figures and the report that only read them."""
 
 import json
+from types import SimpleNamespace
 
 import h5py
 import numpy as np
@@ -10,6 +11,7 @@ import model
 from pipeline.calibration.calibrate import fit
 from pipeline.comparison.__main__ import compare
 from pipeline.comparison.metrics import along as metrics_along
+from pipeline.comparison.metrics import memories
 from pipeline.dataset.smoothing import relaxation_strain
 from pipeline.figures.__main__ import draw, main
 from pipeline.io import read_params
@@ -74,6 +76,15 @@ def test_the_memory_of_model_made_runs_is_the_models_and_fades(compared):
         assert 0.2 < model_left[0] < 0.5 and model_left[0] > model_left[1] > model_left[2] > 0, r
         for dem, se, mod in zip(r["dem"], r["dem_se"], model_left, strict=True):
             assert abs(dem - mod) < 3 * se + 0.02, r
+
+
+def test_the_memory_skips_a_change_from_a_segment_too_short_to_be_steady(tmp_path):
+    """Fig. 7's protocol (the turn at 0.1): before the turn to theta the old segment, 0.1 long, has no steady end
+    to measure the memory against, and after the turn back the new one is too short to follow it."""
+    run = synthetic_run(tmp_path, theta=90.0, name="theta090", n_cycles=2)
+    fig7 = SimpleNamespace(spec={**run.spec, "rotate_at_strain": 0.1}, series=run.series, path=run.path)
+    assert memories(fig7, {}) == []
+    assert [r["segment"] for r in memories(run, {})] == ["after the turn to theta", "after the turn back"]
 
 
 def test_figures_and_report_only_read_the_files(compared, tmp_path):
