@@ -34,6 +34,8 @@ ENGINES ?= yade
 PRESETS ?=
 # make fit [FIT_FROM=0.005]: the model restarted from the DEM's state that far past each change of direction
 FIT_FROM ?=
+# make fit-angles ANGLES="180 90 60 30": the fit on the data set's runs at these angles only
+ANGLES ?=
 # make fit-profile [STRAIN=nominal|bulk] [PHI=gap|central]
 STRAIN ?= nominal
 PHI ?= gap
@@ -63,6 +65,7 @@ comma := ,
 $(call check,THETA,$(NUMBER_CHARS),a number)
 $(call check,ROTATE_AT,$(NUMBER_CHARS),a number)
 $(call check,FIT_FROM,$(NUMBER_CHARS),a number)
+$(call check,ANGLES,$(NUMBER_CHARS),a list of angles in degrees)
 $(call check,STRESS,$(LOWER),shear or all)
 $(call check,THREADS,$(DIGITS),a whole number)
 $(call check,ENGINE,$(LOWER),yade or lammps)
@@ -118,7 +121,7 @@ DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config
 
 FORCE:
 .PHONY: FORCE help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-lammps system-slurm model-cycles \
-	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-definitions fit-from fit-profile fidelity fidelity-table engines versus data-card cells jump stability profile-dem bench-dem compare figures demo-dem clean
+	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-angles fit-definitions fit-from fit-profile fidelity fidelity-table engines versus data-card cells jump stability profile-dem bench-dem compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -235,6 +238,14 @@ JACKKNIFE_DIR = results/$(DATA_SET)/fit-jackknife-$(OVER)$(if $(FIT_FROM),-from$
 fit-jackknife: venv ## the fit plus a refit leaving out each reversal seed (OVER=seeds) or each angle (OVER=angles) [FIT_FROM] [STRESS] -> results/<data set>/fit-jackknife-<OVER>[-from<FIT_FROM>][-<STRESS>]/
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --jackknife $(OVER) --out $(JACKKNIFE_DIR)
+
+ANGLES_DIR = results/$(DATA_SET)/fit-angles-$(subst $(space),-,$(strip $(ANGLES)))$(if $(FIT_FROM),-from$(FIT_FROM))$(if \
+	$(STRESS),-$(STRESS))
+
+fit-angles: venv ## the fit on the runs at some angles only (ANGLES="180 90 60 30", 180 among them) [FIT_FROM] [STRESS] -> results/<data set>/fit-angles-<ANGLES>[-from<FIT_FROM>][-<STRESS>]/
+	$(if $(strip $(ANGLES)),,$(error ANGLES is empty: give the angles to fit, e.g. ANGLES="180 90 60 30"))
+	$(SAY_PRESET)
+	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --angles $(ANGLES) --out $(ANGLES_DIR)
 
 fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<data set>/fit/definitions.md
 	$(SAY_PRESET)

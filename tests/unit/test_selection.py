@@ -127,3 +127,14 @@ def test_each_jackknife_writes_its_own_folder():
     folders = [out("OVER=angles"), out("OVER=angles", "FIT_FROM=0.005"), out("OVER=seeds")]
     assert folders == ["results/reduced/fit-jackknife-angles", "results/reduced/fit-jackknife-angles-from0.005",
                        "results/reduced/fit-jackknife-seeds"]
+
+
+def test_make_fit_angles_names_its_angles_in_its_folder_and_refuses_none():
+    """``make fit-angles ANGLES=...``: the stage gets the angles and writes a folder named by them (``make -n``:
+    nothing runs); without ANGLES, one line on stderr and nothing runs."""
+    line = next(x for x in dry_run("fit-angles", "PRESET=reduced", "ANGLES=180 90", "FIT_FROM=0.005").splitlines()
+                if "--angles" in x)
+    assert line.split("--angles", 1)[1].split()[:4] == ["180", "90", "--out",
+                                                        "results/reduced/fit-angles-180-90-from0.005"]
+    proc = subprocess.run(["make", "-n", "fit-angles", "PRESET=reduced"], cwd=ROOT, capture_output=True, text=True)
+    assert proc.returncode != 0 and "ANGLES is empty" in proc.stderr and "pipeline.calibration" not in proc.stdout
