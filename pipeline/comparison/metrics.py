@@ -93,11 +93,16 @@ def along(X: np.ndarray, phi_deg: float) -> np.ndarray:
     return np.cos(phi) * X[..., 0, 1] + np.sin(phi) * X[..., 2, 1]
 
 
+def window(strain: np.ndarray, start: float, end: float) -> np.ndarray:
+    """Mask of ``strain`` in [start, end]."""
+    return (strain >= start - 1e-9) & (strain <= end + 1e-9)
+
+
 def segment_windows(strain: np.ndarray, start: float, end: float) -> tuple[np.ndarray, np.ndarray]:
-    """Masks of ``strain`` OVERSHOOT_EARLY after ``start`` and the last OVERSHOOT_LATE before ``end``."""
-    early = (strain >= start + OVERSHOOT_EARLY[0] - 1e-9) & (strain <= start + OVERSHOOT_EARLY[1] + 1e-9)
+    """Masks of ``strain`` OVERSHOOT_EARLY after ``start`` and the last OVERSHOOT_LATE before ``end`` (the sample
+    at ``end`` itself, the next change's, left out)."""
     late = (strain >= end - OVERSHOOT_LATE - 1e-9) & (strain < end - 1e-9)
-    return early, late
+    return window(strain, start + OVERSHOOT_EARLY[0], start + OVERSHOOT_EARLY[1]), late
 
 
 def changes(spec: dict):
@@ -108,11 +113,6 @@ def changes(spec: dict):
     yield "after the turn back", 0.0, turn, 0.0, theta, turn, period
 
 
-def window(strain: np.ndarray, start: float, end: float) -> np.ndarray:
-    """Mask of ``strain`` in [start, end]."""
-    return (strain >= start - 1e-9) & (strain <= end + 1e-9)
-
-
 def old_direction_left(A: np.ndarray, strain: np.ndarray, change: tuple) -> np.ndarray:
     """The fabric's memory of the old shear direction after ``change`` (one of ``changes``), over each of
     MEMORY_WINDOWS: A's shear component along the wall-plane direction normal to the new one (t_i A_i2, the part
@@ -121,7 +121,7 @@ def old_direction_left(A: np.ndarray, strain: np.ndarray, change: tuple) -> np.n
     but two of ``A`` (..., samples, 3, 3): one per cycle, or one for one series."""
     _, start, _, new, old, old_start, old_end = change
     normal = new + 90.0
-    steady = along(A, old)[..., window(strain, old_end - OVERSHOOT_LATE, old_end)].mean()
+    steady = along(A, old)[..., segment_windows(strain, old_start, old_end)[1]].mean()
     share = np.cos(np.radians(normal - old)) * steady
     left = along(A, normal)
     return np.stack([left[..., window(strain, start + a, start + b)].mean(axis=-1) / share
