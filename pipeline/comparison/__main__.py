@@ -35,10 +35,12 @@ SCHEMA = "granular-backstress/compare"
 
 
 def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, preset: str,
-                     reversal_parts: list) -> None:
+                     reversal_parts: list, memory_curves: list) -> None:
     """compare.h5: per run, the DEM cycle and every parameter set's model cycle, against strain in the fit's
     measure (``strain_measure``: the datasets keep the name ``strain_bulk``); per reversal run of the fit, the
-    smoothed tau12/p split into backstress C A12 and isotropic part."""
+    smoothed tau12/p split into backstress C A12 and isotropic part; per change of direction with a memory
+    (``metrics.memory_curves``), the memory of the old direction against the strain after the change (the DEM's
+    mean over cycles and its standard error, each parameter set's)."""
     with h5py.File(path, "w") as f:
         f.attrs.update(schema=SCHEMA, schema_version=1, preset=preset, strain_measure=runs[0].definitions.strain,
                        param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
@@ -65,6 +67,18 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
             g = f.create_group(f"reversal/{k:02d}")
             for key, value in part.items():
                 g.create_dataset(key, data=value)
+        for k, c in enumerate(memory_curves):
+            g = f.create_group(f"memory/{k:02d}")
+            g.attrs.update(run=c["run"], segment=c["segment"], from_deg=c["from_deg"],
+                           direction_deg=c["direction_deg"], cycles=len(c["dem"]))
+            n = len(c["dem"])
+            g.create_dataset("strain_after", data=c["strain_after"])
+            g.create_dataset("dem", data=c["dem"].mean(axis=0))
+            g.create_dataset("dem_sem", data=c["dem"].std(axis=0, ddof=1) / np.sqrt(n) if n > 1
+                             else np.full(c["dem"].shape[1:], np.nan))
+            for label, (strain, fraction) in c["model"].items():
+                g.create_dataset(f"model/{label}/strain_after", data=strain)
+                g.create_dataset(f"model/{label}/fraction", data=fraction)
 
 
 def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str, label: str = "") -> dict:
@@ -80,8 +94,8 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
                          for label, (data, pred) in preds.items()]}
     result["overshoot"] = [row for run, preds in zip(runs, predictions, strict=True)
                            for row in metrics.overshoots(run, preds)]
-    result["memory"] = [row for run, preds in zip(runs, predictions, strict=True)
-                        for row in metrics.memories(run, preds)]
+    curves = [c for run, preds in zip(runs, predictions, strict=True) for c in metrics.memory_curves(run, preds)]
+    result["memory"] = metrics.memories(curves)
     reversals = [r for r in runs if r.is_reversal]
     if reversals:
         paper_phi = model.predict(180, params=model.Params()).packing_fraction
@@ -104,7 +118,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
             "model": {label: dict(zip(("isotropic", "backstress"), metrics.model_relaxation(p, rotate_at),
                                       strict=True)) for label, p in sets.items()}}
     with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
-        write_compare_h5(h5, runs, predictions, sets, preset, parts)
+        write_compare_h5(h5, runs, predictions, sets, preset, parts, curves)
         js.write_text(io.json_text(result))
     return result
 

@@ -23,6 +23,8 @@ OVERSHOOT_EARLY = (0.15, 0.30)
 OVERSHOOT_LATE = 0.2
 #: strain windows after a change of direction over which the fabric's memory of the old direction is followed
 MEMORY_WINDOWS = ((0.05, 0.10), (0.10, 0.20), (0.20, 0.30))
+#: strain after a change over which compare.h5 keeps the memory's curve
+MEMORY_SPAN = 0.5
 
 
 def model_for(run, sets: dict) -> dict[str, tuple[Cycle, model.Result]]:
@@ -113,26 +115,25 @@ def changes(spec: dict):
     yield "after the turn back", 0.0, turn, 0.0, theta, turn, period
 
 
-def old_direction_left(A: np.ndarray, strain: np.ndarray, change: tuple) -> np.ndarray:
-    """The fabric's memory of the old shear direction after ``change`` (one of ``changes``), over each of
-    MEMORY_WINDOWS: A's shear component along the wall-plane direction normal to the new one (t_i A_i2, the part
-    the new shear does not produce), as a fraction of what the old steady fabric (the old segment's last
-    OVERSHOOT_LATE) puts there. 1 right at the change, 0 once the old direction is forgotten. Along the last axis
-    but two of ``A`` (..., samples, 3, 3): one per cycle, or one for one series."""
-    _, start, _, new, old, old_start, old_end = change
+def old_direction_curve(A: np.ndarray, strain: np.ndarray, change: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """The fabric's memory of the old shear direction after ``change`` (one of ``changes``): A's shear component
+    along the wall-plane direction normal to the new one (t_i A_i2, the part the new shear does not produce), as a
+    fraction of what the old steady fabric (the old segment's last OVERSHOOT_LATE) puts there; 1 right at the
+    change, 0 once the old direction is forgotten. Returns (strain after the change, up to MEMORY_SPAN or the
+    segment's end; the fraction there), along the last axis but two of ``A`` (..., samples, 3, 3): one curve
+    per cycle, or one for one series."""
+    _, start, end, new, old, old_start, old_end = change
     normal = new + 90.0
     steady = along(A, old)[..., segment_windows(strain, old_start, old_end)[1]].mean()
-    share = np.cos(np.radians(normal - old)) * steady
-    left = along(A, normal)
-    return np.stack([left[..., window(strain, start + a, start + b)].mean(axis=-1) / share
-                     for a, b in MEMORY_WINDOWS], axis=-1)
+    after = window(strain, start, min(start + MEMORY_SPAN, end))
+    return strain[after] - start, along(A, normal)[..., after] / (np.cos(np.radians(normal - old)) * steady)
 
 
-def memories(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
-    """``old_direction_left`` after each change of direction by an angle whose normal part is not small
+def memory_curves(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
+    """``old_direction_curve`` after each change of direction by an angle whose normal part is not small
     (|sin| >= 0.25: not the reversal) from an old segment long enough to be steady at its end (not Fig. 7's turn
-    at 0.1 or 0.2), the DEM's as the mean over cycles with its standard error (None with one cycle), each
-    parameter set's on the model's cycle."""
+    at 0.1 or 0.2) into a segment long enough to follow it: the DEM's per cycle, each parameter set's on the
+    model's cycle."""
     spec = run.spec
     grid, idx = cycle_indices(run.series["strain_nominal"], spec["period_strain"], spec["sample_strain"],
                               spec["n_cycles"])
@@ -142,13 +143,29 @@ def memories(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
         if (end - start < MEMORY_WINDOWS[-1][1] or old_end - old_start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE
                 or abs(np.sin(np.radians(new - old))) < 0.25):
             continue
-        per_cycle = old_direction_left(run.series["A"][idx], grid, change)
-        n = len(per_cycle)
-        out.append({"run": run.path.stem, "segment": label, "from_deg": old, "direction_deg": new, "cycles": n,
-                    "windows": [list(w) for w in MEMORY_WINDOWS], "dem": per_cycle.mean(axis=0).tolist(),
-                    "dem_se": (per_cycle.std(axis=0, ddof=1) / np.sqrt(n)).tolist() if n > 1 else None,
-                    "model": {name: old_direction_left(pred.A, data.strain, change).tolist()
+        strain, dem = old_direction_curve(run.series["A"][idx], grid, change)
+        out.append({"run": run.path.stem, "segment": label, "from_deg": old, "direction_deg": new,
+                    "strain_after": strain, "dem": dem,
+                    "model": {name: old_direction_curve(pred.A, data.strain, change)
                               for name, (data, pred) in preds.items()}})
+    return out
+
+
+def memories(curves: list[dict]) -> list[dict]:
+    """The ``memory_curves``' means over each of MEMORY_WINDOWS: the DEM's as the mean over cycles with its
+    standard error (None with one cycle), each parameter set's on the model's cycle."""
+    def means(strain, fraction):
+        return np.stack([fraction[..., window(strain, a, b)].mean(axis=-1) for a, b in MEMORY_WINDOWS], axis=-1)
+
+    out = []
+    for c in curves:
+        per_cycle = means(c["strain_after"], c["dem"])
+        n = len(per_cycle)
+        out.append({"run": c["run"], "segment": c["segment"], "from_deg": c["from_deg"],
+                    "direction_deg": c["direction_deg"], "cycles": n, "windows": [list(w) for w in MEMORY_WINDOWS],
+                    "dem": per_cycle.mean(axis=0).tolist(),
+                    "dem_se": (per_cycle.std(axis=0, ddof=1) / np.sqrt(n)).tolist() if n > 1 else None,
+                    "model": {name: means(*curve).tolist() for name, curve in c["model"].items()}})
     return out
 
 

@@ -1,4 +1,5 @@
-"""``python -m pipeline.figures [--preset P] [--engine E] [--set K=V]`` (``make figures``): Figs. 3-9 and report.md.
+"""``python -m pipeline.figures [--preset P] [--engine E] [--set K=V]`` (``make figures``): Figs. 3-9, the memory
+after a turn and report.md.
 
 Reads ``results/<folder>/compare/compare.h5`` and ``metrics.json`` (``make compare``) and
 ``results/<folder>/fit/fit.h5`` and ``fit.json`` (``make fit``), ``<folder>`` the data set's
@@ -19,7 +20,7 @@ from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..errors import PipelineError
 from ..paths import preset_output
-from . import cycles, laws, profiles, report, reversal
+from . import cycles, laws, memory, profiles, report, reversal
 
 
 def read_json(path: Path) -> dict:
@@ -52,6 +53,9 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
         made.append(cycles.plot(default, figures / "fig5_6_cycles.png", f"{preset}: Figs. 5-6"))
         if rotated:
             made.append(cycles.plot(rotated, figures / "fig7_rotations.png", f"{preset}: Fig. 7"))
+        if "memory" in f:
+            made.append(memory.plot([f["memory"][k] for k in f["memory"]], list(sets), figures / "memory.png",
+                                    f"{preset}: the fabric's memory of the old shear direction after a turn"))
         if "reversal" in f:
             parts = [f["reversal"][k] for k in f["reversal"]]
             made.append(reversal.backstress_figure(parts, fitted.C, figures / "fig8_backstress.png"))

@@ -11,7 +11,7 @@ import model
 from pipeline.calibration.calibrate import fit
 from pipeline.comparison.__main__ import compare
 from pipeline.comparison.metrics import along as metrics_along
-from pipeline.comparison.metrics import memories
+from pipeline.comparison.metrics import memory_curves
 from pipeline.dataset.smoothing import relaxation_strain
 from pipeline.figures.__main__ import draw, main
 from pipeline.io import read_params
@@ -37,6 +37,13 @@ def test_comparison_writes_predictions_and_metrics(compared):
         assert set(g["model"]) == {"Table 2", "our fit"}
         assert g["model/Table 2/A"].shape == (280, 3, 3) and g["dem/A"].shape == (281, 3, 3)
         assert "reversal" in f and f["reversal/00/backstress12"].shape == f["reversal/00/A12"].shape
+        # the memory's curves: theta060's two turns, each starting at 1 (the old direction's whole part)
+        memory = [f["memory"][k] for k in f["memory"]]
+        assert [(m.attrs["run"], m.attrs["segment"]) for m in memory] == [
+            ("theta060", "after the turn to theta"), ("theta060", "after the turn back")]
+        for m in memory:
+            assert m["dem"].shape == m["dem_sem"].shape == m["strain_after"].shape
+            assert abs(m["model/Table 2/fraction"][0] - 1) < 0.05 and abs(m["dem"][0] - 1) < 0.2
     # the model with the true parameters fits the synthetic data to the noise: small normalised errors
     row = next(e for e in metrics["errors"] if e["run"] == "theta180" and e["parameters"] == "Table 2")
     assert max(row[k] for k in ("A12", "A32", "tau12", "tau32")) < 0.15
@@ -83,14 +90,15 @@ def test_the_memory_skips_a_change_from_a_segment_too_short_to_be_steady(tmp_pat
     to measure the memory against, and after the turn back the new one is too short to follow it."""
     run = synthetic_run(tmp_path, theta=90.0, name="theta090", n_cycles=2)
     fig7 = SimpleNamespace(spec={**run.spec, "rotate_at_strain": 0.1}, series=run.series, path=run.path)
-    assert memories(fig7, {}) == []
-    assert [r["segment"] for r in memories(run, {})] == ["after the turn to theta", "after the turn back"]
+    assert memory_curves(fig7, {}) == []
+    assert [r["segment"] for r in memory_curves(run, {})] == ["after the turn to theta", "after the turn back"]
 
 
 def test_figures_and_report_only_read_the_files(compared, tmp_path):
     tmp, _ = compared
     made = draw(tmp / "compare", tmp / "fit", tmp_path)
-    for name in ("fig3_fabric_law", "fig4_flow_rule", "fig5_6_cycles", "fig8_backstress", "fig9_work_rates"):
+    for name in ("fig3_fabric_law", "fig4_flow_rule", "fig5_6_cycles", "fig8_backstress", "fig9_work_rates",
+                 "memory"):
         png = tmp_path / "figures" / f"{name}.png"
         assert png in made and png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG", name
     report = (tmp_path / "report.md").read_text()
