@@ -24,11 +24,12 @@ from .kinematics import (
 )
 from .material_point import Update, update
 from .params import PAPER, ParameterError, Params
-from .solver import Result, SolverError, integrate, periodic, predict, steady_state
+from .solver import Result, SolverError, integrate, periodic, predict, reversal_start_rate, steady_state
 
 __all__ = [
     "PAPER", "PERIOD_STRAIN", "ROTATE_AT_STRAIN", "History", "HistoryError", "ParameterError", "Params", "Result",
     "Segment", "SolverError", "deviator", "hardening_variable_stack", "integrate", "modulus", "periodic",
-    "periodic_cycle", "predict", "reversal", "rotation_about_e2", "shear_direction", "shear_segment",
-    "shear_velocity_gradient", "spin", "steady_shear", "steady_state", "stretching", "Update", "update",
+    "periodic_cycle", "predict", "reversal", "reversal_start_rate", "rotation_about_e2", "shear_direction",
+    "shear_segment", "shear_velocity_gradient", "spin", "steady_shear", "steady_state", "stretching", "Update",
+    "update",
 ]

@@ -14,7 +14,16 @@ import numpy as np
 
 from . import integrator
 from .equations import fabric_rates
-from .kinematics import ROTATE_AT_STRAIN, History, Segment, deviator, modulus, periodic_cycle, stretching
+from .kinematics import (
+    ROTATE_AT_STRAIN,
+    History,
+    Segment,
+    deviator,
+    modulus,
+    periodic_cycle,
+    shear_velocity_gradient,
+    stretching,
+)
 from .params import PAPER, Params
 
 DEFAULT_RTOL = 1e-10
@@ -280,6 +289,17 @@ def steady_state(L, params: Params | None = None, tol: float = 1e-13) -> tuple[n
     return A.copy(), phi
 
 
+def reversal_start_rate(params: Params | None = None) -> float:
+    """a1 + a2 |A| (Eq. 13 at S = 0, times Lambda/|D'|): the rate at which the fabric's component along the new
+    D' changes right after an instantaneous reversal of steady simple shear, where A = |A| D'/|D'| and S = 0.
+    Negative: the fabric turns towards its new steady state. Positive: it starts by growing along its old
+    direction, S stays near 0 where Lambda = S^k vanishes, and the model's own reversal can run away (Table 2:
+    +3e-5, on the edge)."""
+    params = _params(params)
+    A, _ = steady_state(shear_velocity_gradient(0.0), params)
+    return float(params.a1 + params.a2 * modulus(A))
+
+
 def periodic(
     history: History,
     *,
@@ -307,6 +327,18 @@ def periodic(
         return _periodic(history, params, strains, rtol, atol, cycle_tol, max_periods, s_ref)
     except SolverError as exc:
         raise SolverError(f"{exc}{_off_table2(params)}") from None
+
+
+def _packing_suspect(y_out: np.ndarray, history: History, params: Params) -> str:
+    """Why Phi may leave (0, 1): the fabric running away (it drives Eq. 18 through c1 A:D'), else phi_c and c3."""
+    steady = modulus(steady_state(history.segments[-1].L, params)[0])
+    peak = float(np.max(modulus(unpack_fabric(y_out[:, :5]))))
+    if peak > 1.5 * steady:
+        return (f"the fabric grows to {peak / steady:.2g} times its steady |A| = {steady:.3g} (after a reversal "
+                f"a1 + a2 |A| = {reversal_start_rate(params):+.3g}: positive, it grows along its old direction), "
+                f"so check the fabric law")
+    return (f"Eq. 18 relaxes Phi towards about Phi_c + c3 = {params.phi_c + params.c3:.3g}, so check phi_c "
+            f"and c3")
 
 
 def _off_table2(params: Params) -> str:
@@ -344,8 +376,7 @@ def _periodic(history, params, strains, rtol, atol, cycle_tol, max_periods, s_re
     phi = 1.0 / (np.exp(-y_out[:, integrator.G_INDEX]) * u0 + y_out[:, integrator.V_INDEX])
     if not np.all((phi > 0) & (phi < 1)):
         raise SolverError(f"the packing fraction leaves (0, 1) over the cycle (Phi from {np.min(phi):.3g} to "
-                          f"{np.max(phi):.3g}): Eq. 18 relaxes Phi towards about Phi_c + c3 = "
-                          f"{params.phi_c + params.c3:.3g}, so check phi_c and c3")
+                          f"{np.max(phi):.3g}): {_packing_suspect(y_out, history, params)}")
     stats = np.array([nfev, nsteps, nrejected])
     return _assemble(history, strains, y_out, p, phi, stats, "dop853", periods=periods,
                      cycle_residual=residual, phi_contraction=contraction)

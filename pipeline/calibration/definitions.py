@@ -55,8 +55,23 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
             "standard_errors": {n: se[n] for n in NAMES},
             "status": {n: p["status"] for n, p in summary["parameters"].items()},
             "misfit": refined.misfit, "chi2": refined.chi2, "table2": summary["table2"],
-            "chi2_share_after_changes": early_share(refined, data),
+            "chi2_share_after_changes": early_share(refined, data), "own_reversal": own_reversal(params),
             "mean_packing_fraction": float(np.mean(np.concatenate([d.phi for d in data])))}
+
+
+def own_reversal(params: model.Params) -> dict:
+    """The model's own reversal cycle (theta = 180) with ``params``: the rate a1 + a2 |A| at which the fabric
+    leaves the reversal (``model.reversal_start_rate``; positive, it grows along its old direction) and the peak
+    |A| over the cycle per the steady |A|, or the solver's reason where the cycle cannot be computed. A fit past
+    the jump restarts from the DEM's state and never runs through the reversal's start, so it can land where the
+    model's own reversal runs away."""
+    rate = model.reversal_start_rate(params)
+    try:
+        cycle = model.predict(180, params=params)
+    except model.SolverError as exc:
+        return {"start_rate": rate, "peak_over_steady": None, "error": str(exc).split(" (parameters off")[0]}
+    steady = model.modulus(model.steady_state(model.shear_velocity_gradient(0.0), params)[0])
+    return {"start_rate": rate, "peak_over_steady": float(model.modulus(cycle.A).max() / steady), "error": None}
 
 
 #: the strain after a change of direction over which ``early_share`` sums the residuals

@@ -7,7 +7,7 @@ the model restarted from the DEM's state gamma0 past each change of direction (`
 each gamma0, and then, at the first gamma0 > 0, with the persistence exponent k of Eq. 12 held at each value
 given (a profile of k). Writes ``fit_from.md`` and ``fit_from.json`` beside the fit: parameters with their
 standard errors from the noise, the misfit, chi^2, the share of chi^2 in the first 0.05 strain after a
-change, and Table 2 tested on the same data.
+change, Table 2 tested on the same data, and whether the model's own reversal runs with the row's parameters.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS, states_after_changes
 from ..errors import PipelineError
 from ..paths import preset_output
-from .definitions import NAMES, fit_row, preset_fit_runs
+from .definitions import NAMES, fit_row, own_reversal, preset_fit_runs
 
 FIT_FROM = (0.0, 0.002, 0.005, 0.01)
 EXPONENTS = (0.5, 0.625, 0.75, 0.875, 1.0)
@@ -83,10 +83,14 @@ def markdown(rows: list[dict], label: str) -> str:
              "± one standard error from the DEM's measured noise; (open): not determined. *early χ²*: the "
              "share of χ² within 0.05 strain after a change (a uniform misfit: 7 %). Table 2 is tested on its "
              "flow rule and fabric law on the same samples. χ² compares rows of one γ0 (the samples differ "
-             "between γ0).", "",
+             "between γ0). *own reversal*: the model's θ = 180° cycle run with the row's parameters from its "
+             "own state, not the DEM's: a1 + a2 |A|, the rate at which the fabric leaves the reversal "
+             "(positive: it first grows along its old direction), and the peak |A| over the cycle per the steady "
+             "|A|, or 'fails' where the cycle cannot be computed; such parameters are unfit for a continuum code.",
+             "",
              "| γ0 | k | runs | " + " | ".join(shown)
-             + " | misfit | χ² | early χ² | Table 2: χ² rise | in 95 % region |",
-             "|" + "---|" * (len(shown) + 8)]
+             + " | misfit | χ² | early χ² | Table 2: χ² rise | in 95 % region | own reversal |",
+             "|" + "---|" * (len(shown) + 9)]
     yes = {True: "yes", False: "no", None: "n/a"}
     for r in rows:
         p, se, t = r["params"], r["standard_errors"], r["table2"]
@@ -95,10 +99,17 @@ def markdown(rows: list[dict], label: str) -> str:
         inside = yes[t["inside"]["95"]] if t["quantiles"] else "n/a"
         lines.append(f"| {r['fit_from']:g} | {r['persistence_exponent']:g} | {r['runs']} | {cells} | "
                      f"{r['misfit']:.3f} | {r['chi2']:.0f} | {r['chi2_share_after_changes']:.0%} | "
-                     f"{t['relative_rise']:+.1%} | {inside} |")
+                     f"{t['relative_rise']:+.1%} | {inside} | {own_reversal_cell(r['own_reversal'])} |")
     paper = model.Params()
-    lines.append("| Table 2 | 0.75 | | " + " | ".join(f"{getattr(paper, n):+.4g}" for n in shown) + " | | | | | |")
+    lines.append("| Table 2 | 0.75 | | " + " | ".join(f"{getattr(paper, n):+.4g}" for n in shown) + " | | | | | | "
+                 + own_reversal_cell(own_reversal(paper)) + " |")
     return "\n".join(lines) + "\n"
+
+
+def own_reversal_cell(own: dict) -> str:
+    """``definitions.own_reversal`` in a table cell."""
+    peak = "fails" if own["peak_over_steady"] is None else f"peak {own['peak_over_steady']:.2f}"
+    return f"{own['start_rate']:+.2g}, {peak}"
 
 
 def _numbers(name: str, text: str) -> tuple[float, ...]:

@@ -1,14 +1,19 @@
-"""Helpers of the tests: synthetic DEM run files made by the model (known truth), and a command line run
-in-process as if from a shell."""
+"""Helpers of the tests: synthetic DEM run files made by the model (known truth), a command line run
+in-process as if from a shell, and a fabric law whose own reversal runs away."""
 
 import contextlib
 import io
 import subprocess
 
+import model
 from dem.rawfile import write_raw
 from pipeline.dataset.dem_file import load, write_h5
 
 from .synthetic import synthetic_raw
+
+#: a fabric law fitted past the reversal jump (the paper cell, six angles, 2026-11-25): a1 + a2 |A| = +0.017
+RUNS_AWAY = model.PAPER.replace(C=-5.159, c1=5.159, n=0.1663, m=-0.2939, a1=-0.05258, b1=-1.924, a2=0.8649,
+                                b2=-33.34, c2_coef=7.91, phi_c=0.5811)
 
 
 def synthetic_file(folder, theta=180.0, name="run", **kw):

@@ -17,7 +17,7 @@ from pipeline.dataset.derived import Definitions, cycle_D_dev
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import CalibrationError, PipelineError
 from pipeline.io import read_params
-from tests.helpers import synthetic_file, synthetic_run
+from tests.helpers import RUNS_AWAY, synthetic_file, synthetic_run
 
 TRUE = model.Params()
 
@@ -116,6 +116,16 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
     (results / "p/dem/.theta090.tmp123.h5").write_bytes(b"partial")
     assert [r.path for r in lookup.preset_runs(DataSet("p"), roots)] == [reference / "p/dem/theta090.h5",
                                                                results / "p/dem/theta180.h5"]
+
+
+def test_own_reversal_runs_table_2_and_names_why_a_law_that_runs_away_fails():
+    """``definitions.own_reversal``, the fit-from table's column: Table 2's own cycle keeps |A| at its steady value;
+    a fabric law with a positive start rate cannot give a cycle, and the reason names the fabric."""
+    from pipeline.calibration.definitions import own_reversal
+
+    paper, away = own_reversal(model.Params()), own_reversal(RUNS_AWAY)
+    assert paper["error"] is None and paper["peak_over_steady"] == pytest.approx(1.0, abs=0.01)
+    assert away["peak_over_steady"] is None and away["start_rate"] > 0.01 and "the fabric grows" in away["error"]
 
 
 def test_the_angles_option_keeps_every_run_at_those_angles_and_no_other():
@@ -347,9 +357,11 @@ def test_the_restart_table_reads_its_options_and_marks_what_is_not_determined():
     names = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
     row = {"fit_from": 0.005, "persistence_exponent": 0.75, "params": {n: 1.0 for n in names},
            "standard_errors": {n: 0.1 for n in names}, "status": {"m": "not determined"}, "misfit": 1.2,
-           "chi2": 100.0, "chi2_share_after_changes": 0.05, "table2": {"relative_rise": 0.045, "quantiles": None}}
+           "chi2": 100.0, "chi2_share_after_changes": 0.05, "table2": {"relative_rise": 0.045, "quantiles": None},
+           "own_reversal": {"start_rate": 0.017, "peak_over_steady": None, "error": "the fabric grows"}}
     text = restart.markdown([{**row, "runs": 9}], "reduced")
-    assert "| 0.005 | 0.75 | 9 | +1 ± 0.1 | +1 ± 0.1 | +1 (open) |" in text and "+4.5% | n/a |" in text
+    assert "| 0.005 | 0.75 | 9 | +1 ± 0.1 | +1 ± 0.1 | +1 (open) |" in text and "+4.5% | n/a | +0.017, fails |" in text
+    assert "| Table 2 |" in text and "+2.8e-05, peak 1.00 |" in text  # Table 2's own reversal, on the edge
 
 
 def dense_fake_run(dense: bool = True):

@@ -16,11 +16,13 @@ from model import (
     predict,
     reference,
     reversal,
+    reversal_start_rate,
     rotation_about_e2,
     steady_shear,
     steady_state,
 )
 from model.kinematics import deviator, modulus, shear_velocity_gradient, spin, stretching
+from tests.helpers import RUNS_AWAY
 
 ANGLES = (30, 60, 90, 120, 150, 180)
 
@@ -184,6 +186,23 @@ def test_exact_reversal_of_an_aligned_fabric_is_integrated():
     assert result.A[-1, 0, 1] > 0  # relaxed towards the reversed steady state
     reversed_steady, _ = steady_state(shear_velocity_gradient(180.0))
     np.testing.assert_allclose(result.A[-1], reversed_steady, atol=2e-3)
+
+
+def test_the_reversal_start_rate_tells_a_reversal_that_turns_from_one_that_runs_away():
+    """a1 + a2 |A| at S = 0 (Eq. 13 right after a reversal of steady shear): Table 2 sits on the edge and its cycle
+    keeps |A| at its steady value; a fabric law with a positive rate grows along its old direction, and the cycle's
+    error names the fabric, not phi_c and c3; one with a negative rate turns."""
+    steady = modulus(steady_state(shear_velocity_gradient(0.0))[0])
+    assert reversal_start_rate() == pytest.approx(PAPER.a1 + PAPER.a2 * steady, rel=1e-12)
+    assert abs(reversal_start_rate()) < 1e-4
+    assert np.max(modulus(predict(180).A)) < 1.01 * steady
+    assert reversal_start_rate(RUNS_AWAY) > 0.01
+    with pytest.raises(SolverError, match=r"the fabric grows to [0-9.]+ times its steady \|A\|.*check the fabric law"):
+        predict(180, params=RUNS_AWAY)
+    turns = PAPER.replace(a2=0.15)
+    assert reversal_start_rate(turns) < -0.005
+    assert np.max(modulus(predict(180, params=turns).A)) < 1.01 * modulus(steady_state(
+        shear_velocity_gradient(0.0), turns)[0])
 
 
 def test_extreme_parameters_b2_times_ten():
