@@ -156,12 +156,16 @@ FIT_CASES = [
      "a jackknife over angles needs at least 3 of them, not 1 (theta = 180)"),
     (["--runs", "{inp}/theta180.h5", "--jackknife", "angle"], "invalid choice: 'angle'"),
     (["--runs", "{inp}/theta180.h5", "--angles", "180"], "--angles chooses among a data set's runs"),
-    (["--preset", "reduced", "--angles", "180", "75"], "angles: no run at theta = 75 (the data set has 30, 60, 90"),
-    (["--preset", "reduced", "--angles", "90", "60"], "angles=90 60: the fit needs the reversal, 180"),
+    # these two read the committed reduced data set's every run (seconds): make test, not make test-unit
+    pytest.param(["--preset", "reduced", "--angles", "180", "75"],
+                 "angles: no run at theta = 75 (the data set has 30, 60, 90", marks=pytest.mark.slow),
+    pytest.param(["--preset", "reduced", "--angles", "90", "60"], "angles=90 60: the fit needs the reversal, 180",
+                 marks=pytest.mark.slow),
 ]
 
 
-@pytest.mark.parametrize("template, fragment", FIT_CASES, ids=[" ".join(a) for a, _ in FIT_CASES])
+@pytest.mark.parametrize("template, fragment", FIT_CASES,
+                         ids=[" ".join(getattr(case, "values", case)[0]) for case in FIT_CASES])
 def test_make_fit_refuses(inputs, tmp_path, template, fragment):
     args = [a.format(inp=inputs) for a in template]
     before = listing(inputs)

@@ -128,6 +128,7 @@ def test_own_reversal_runs_table_2_and_names_why_a_law_that_runs_away_fails():
     assert away["peak_over_steady"] is None and away["start_rate"] > 0.01 and "the fabric grows" in away["error"]
 
 
+@pytest.mark.slow  # reads the committed reduced data set's every run
 def test_the_angles_option_keeps_every_run_at_those_angles_and_no_other():
     from pipeline.calibration.__main__ import only_angles
 
