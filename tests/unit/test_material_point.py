@@ -113,19 +113,26 @@ def test_objective_under_a_superposed_rotation():
     assert 3.0 < errors[0] / errors[1] < 5.0
 
 
-def test_batch_equals_point_by_point_and_threads_agree_bit_for_bit():
+def random_batch(n: int = 600):
+    """n material points: fabrics from the 60-degree cycle, random Phi, velocity gradients and steps."""
     rng = np.random.default_rng(5)
     cycle = predict(60)
-    n = 600
     A = cycle.A[rng.integers(0, len(cycle.strain), n)]
-    phi = rng.uniform(0.55, 0.65, n)
-    L = rng.normal(size=(n, 3, 3))
-    dt = rng.uniform(0.0, 0.02, n)
+    return A, rng.uniform(0.55, 0.65, n), rng.normal(size=(n, 3, 3)), rng.uniform(0.0, 0.02, n)
+
+
+def test_batch_equals_point_by_point():
+    A, phi, L, dt = random_batch()
     batch = update(A, phi, L, dt)
-    single = [update(A[i:i + 1], phi[i:i + 1], L[i], dt[i]) for i in range(0, n, 97)]
-    for i, one in zip(range(0, n, 97), single, strict=True):
+    single = [update(A[i:i + 1], phi[i:i + 1], L[i], dt[i]) for i in range(0, len(A), 97)]
+    for i, one in zip(range(0, len(A), 97), single, strict=True):
         assert np.array_equal(one.A[0], batch.A[i]) and one.phi[0] == batch.phi[i]
-    parallel = update(A, phi, L, dt, threads=2)
+
+
+@pytest.mark.slow  # compiles the parallel kernel (seconds on a fresh clone)
+def test_threads_agree_bit_for_bit():
+    A, phi, L, dt = random_batch()
+    batch, parallel = update(A, phi, L, dt), update(A, phi, L, dt, threads=2)
     for name in ("A", "phi", "tau_over_p", "S", "substeps", "stationary"):
         assert np.array_equal(getattr(parallel, name), getattr(batch, name), equal_nan=name != "substeps"), name
 
@@ -226,6 +233,7 @@ def test_the_documented_layer_example_runs_and_each_point_follows_its_own_histor
     assert isinstance(model.update, type(update))
 
 
+@pytest.mark.slow  # times the update on 1 and more threads
 def test_bench_reports_errors_rates_and_thread_scaling(tmp_path):
     import json
 
