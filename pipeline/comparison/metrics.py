@@ -107,6 +107,11 @@ def segment_windows(strain: np.ndarray, start: float, end: float) -> tuple[np.nd
     return window(strain, start + OVERSHOOT_EARLY[0], start + OVERSHOOT_EARLY[1]), late
 
 
+def cycle_grid(spec: dict, strain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A run's strain within the cycle and the indices of each cycle's samples (``derived.cycle_indices``)."""
+    return cycle_indices(strain, spec["period_strain"], spec["sample_strain"], spec["n_cycles"])
+
+
 def changes(spec: dict):
     """The cycle's changes of direction: (label, the new segment's start and end, its direction, the old
     direction, the old segment's start and end), strains in the cycle and directions in degrees."""
@@ -135,8 +140,7 @@ def memory_curves(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dic
     at 0.1 or 0.2) into a segment long enough to follow it: the DEM's per cycle, each parameter set's on the
     model's cycle."""
     spec = run.spec
-    grid, idx = cycle_indices(run.series["strain_nominal"], spec["period_strain"], spec["sample_strain"],
-                              spec["n_cycles"])
+    grid, idx = cycle_grid(spec, run.series["strain_nominal"])
     out = []
     for change in changes(spec):
         label, start, end, new, old, old_start, old_end = change
@@ -177,8 +181,7 @@ def overshoots(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
     mean over cycles with its standard error (None with one cycle); each parameter set's is the same measure on
     the model's cycle."""
     spec = run.spec
-    grid, idx = cycle_indices(run.series["strain_nominal"], spec["period_strain"], spec["sample_strain"],
-                              spec["n_cycles"])
+    grid, idx = cycle_grid(spec, run.series["strain_nominal"])
     out = []
     for label, start, end, phi, *_ in changes(spec):
         if end - start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE or spec["theta_deg"] == 0:
