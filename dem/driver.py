@@ -18,6 +18,7 @@ stderr), 4 the disk cannot take the run's files, 130/143/138 interrupted by SIGI
 checkpoint.
 """
 
+import contextlib
 import math
 import os
 import signal
@@ -287,6 +288,19 @@ def stop_on_signals(describe_stop):
     signal.signal(signal.SIGUSR2, on_usr2)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
     return stop
+
+
+@contextlib.contextmanager
+def stop_signals_held():
+    """The stop signals blocked in this thread while the block runs: the threads a library starts inside it (MPI's)
+    keep the block for good, so a stop signal only ever reaches the main thread. Else, while the main thread blocks
+    them before it ``exec``s itself (``block_stop_signals``), the kernel hands one to such a thread: it trips the
+    handler of a process about to be replaced, and the warning is lost."""
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def block_stop_signals():

@@ -38,7 +38,8 @@ from dem.rawfile import sync
 #: MPI ranks of this run (``mpirun -np N``, ``RANKS=N``): each drives the same protocol on data gathered from all
 RANKS = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))
 if RANKS > 1:
-    from mpi4py import MPI
+    with driver.stop_signals_held():  # MPI's threads never take a stop signal
+        from mpi4py import MPI
 
     COMM, RANK = MPI.COMM_WORLD, MPI.COMM_WORLD.rank
 else:
@@ -229,7 +230,8 @@ class Scene:
             self.run.fail(f"{type(exc).__name__}: {exc} (in the controller)")
 
     def new_lammps(self):
-        self.lmp = new_lammps(COMM, log=os.path.join(self.run_dir, "lammps.log"))
+        with driver.stop_signals_held():  # at one rank LAMMPS starts MPI here, and its threads
+            self.lmp = new_lammps(COMM, log=os.path.join(self.run_dir, "lammps.log"))
         return self.lmp
 
     def attach(self, state, restarted):

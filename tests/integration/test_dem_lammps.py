@@ -3,6 +3,7 @@ behind the same driver, spec and files as Yade's."""
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -260,12 +261,9 @@ def while_lammps_runs(under: Path, timeout: float = 20.0) -> tuple[Counter, list
     would hold fewer."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
-        scene = subprocess.run(["pgrep", "-f", "dem.lammps_scene"], capture_output=True, text=True)
-        for pid in scene.stdout.split():
+        for pid in scene_pids(under):
             try:
-                if not Path(f"/proc/{pid}/cwd").resolve().is_relative_to(under):
-                    continue
-                held, children = descriptors_and_children(int(pid))
+                held, children = descriptors_and_children(pid)
             except FileNotFoundError:
                 continue
             if any(Path(name).name == "lammps.log" for name in held):
@@ -274,37 +272,79 @@ def while_lammps_runs(under: Path, timeout: float = 20.0) -> tuple[Counter, list
     raise AssertionError(f"no scene with LAMMPS open under {under} within {timeout} s")
 
 
+def scene_pids(under: Path) -> list[int]:
+    """The LAMMPS scene processes running in a folder under ``under``."""
+    out = subprocess.run(["pgrep", "-f", "dem.lammps_scene"], capture_output=True, text=True).stdout
+    pids = []
+    for pid in map(int, out.split()):
+        try:
+            if Path(f"/proc/{pid}/cwd").resolve().is_relative_to(under):
+                pids.append(pid)
+        except FileNotFoundError:
+            continue
+    return pids
+
+
+def signal_mask(pid: int, thread: int, field: str) -> int:
+    """Thread ``thread``'s ``SigBlk`` mask (or another ``field``: bit k - 1 for signal k) of process ``pid``."""
+    for line in Path(f"/proc/{pid}/task/{thread}/status").read_text().splitlines():
+        if line.startswith(f"{field}:"):
+            return int(line.split()[1], 16)
+    raise AssertionError(f"no {field} line for thread {thread} of {pid}")
+
+
+def other_threads_blocking(under: Path, signals: int, timeout: float = 20.0) -> dict[int, bool]:
+    """Whether each thread but the main one of the scene running under ``under`` blocks every signal of the mask
+    ``signals``, taken once the scene has started MPI (it has more than one thread)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        for pid in scene_pids(under):
+            try:
+                threads = [int(t.name) for t in Path(f"/proc/{pid}/task").iterdir() if int(t.name) != pid]
+                blocking = {t: signal_mask(pid, t, "SigBlk") & signals == signals for t in threads}
+            except FileNotFoundError:  # it ``exec``ed itself, or a thread ended, meanwhile
+                continue
+            if blocking:
+                return blocking
+        time.sleep(0.01)
+    raise AssertionError(f"no scene with more than one thread under {under} within {timeout} s")
+
+
 def test_a_one_rank_scene_holds_as_many_files_and_processes_at_its_end_as_at_its_start(tmp_path):
     """A one-rank scene ``exec``s itself at each of its checkpoints (the tiny run has about 37): it starts MPI as an
     isolated singleton, so no ``orted`` daemon is spawned (one more per checkpoint, about 20 MB each, before), and
-    closes LAMMPS first, so its log file is not left open (one more descriptor per checkpoint)."""
+    closes LAMMPS first, so its log file is not left open (one more descriptor per checkpoint).
+
+    MPI's threads block the stop signals, in the first process and in those it ``exec``s. A warning (SIGUSR1) that
+    came while the main thread blocks them before its ``exec`` went to such a thread: the process about to be
+    replaced took it, said it would stop, and the new one ran on to the end."""
+    stops = sum(1 << (int(s) - 1) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGUSR2))
     proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=tmp_path), cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    seen, lines = [], []
+    seen, threads, lines = [], [], []
     for line in proc.stdout:
         lines.append(line)
         if "strain" in line and ("[  0%]" in line or "[ 80%]" in line):
             seen.append(while_lammps_runs(tmp_path))
+            threads.append(other_threads_blocking(tmp_path, stops))
     assert proc.wait() == 0, "".join(lines)
     (first, none), (last, still_none) = seen
     assert none == [] and still_none == [], seen
     # a shared-memory file may come and go; the leak was about five per checkpoint
     assert sum(last.values()) <= sum(first.values()) + 2, seen
+    assert len(threads) == 2 and all(all(blocking.values()) for blocking in threads), threads
 
 
 def catches(pid: int, signum: int) -> bool:
-    """Whether process ``pid`` has a handler for ``signum`` (its ``SigCgt`` mask in /proc)."""
-    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-        if line.startswith("SigCgt:"):
-            return bool(int(line.split()[1], 16) >> (signum - 1) & 1)
-    return False
+    """Whether process ``pid`` has a handler for ``signum``."""
+    return bool(signal_mask(pid, pid, "SigCgt") >> (signum - 1) & 1)
 
 
 def test_a_warning_at_any_moment_of_a_run_is_a_resumable_stop(tmp_path):
     """SIGUSR1 (a scheduler's warning) at times spread over the tiny run, from the moment the launcher's Python
     has its handler (before that, the interpreter is still starting) through its imports, the build, the
     compaction, the shear and the moments it ``exec``s itself at a checkpoint: every run stops resumably (exit
-    138) or finishes, never fails."""
+    138) or finishes, never fails; one that said where it would stop finishes only if it ended before there."""
     for k, delay in enumerate(np.arange(0.0, 7.5, 0.55)):
         results = tmp_path / f"r{k}"
         proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=results), cwd=ROOT,
@@ -318,3 +358,7 @@ def test_a_warning_at_any_moment_of_a_run_is_a_resumable_stop(tmp_path):
             proc.send_signal(signal.SIGUSR1)
         out = proc.communicate(timeout=120)[0] or ""
         assert proc.returncode in (0, 138) and "Traceback" not in out, f"warned {delay:.2f} s in:\n{out}"
+        said = re.search(r"stopping at the next checkpoint \(iteration (\d+)\)", out)
+        if said and proc.returncode == 0:
+            steps = int(re.search(r"done: \d+ samples, (\d+) steps", out)[1])
+            assert steps <= int(said[1]), f"warned {delay:.2f} s in, it ran on past iteration {said[1]}:\n{out}"

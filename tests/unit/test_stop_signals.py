@@ -6,7 +6,10 @@ import os
 import signal
 import subprocess
 import sys
+import threading
+from pathlib import Path
 
+from dem import driver
 from pipeline.paths import ROOT
 
 #: a process that, told ``block``, blocks the stop signals, is warned (its main thread, the one the block holds), and
@@ -59,3 +62,37 @@ print("stop count", stop["count"])
     proc = run_child(tmp_path, code)
     assert proc.returncode == 0, proc.stderr
     assert "(the first checkpoint, once the run is built or resumed)" in proc.stdout and "stop count 1" in proc.stdout
+
+
+def blocked_signals(thread_id: int) -> set[int]:
+    """The signals thread ``thread_id`` of this process blocks (its ``SigBlk`` mask in /proc)."""
+    for line in Path(f"/proc/self/task/{thread_id}/status").read_text().splitlines():
+        if line.startswith("SigBlk:"):
+            mask = int(line.split()[1], 16)
+            return {k for k in range(1, 65) if mask >> (k - 1) & 1}
+    raise AssertionError(f"no SigBlk line for thread {thread_id}")
+
+
+def test_a_thread_started_while_the_stop_signals_are_held_never_takes_one():
+    """A library's thread started inside ``stop_signals_held`` (MPI's, when LAMMPS starts) keeps the stop signals
+    blocked, so the kernel hands a warning to the main thread alone; the main thread's own mask comes back."""
+    before = blocked_signals(threading.get_native_id())
+    started, release = threading.Event(), threading.Event()
+    ids = {}
+
+    def library_thread():
+        ids["held"] = threading.get_native_id()
+        started.set()
+        release.wait(10)
+
+    with driver.stop_signals_held():
+        thread = threading.Thread(target=library_thread)
+        thread.start()
+        started.wait(10)
+    try:
+        stops = {int(s) for s in driver.STOP_SIGNALS}
+        assert stops <= blocked_signals(ids["held"])
+        assert blocked_signals(threading.get_native_id()) == before and not stops & before
+    finally:
+        release.set()
+        thread.join()
