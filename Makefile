@@ -233,19 +233,14 @@ fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 ref
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration $(DATA_ARGS) --bootstrap $(BOOT) --out results/$(DATA_SET)/fit-bootstrap
 
-JACKKNIFE_DIR = results/$(DATA_SET)/fit-jackknife-$(OVER)$(if $(FIT_FROM),-from$(FIT_FROM))$(if $(STRESS),-$(STRESS))
-
 fit-jackknife: venv ## the fit plus a refit leaving out each reversal seed (OVER=seeds) or each angle (OVER=angles) [FIT_FROM] [STRESS] -> results/<data set>/fit-jackknife-<OVER>[-from<FIT_FROM>][-<STRESS>]/
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --jackknife $(OVER) --out $(JACKKNIFE_DIR)
-
-ANGLES_DIR = results/$(DATA_SET)/fit-angles-$(subst $(space),-,$(strip $(ANGLES)))$(if $(FIT_FROM),-from$(FIT_FROM))$(if \
-	$(STRESS),-$(STRESS))
+	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --jackknife $(OVER)
 
 fit-angles: venv ## the fit on the runs at some angles only (ANGLES="180 90 60 30", 180 among them) [FIT_FROM] [STRESS] -> results/<data set>/fit-angles-<ANGLES>[-from<FIT_FROM>][-<STRESS>]/
 	$(if $(strip $(ANGLES)),,$(error ANGLES is empty: give the angles to fit, e.g. ANGLES="180 90 60 30"))
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --angles $(ANGLES) --out $(ANGLES_DIR)
+	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --angles $(ANGLES)
 
 fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<data set>/fit/definitions.md
 	$(SAY_PRESET)

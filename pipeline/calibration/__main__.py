@@ -37,7 +37,8 @@ def main(argv=None) -> int:
                         help="hold a flow-rule or fabric parameter at VALUE instead of fitting it (repeatable)")
     parser.add_argument("--jackknife", nargs="?", const="seeds", default="", choices=JACKKNIFE_OVER,
                         help="also refit leaving out one reversal seed (seeds, the default; needs 3 or more) or one "
-                             "angle with all its runs (angles; needs 3 or more) at a time")
+                             "angle with all its runs (angles; needs 3 or more) at a time; the outputs go to "
+                             "results/<data set>/fit-jackknife-<over>[-from<STRAIN>][-<stress>]/")
     parser.add_argument("--fit-from", type=float, default=0.0, metavar="STRAIN",
                         help="restart the model from the DEM's state this far past each change of direction and "
                              "fit what follows (nominal strain, a multiple of the sampling step; default 0: all)")
@@ -48,7 +49,7 @@ def main(argv=None) -> int:
                              "(the diagonal too, which carries normal-stress differences the model does not give)")
     parser.add_argument("--angles", nargs="+", type=float, metavar="THETA",
                         help="fit only the data set's runs at these angles (degrees, 180 among them); the outputs "
-                             "go to results/<data set>/fit-angles-<thetas>/")
+                             "go to results/<data set>/fit-angles-<thetas>[-from<STRAIN>][-<stress>]/")
     parser.add_argument("--bootstrap", type=int, metavar="N",
                         help="also refit N >= 2 resamplings of the cycles (bootstrap standard deviations)")
     args = parser.parse_args(argv)
@@ -66,11 +67,10 @@ def main(argv=None) -> int:
         print(f"runs: {chosen.label}")
         every = preset_runs(chosen)
         reversals, cross = reversal_seeds(chosen), tuple(other_angles(every))
-        name = "fit"
         if args.angles:
             cross = only_angles(args.angles, reversals, cross)
-            name = "fit-angles-" + "-".join(f"{theta:g}" for theta in args.angles)
-        out = args.out or preset_output(chosen.folder, name)
+        out = args.out or preset_output(chosen.folder, folder_name(args.angles, args.jackknife, args.fit_from,
+                                                                   args.stress))
         if not reversals:
             given = f' SET="{" ".join(chosen.settings)}"' if chosen.settings else ""
             raise CalibrationError(f"no reversal run of {chosen.label}: run `make dem THETA=180 "
@@ -80,6 +80,20 @@ def main(argv=None) -> int:
     report = fit(reversals, out, cross, left_out, **vars(settings))
     print_report(report, out)
     return 0
+
+
+def folder_name(angles: list[float] | None, jackknife: str, fit_from: float, stress: str) -> str:
+    """The fit's folder in the data set's results: ``fit`` (``make fit`` keeps its options in ``fit/options.txt``),
+    or beside it ``fit-angles-<thetas>`` or ``fit-jackknife-<over>``, with ``-from<FIT_FROM>`` and ``-<STRESS>``
+    when not the defaults, so that no fit replaces another's files."""
+    if angles:
+        name = "fit-angles-" + "-".join(f"{theta:g}" for theta in angles)
+    elif jackknife:
+        name = f"fit-jackknife-{jackknife}"
+    else:
+        return "fit"
+    return name + (f"-from{fit_from:g}" if fit_from else "") + (
+        f"-{stress}" if stress != global_fit.STRESS_DEFAULT else "")
 
 
 def only_angles(angles: list[float], reversals: list, cross: tuple) -> tuple:

@@ -5,6 +5,7 @@ import sys
 
 import pytest
 
+from pipeline.calibration.__main__ import folder_name
 from pipeline.dataset import lookup, selection
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import PipelineError
@@ -116,25 +117,26 @@ def test_make_hands_the_stages_the_data_set_and_its_folder(variables, words):
     assert f"results/{folder}/fit/options.txt" in commands
 
 
-def test_each_jackknife_writes_its_own_folder():
-    """``make fit-jackknife`` over angles, over the whole cycle and past the jump, and over seeds: three folders, so
-    one does not replace another's files (``make -n``: nothing runs)."""
-    def out(*variables):
-        line = next(x for x in dry_run("fit-jackknife", "PRESET=reduced", *variables).splitlines()
-                    if "--jackknife" in x)
-        return line.split("--out", 1)[1].split()[0]
-
-    folders = [out("OVER=angles"), out("OVER=angles", "FIT_FROM=0.005"), out("OVER=seeds")]
-    assert folders == ["results/reduced/fit-jackknife-angles", "results/reduced/fit-jackknife-angles-from0.005",
-                       "results/reduced/fit-jackknife-seeds"]
+def test_each_fit_beside_the_main_one_writes_its_own_folder():
+    """Jackknives over angles and over seeds, fits on some angles, each over the whole cycle, past the jump and with
+    every stress component: each its own folder, so that one does not replace another's files."""
+    names = [folder_name(None, "angles", 0.0, "shear"), folder_name(None, "angles", 0.005, "shear"),
+             folder_name(None, "seeds", 0.0, "all"), folder_name([180.0, 90.0], "", 0.005, "shear"),
+             folder_name([180.0, 90.0], "", 0.0, "all"), folder_name([180.0, 90.0, 60.0, 30.0], "", 0.01, "all")]
+    assert names == ["fit-jackknife-angles", "fit-jackknife-angles-from0.005", "fit-jackknife-seeds-all",
+                     "fit-angles-180-90-from0.005", "fit-angles-180-90-all", "fit-angles-180-90-60-30-from0.01-all"]
+    assert folder_name(None, "", 0.005, "all") == "fit"  # make fit's own: its options are in fit/options.txt
 
 
-def test_make_fit_angles_names_its_angles_in_its_folder_and_refuses_none():
-    """``make fit-angles ANGLES=...``: the stage gets the angles and writes a folder named by them (``make -n``:
-    nothing runs); without ANGLES, one line on stderr and nothing runs."""
+def test_make_fit_angles_and_jackknife_pass_their_options_and_refuse_no_angles():
+    """``make fit-angles ANGLES=...`` and ``make fit-jackknife OVER=...`` give the stage their angles or OVER and the
+    fit's options, which name the folder (``make -n``: nothing runs); without ANGLES, one line on stderr and
+    nothing runs."""
     line = next(x for x in dry_run("fit-angles", "PRESET=reduced", "ANGLES=180 90", "FIT_FROM=0.005").splitlines()
                 if "--angles" in x)
-    assert line.split("--angles", 1)[1].split()[:4] == ["180", "90", "--out",
-                                                        "results/reduced/fit-angles-180-90-from0.005"]
+    assert line.split("pipeline.calibration", 1)[1].split()[-5:] == ["--fit-from", "0.005", "--angles", "180", "90"]
+    line = next(x for x in dry_run("fit-jackknife", "PRESET=reduced", "OVER=seeds", "STRESS=all").splitlines()
+                if "--jackknife" in x)
+    assert line.split("pipeline.calibration", 1)[1].split()[-4:] == ["--stress", "all", "--jackknife", "seeds"]
     proc = subprocess.run(["make", "-n", "fit-angles", "PRESET=reduced"], cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode != 0 and "ANGLES is empty" in proc.stderr and "pipeline.calibration" not in proc.stdout
