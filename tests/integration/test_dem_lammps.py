@@ -255,20 +255,23 @@ def descriptors_and_children(pid: int) -> tuple[Counter, list[str]]:
     return held, children
 
 
-def while_lammps_runs(under: Path, timeout: float = 20.0) -> tuple[Counter, list[str]]:
-    """``descriptors_and_children`` of the scene running under ``under``, taken while LAMMPS is open (its log
-    among the files): right after an ``exec`` at a checkpoint the new process has not yet started MPI, and it
-    would hold fewer."""
+def while_lammps_runs(under: Path, signals: int, timeout: float = 20.0) -> tuple[Counter, list[str], dict]:
+    """``descriptors_and_children`` of the scene running under ``under``, and whether each of its threads but the
+    main one blocks every signal of the mask ``signals``, taken while LAMMPS is open (its log among the files) and
+    MPI has started its threads: right after an ``exec`` at a checkpoint the new process has not yet started MPI, and
+    it would hold fewer."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         for pid in scene_pids(under):
             try:
                 held, children = descriptors_and_children(pid)
-            except FileNotFoundError:
+                threads = [int(t.name) for t in Path(f"/proc/{pid}/task").iterdir() if int(t.name) != pid]
+                blocking = {t: signal_mask(pid, t, "SigBlk") & signals == signals for t in threads}
+            except FileNotFoundError:  # it ``exec``ed itself, or a thread ended, meanwhile
                 continue
-            if any(Path(name).name == "lammps.log" for name in held):
-                return held, children
-        time.sleep(0.02)
+            if blocking and any(Path(name).name == "lammps.log" for name in held):
+                return held, children, blocking
+        time.sleep(0.01)
     raise AssertionError(f"no scene with LAMMPS open under {under} within {timeout} s")
 
 
@@ -293,23 +296,6 @@ def signal_mask(pid: int, thread: int, field: str) -> int:
     raise AssertionError(f"no {field} line for thread {thread} of {pid}")
 
 
-def other_threads_blocking(under: Path, signals: int, timeout: float = 20.0) -> dict[int, bool]:
-    """Whether each thread but the main one of the scene running under ``under`` blocks every signal of the mask
-    ``signals``, taken once the scene has started MPI (it has more than one thread)."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        for pid in scene_pids(under):
-            try:
-                threads = [int(t.name) for t in Path(f"/proc/{pid}/task").iterdir() if int(t.name) != pid]
-                blocking = {t: signal_mask(pid, t, "SigBlk") & signals == signals for t in threads}
-            except FileNotFoundError:  # it ``exec``ed itself, or a thread ended, meanwhile
-                continue
-            if blocking:
-                return blocking
-        time.sleep(0.01)
-    raise AssertionError(f"no scene with more than one thread under {under} within {timeout} s")
-
-
 def test_a_one_rank_scene_holds_as_many_files_and_processes_at_its_end_as_at_its_start(tmp_path):
     """A one-rank scene ``exec``s itself at each of its checkpoints (the tiny run has about 37): it starts MPI as an
     isolated singleton, so no ``orted`` daemon is spawned (one more per checkpoint, about 20 MB each, before), and
@@ -321,18 +307,17 @@ def test_a_one_rank_scene_holds_as_many_files_and_processes_at_its_end_as_at_its
     stops = sum(1 << (int(s) - 1) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGUSR2))
     proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=tmp_path), cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    seen, threads, lines = [], [], []
+    seen, lines = [], []
     for line in proc.stdout:
         lines.append(line)
         if "strain" in line and ("[  0%]" in line or "[ 80%]" in line):
-            seen.append(while_lammps_runs(tmp_path))
-            threads.append(other_threads_blocking(tmp_path, stops))
+            seen.append(while_lammps_runs(tmp_path, stops))
     assert proc.wait() == 0, "".join(lines)
-    (first, none), (last, still_none) = seen
+    (first, none, first_threads), (last, still_none, last_threads) = seen
     assert none == [] and still_none == [], seen
     # a shared-memory file may come and go; the leak was about five per checkpoint
     assert sum(last.values()) <= sum(first.values()) + 2, seen
-    assert len(threads) == 2 and all(all(blocking.values()) for blocking in threads), threads
+    assert all(first_threads.values()) and all(last_threads.values()), (first_threads, last_threads)
 
 
 def catches(pid: int, signum: int) -> bool:
