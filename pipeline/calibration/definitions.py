@@ -51,7 +51,7 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
     summary = identifiability.summary(refined, data)
     return {"definitions": dataclasses.asdict(definitions), "stress_fitted": stress, "fit_from": fit_from,
             "persistence_exponent": persistence_exponent, "dilatancy_note": note,
-            "params": {n: getattr(params, n) for n in NAMES},
+            "params": {n: getattr(params, n) for n in NAMES}, "model_params": params.to_dict(),
             "standard_errors": {n: se[n] for n in NAMES},
             "status": {n: p["status"] for n, p in summary["parameters"].items()},
             "misfit": refined.misfit, "chi2": refined.chi2, "table2": summary["table2"],

@@ -7,7 +7,9 @@ the model restarted from the DEM's state gamma0 past each change of direction (`
 each gamma0, and then, at the first gamma0 > 0, with the persistence exponent k of Eq. 12 held at each value
 given (a profile of k). Writes ``fit_from.md`` and ``fit_from.json`` beside the fit: parameters with their
 standard errors from the noise, the misfit, chi^2, the share of chi^2 in the first 0.05 strain after a
-change, Table 2 tested on the same data, and whether the model's own reversal runs with the row's parameters.
+change, Table 2 tested on the same data, and whether the model's own reversal runs with the row's parameters;
+and each row's parameters in ``fit_from/from<gamma0>-k<k>-runs<n>.json``, which
+``python -m pipeline.comparison --params`` compares with the DEM.
 """
 
 from __future__ import annotations
@@ -135,8 +137,30 @@ def main(argv=None) -> int:
     chosen = selection.from_arguments(args)
     out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
     rows = table(preset_fit_runs(chosen), fit_from, exponents)
-    print(f"wrote {io.write_table(out, 'fit_from', rows, markdown(rows, chosen.label))} and fit_from.json")
+    for row in rows:
+        write_row_params(out, row)
+    print(f"wrote {io.write_table(out, 'fit_from', rows, markdown(rows, chosen.label))}, fit_from.json and each "
+          f"row's parameters in {out / PARAMS_FOLDER}/")
     return 0
+
+
+#: each row's parameters, as ``python -m pipeline.comparison --params`` reads them
+PARAMS_FOLDER = "fit_from"
+
+
+def row_params_name(row: dict) -> str:
+    """``from<gamma0>-k<k>-runs<n>.json``: the row's gamma0, persistence exponent and number of runs."""
+    return f"from{row['fit_from']:g}-k{row['persistence_exponent']:g}-runs{row['runs']}.json"
+
+
+def write_row_params(out, row: dict):
+    """The row's parameters (every model parameter, its k included) in ``out/fit_from/``, so that a row past the
+    jump can be compared with the DEM and run in a continuum code; its metadata say how it was fitted and whether
+    the model's own reversal runs with it."""
+    metadata = {"fit": "global past the jump (pipeline.calibration.restart)", "fit_from": row["fit_from"],
+                "runs": row["runs"], "definitions": row["definitions"], "own_reversal": row["own_reversal"]}
+    return io.write_params(out / PARAMS_FOLDER / row_params_name(row), model.Params.from_dict(row["model_params"]),
+                           metadata)
 
 
 if __name__ == "__main__":

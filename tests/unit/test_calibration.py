@@ -365,6 +365,25 @@ def test_the_restart_table_reads_its_options_and_marks_what_is_not_determined():
     assert "| Table 2 |" in text and "+2.8e-05, peak 1.00 |" in text  # Table 2's own reversal, on the edge
 
 
+def test_each_restart_row_writes_every_parameter_it_ran_with_where_the_comparison_reads_them(tmp_path):
+    """A row past the jump, with k held at 1/2, is written whole (k and the parameters not fitted included) as a
+    file of parameters that reads back equal, named by its gamma0, k and runs; its metadata say whether the model's
+    own reversal runs with it."""
+    from pipeline import io
+    from pipeline.calibration import restart
+    from pipeline.calibration.definitions import own_reversal
+
+    params = model.Params().replace(persistence_exponent=0.5, a1=-0.03, b2=-40.0, phi_c=0.58)
+    row = {"fit_from": 0.005, "persistence_exponent": 0.5, "runs": 6, "model_params": params.to_dict(),
+           "definitions": {"strain": "nominal", "phi": "gap", "pressure": "target"},
+           "own_reversal": own_reversal(params)}
+    path = restart.write_row_params(tmp_path, row)
+    assert path == tmp_path / "fit_from" / "from0.005-k0.5-runs6.json"
+    assert io.read_params(path) == params
+    metadata = json.loads(path.read_text())["metadata"]
+    assert metadata["fit_from"] == 0.005 and metadata["own_reversal"]["error"] is None
+
+
 def dense_fake_run(dense: bool = True):
     """A run-like object with the dense samples' bookkeeping: A12 and Phi equal to the nominal strain."""
     from types import SimpleNamespace
