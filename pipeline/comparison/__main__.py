@@ -71,11 +71,10 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
             g = f.create_group(f"memory/{k:02d}")
             g.attrs.update(run=c["run"], segment=c["segment"], from_deg=c["from_deg"],
                            direction_deg=c["direction_deg"], cycles=len(c["dem"]))
-            n = len(c["dem"])
+            mean, se = metrics.cycle_mean_and_error(c["dem"])
             g.create_dataset("strain_after", data=c["strain_after"])
-            g.create_dataset("dem", data=c["dem"].mean(axis=0))
-            g.create_dataset("dem_sem", data=c["dem"].std(axis=0, ddof=1) / np.sqrt(n) if n > 1
-                             else np.full(c["dem"].shape[1:], np.nan))
+            g.create_dataset("dem", data=mean)
+            g.create_dataset("dem_sem", data=np.full(mean.shape, np.nan) if se is None else se)
             for label, (strain, fraction) in c["model"].items():
                 g.create_dataset(f"model/{label}/strain_after", data=strain)
                 g.create_dataset(f"model/{label}/fraction", data=fraction)

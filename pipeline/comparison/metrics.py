@@ -107,6 +107,12 @@ def segment_windows(strain: np.ndarray, start: float, end: float) -> tuple[np.nd
     return window(strain, start + OVERSHOOT_EARLY[0], start + OVERSHOOT_EARLY[1]), late
 
 
+def cycle_mean_and_error(per_cycle: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """The mean over cycles (the first axis of ``per_cycle``) and its standard error, None with one cycle."""
+    n = len(per_cycle)
+    return per_cycle.mean(axis=0), per_cycle.std(axis=0, ddof=1) / np.sqrt(n) if n > 1 else None
+
+
 def cycle_grid(spec: dict, strain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A run's strain within the cycle and the indices of each cycle's samples (``derived.cycle_indices``)."""
     return cycle_indices(strain, spec["period_strain"], spec["sample_strain"], spec["n_cycles"])
@@ -164,11 +170,11 @@ def memories(curves: list[dict]) -> list[dict]:
     out = []
     for c in curves:
         per_cycle = means(c["strain_after"], c["dem"])
-        n = len(per_cycle)
+        mean, se = cycle_mean_and_error(per_cycle)
         out.append({"run": c["run"], "segment": c["segment"], "from_deg": c["from_deg"],
-                    "direction_deg": c["direction_deg"], "cycles": n, "windows": [list(w) for w in MEMORY_WINDOWS],
-                    "dem": per_cycle.mean(axis=0).tolist(),
-                    "dem_se": (per_cycle.std(axis=0, ddof=1) / np.sqrt(n)).tolist() if n > 1 else None,
+                    "direction_deg": c["direction_deg"], "cycles": len(per_cycle),
+                    "windows": [list(w) for w in MEMORY_WINDOWS], "dem": mean.tolist(),
+                    "dem_se": None if se is None else se.tolist(),
                     "model": {name: means(*curve).tolist() for name, curve in c["model"].items()}})
     return out
 
@@ -191,9 +197,9 @@ def overshoots(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
         model_windows = {name: segment_windows(data.strain, start, end) for name, (data, _) in preds.items()}
         for field, key in (("A", "A"), ("tau", "tau_over_p")):
             per_cycle, steady = early_minus_steady(along(run.series[key][idx], phi), early, late)
-            n = len(per_cycle)
-            row[field] = {"dem": float(per_cycle.mean()), "steady": float(steady.mean()),
-                          "dem_se": float(per_cycle.std(ddof=1) / np.sqrt(n)) if n > 1 else None,
+            mean, se = cycle_mean_and_error(per_cycle)
+            row[field] = {"dem": float(mean), "steady": float(steady.mean()),
+                          "dem_se": None if se is None else float(se),
                           "model": {name: float(early_minus_steady(along(getattr(pred, field), phi),
                                                                    *model_windows[name])[0])
                                     for name, (_, pred) in preds.items()}}

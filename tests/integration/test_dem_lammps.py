@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dem import driver
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
 from pipeline.runs import spec as run_spec
@@ -304,7 +305,7 @@ def test_a_one_rank_scene_holds_as_many_files_and_processes_at_its_end_as_at_its
     MPI's threads block the stop signals, in the first process and in those it ``exec``s. A warning (SIGUSR1) that
     came while the main thread blocks them before its ``exec`` went to such a thread: the process about to be
     replaced took it, said it would stop, and the new one ran on to the end."""
-    stops = sum(1 << (int(s) - 1) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGUSR2))
+    stops = sum(1 << (int(s) - 1) for s in driver.STOP_SIGNALS)
     proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=tmp_path), cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     seen, lines = [], []
