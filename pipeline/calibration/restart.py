@@ -31,6 +31,8 @@ from .definitions import NAMES, fit_row, own_reversal, preset_fit_runs
 
 FIT_FROM = (0.0, 0.002, 0.005, 0.01)
 EXPONENTS = (0.5, 0.625, 0.75, 0.875, 1.0)
+#: each row's parameters, as ``python -m pipeline.comparison --params`` reads them
+PARAMS_FOLDER = "fit_from"
 
 
 def on_grid(run, fit_from: float) -> bool:
@@ -125,6 +127,21 @@ def _numbers(name: str, text: str) -> tuple[float, ...]:
     return values
 
 
+def row_params_name(row: dict) -> str:
+    """``from<gamma0>-k<k>-runs<n>.json``: the row's gamma0, persistence exponent and number of runs."""
+    return f"from{row['fit_from']:g}-k{row['persistence_exponent']:g}-runs{row['runs']}.json"
+
+
+def write_row_params(out, row: dict):
+    """The row's parameters (every model parameter, its k included) in ``out/fit_from/``, so that a row past the
+    jump can be compared with the DEM and run in a continuum code; its metadata say how it was fitted and whether
+    the model's own reversal runs with it."""
+    metadata = {"fit": "global past the jump (pipeline.calibration.restart)", "fit_from": row["fit_from"],
+                "runs": row["runs"], "definitions": row["definitions"], "own_reversal": row["own_reversal"]}
+    return io.write_params(out / PARAMS_FOLDER / row_params_name(row), model.Params.from_dict(row["model_params"]),
+                           metadata)
+
+
 @one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration.restart", description=__doc__.splitlines()[0])
@@ -142,25 +159,6 @@ def main(argv=None) -> int:
     print(f"wrote {io.write_table(out, 'fit_from', rows, markdown(rows, chosen.label))}, fit_from.json and each "
           f"row's parameters in {out / PARAMS_FOLDER}/")
     return 0
-
-
-#: each row's parameters, as ``python -m pipeline.comparison --params`` reads them
-PARAMS_FOLDER = "fit_from"
-
-
-def row_params_name(row: dict) -> str:
-    """``from<gamma0>-k<k>-runs<n>.json``: the row's gamma0, persistence exponent and number of runs."""
-    return f"from{row['fit_from']:g}-k{row['persistence_exponent']:g}-runs{row['runs']}.json"
-
-
-def write_row_params(out, row: dict):
-    """The row's parameters (every model parameter, its k included) in ``out/fit_from/``, so that a row past the
-    jump can be compared with the DEM and run in a continuum code; its metadata say how it was fitted and whether
-    the model's own reversal runs with it."""
-    metadata = {"fit": "global past the jump (pipeline.calibration.restart)", "fit_from": row["fit_from"],
-                "runs": row["runs"], "definitions": row["definitions"], "own_reversal": row["own_reversal"]}
-    return io.write_params(out / PARAMS_FOLDER / row_params_name(row), model.Params.from_dict(row["model_params"]),
-                           metadata)
 
 
 if __name__ == "__main__":
