@@ -102,7 +102,8 @@ def energy_balance(spec: run_spec.DemSpec, strain: float = ENERGY_STRAIN) -> dic
         return {"error": str(exc)}
 
 
-def run_case(case: Case, results: Path = RUNS_DIR) -> dict:
+def run_case(case: Case, results: Path = RUNS_DIR, energy_strain: float = ENERGY_STRAIN) -> dict:
+    """Run ``case`` fresh, check its samples and close its energy balance over ``energy_strain`` of shear."""
     spec = spec_of(case)
     row = {"case": case.label, "what": case.what, "preset": case.preset, "theta_deg": case.theta_deg,
            "settings": {**case.overrides, **case.unchecked}}
@@ -113,7 +114,7 @@ def run_case(case: Case, results: Path = RUNS_DIR) -> dict:
         reason = json.loads(failed.read_text())["reason"] if failed.exists() else f"exit status {exc.code}"
         return {**row, "outcome": "stopped", "exit_status": exc.code, "diagnostic": reason}
     result = checks(path)
-    result["energy"] = energy_balance(spec)
+    result["energy"] = energy_balance(spec, energy_strain)
     residual = result["energy"].get("relative_residual")
     held = result["max_wall_stress_error"] < spec.stress_alarm
     failures = [] if result["finite"] else ["not finite"]
