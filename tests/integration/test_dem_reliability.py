@@ -2,6 +2,7 @@
 cannot be removed by --fresh, a damaged run folder is a one-line error, a killed scene is reported."""
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -143,14 +144,24 @@ def interrupted_run_dir(results):
     return run_spec.work_dir(run_spec.resolve(90, "tiny"), results)
 
 
+@pytest.fixture(scope="module")
+def interrupted_results(tmp_path_factory):
+    """A results folder holding ``interrupted_run_dir``, made once: each case damages a copy."""
+    results = tmp_path_factory.mktemp("interrupted")
+    interrupted_run_dir(results)
+    return results
+
+
 @pytest.mark.parametrize("damage, fragment", [
     ("checkpoint-random", "checkpoint"),
     ("checkpoint-truncated", "checkpoint"),
     ("samples-junk", "samples of the checkpoint cannot be read"),
     ("spec-not-json", "spec.json is damaged (not JSON)"),
 ])
-def test_a_damaged_run_folder_is_a_one_line_error_that_suggests_fresh(tmp_path, damage, fragment):
-    run_dir = interrupted_run_dir(tmp_path)
+def test_a_damaged_run_folder_is_a_one_line_error_that_suggests_fresh(interrupted_results, tmp_path, damage,
+                                                                        fragment):
+    shutil.copytree(interrupted_results, tmp_path, dirs_exist_ok=True)
+    run_dir = run_spec.work_dir(run_spec.resolve(90, "tiny"), tmp_path)
     if damage == "checkpoint-random":
         (run_dir / "checkpoint.yade.gz").write_bytes(os.urandom(4096))
     elif damage == "checkpoint-truncated":
@@ -166,9 +177,15 @@ def test_a_damaged_run_folder_is_a_one_line_error_that_suggests_fresh(tmp_path, 
     assert proc.returncode == 2 and "Traceback" not in text
     errors = [line for line in text.splitlines() if "error:" in line]
     assert len(errors) == 1 and fragment in errors[0] and "FRESH=1" in errors[0], text
-    fresh = subprocess.run(launcher("--theta", "90", "--preset", "tiny", "--fresh", results=tmp_path), cwd=ROOT,
-                           capture_output=True, text=True)
-    assert fresh.returncode == 0, fresh.stdout + fresh.stderr
+    fresh = start("--theta", "90", "--preset", "tiny", "--fresh", results=tmp_path)  # starts over: to its first
+    said = []  # checkpoint is enough
+    for line in fresh.stdout:
+        said.append(line)
+        if "strain" in line:
+            fresh.send_signal(signal.SIGINT)
+            break
+    said.append(fresh.communicate()[0])
+    assert fresh.returncode == 130 and "resumed" not in "".join(said), "".join(said)
 
 
 def test_a_scene_killed_by_a_signal_is_reported_and_resumes(tmp_path):
