@@ -1,8 +1,8 @@
 """``make compare``: the model against a data set's DEM runs -> ``results/<its folder>/compare/``.
 
 ``python -m pipeline.comparison [--preset P] [--engine E] [--set K=V] [--params FILE] [--out DIR]`` predicts every run's
-cycle with Table 2 and with the fitted parameters (``fit/params.json``), reading the runs with the
-fit's definitions of strain, Phi and p (``fit/fit.json``), and writes, atomically:
+cycle with Table 2 and with the fitted parameters (``fit/params.json``), reading the runs in the
+definitions of strain, Phi and p that the parameters were fitted in (their file's metadata), and writes, atomically:
 ``compare.h5`` (per run: the DEM's cycle mean and standard error, and each parameter set's model
 cycle at the same samples, in the fit's strain measure; the reversal split into backstress and isotropic part) and
 ``metrics.json`` (the normalised errors per run and parameter set, the backstress share, the
@@ -27,7 +27,7 @@ from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..dataset.lookup import preset_runs
-from ..errors import DemFileError
+from ..errors import DemFileError, PipelineError
 from ..paths import preset_output
 from . import metrics
 
@@ -122,6 +122,29 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
     return result
 
 
+def fitted_in(params_file: Path) -> Definitions:
+    """The definitions of strain, Phi and p that the parameters in ``params_file`` were fitted in: its metadata's
+    (``make fit`` and ``make fit-from`` write them), else the paper's (Table 2's; a file of one's own)."""
+    metadata = json.loads(params_file.read_text()).get("metadata")
+    given = metadata.get("definitions") if isinstance(metadata, dict) else None
+    if given is None:
+        return PAPER_DEFINITIONS
+    try:
+        return Definitions(**given)
+    except (TypeError, ValueError) as exc:  # not a mapping, an unknown name, an unknown choice
+        raise PipelineError(f"{params_file}: metadata.definitions {given} are not definitions ({exc})") from None
+
+
+def smoothed_reversals(params_file: Path, folder: str, definitions: Definitions) -> Path | None:
+    """The ``fit.h5`` holding the DEM's smoothed reversals read in ``definitions`` (the relaxation strains' data):
+    the one beside the parameters, else the data set's own fit's (for a row of ``make fit-from``); none if
+    neither was fitted in those definitions."""
+    for fit_h5 in dict.fromkeys((params_file.with_name("fit.h5"), preset_output(folder, "fit", "fit.h5"))):
+        if fit_h5.exists() and fitted_in(fit_h5.with_name("params.json")) == definitions:
+            return fit_h5
+    return None
+
+
 @one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.comparison", description=__doc__.splitlines()[0])
@@ -132,15 +155,14 @@ def main(argv=None) -> int:
     chosen = selection.from_arguments(args)
     params_file = args.params or preset_output(chosen.folder, "fit", "params.json")
     fitted = io.read_params(params_file)
-    fit_json = params_file.with_name("fit.json")
-    definitions = Definitions(**json.loads(fit_json.read_text()).get("definitions", {})) \
-        if fit_json.exists() else PAPER_DEFINITIONS
+    definitions = fitted_in(params_file)
+    print(f"reading the runs in the definitions {params_file.name} was fitted in: {definitions.label()}")
     runs = [r.with_definitions(definitions) for r in preset_runs(chosen)]
     if not runs:
         raise DemFileError(f"no DEM run of {chosen.label}: run `make dem PRESET={chosen.preset}` first")
-    fit_h5 = params_file.with_name("fit.h5")
     out = args.out or preset_output(chosen.folder, "compare")
-    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5 if fit_h5.exists() else None, out,
+    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, smoothed_reversals(params_file, chosen.folder,
+                                                                                     definitions), out,
             chosen.preset, chosen.label)
     print(f"wrote {out / 'compare.h5'} and metrics.json")
     return 0

@@ -187,6 +187,15 @@ def test_make_compare_and_figures_refuse(tmp_path, main, args, fragment):
     assert listing(tmp_path) == []
 
 
+def test_make_compare_refuses_parameters_fitted_in_definitions_it_does_not_know(tmp_path):
+    params = tmp_path / "params.json"
+    params.write_text(model.Params().to_json({"definitions": {"strain": "sideways", "phi": "gap",
+                                                              "pressure": "target"}}))
+    proc = run_main(compare_main, ["--preset", "tiny", "--params", str(params), "--out", str(tmp_path / "out")])
+    assert_refused(proc, "are not definitions (strain='sideways' is not one of bulk, nominal)")
+    assert not (tmp_path / "out").exists()
+
+
 # ---------------------------------------------------------------- python -m model
 def write_bytes(path, data: bytes):
     path.write_bytes(data)

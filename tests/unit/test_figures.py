@@ -1,5 +1,6 @@
 """`make compare` and `make figures`: the comparison files, then headless figures and the report that only read them."""
 
+import dataclasses
 import json
 from types import SimpleNamespace
 
@@ -9,12 +10,13 @@ import pytest
 
 import model
 from pipeline.calibration.calibrate import fit
-from pipeline.comparison.__main__ import compare
+from pipeline.comparison.__main__ import compare, fitted_in
 from pipeline.comparison.metrics import along as metrics_along
 from pipeline.comparison.metrics import memory_curves
+from pipeline.dataset.derived import PAPER_DEFINITIONS, Definitions
 from pipeline.dataset.smoothing import relaxation_strain
 from pipeline.figures.__main__ import draw, main
-from pipeline.io import read_params
+from pipeline.io import read_params, write_params
 from tests.helpers import synthetic_run
 
 
@@ -117,6 +119,33 @@ def test_missing_inputs_are_one_line_errors(tmp_path, capsys):
     assert "metrics.json not found: run `make compare`" in capsys.readouterr().err
     assert main(["--preset", "../../etc"]) == 2
     assert "preset '../../etc' is not a valid name" in capsys.readouterr().err
+
+
+def test_parameters_are_compared_in_the_definitions_they_were_fitted_in(compared, tmp_path):
+    tmp, _ = compared
+    fit_json = json.loads((tmp / "fit" / "fit.json").read_text())
+    assert fitted_in(tmp / "fit" / "params.json") == Definitions(**fit_json["definitions"])
+    mine = Definitions(strain="bulk", phi="central", pressure="wall")  # e.g. a row of make fit-from, alone
+    write_params(tmp_path / "row.json", model.Params(), {"definitions": dataclasses.asdict(mine)})
+    assert fitted_in(tmp_path / "row.json") == mine
+    write_params(tmp_path / "mine.json", model.Params())  # no metadata: the paper's, as Table 2's
+    assert fitted_in(tmp_path / "mine.json") == PAPER_DEFINITIONS
+
+
+def test_a_row_alone_takes_the_smoothed_reversals_of_its_data_sets_fit_in_the_same_definitions(compared, tmp_path,
+                                                                                                 monkeypatch):
+    from pipeline.comparison import __main__ as comparison
+
+    tmp, _ = compared
+    monkeypatch.setattr(comparison, "preset_output", lambda folder, *parts: tmp.joinpath(*parts))
+    ours = fitted_in(tmp / "fit" / "params.json")
+    row = tmp_path / "fit_from" / "row.json"
+    row.parent.mkdir()
+    write_params(row, model.Params(), {"definitions": dataclasses.asdict(ours)})
+    assert comparison.smoothed_reversals(row, "data set", ours) == tmp / "fit" / "fit.h5"
+    assert comparison.smoothed_reversals(tmp / "fit" / "params.json", "data set", ours) == tmp / "fit" / "fit.h5"
+    other = dataclasses.replace(ours, pressure="wall" if ours.pressure == "target" else "target")
+    assert comparison.smoothed_reversals(row, "data set", other) is None
 
 
 def test_relaxation_strain_of_an_exponential():
