@@ -140,7 +140,8 @@ def smoothed_reversals(params_file: Path, folder: str, definitions: Definitions)
     the one beside the parameters, else the data set's own fit's (for a row of ``make fit-from``); none if
     neither was fitted in those definitions."""
     for fit_h5 in dict.fromkeys((params_file.with_name("fit.h5"), preset_output(folder, "fit", "fit.h5"))):
-        if fit_h5.exists() and fitted_in(fit_h5.with_name("params.json")) == definitions:
+        its_params = fit_h5.with_name("params.json")
+        if fit_h5.exists() and its_params.exists() and fitted_in(its_params) == definitions:
             return fit_h5
     return None
 
@@ -161,9 +162,8 @@ def main(argv=None) -> int:
     if not runs:
         raise DemFileError(f"no DEM run of {chosen.label}: run `make dem PRESET={chosen.preset}` first")
     out = args.out or preset_output(chosen.folder, "compare")
-    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, smoothed_reversals(params_file, chosen.folder,
-                                                                                     definitions), out,
-            chosen.preset, chosen.label)
+    fit_h5 = smoothed_reversals(params_file, chosen.folder, definitions)
+    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5, out, chosen.preset, chosen.label)
     print(f"wrote {out / 'compare.h5'} and metrics.json")
     return 0
 
