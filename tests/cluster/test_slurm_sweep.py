@@ -344,6 +344,6 @@ def test_a_lammps_sweep_runs_two_ranks_per_task_and_survives_a_warning(cluster, 
     assert "stopped (exit 138); requeued to resume from its checkpoint" in log, log
     assert "attempt 2" in log and "resumed from checkpoint" in log
     (task,) = plan.tasks
-    assert load(task.output).engine == "lammps"
-    assert len(load(task.output).raw_all["fabric"]) == run_spec.cost(task.spec())["samples"]
+    mine = load(task.output)
+    assert mine.engine == "lammps" and len(mine.raw_all["fabric"]) == run_spec.cost(task.spec())["samples"]
     assert "mpirun -np 2" in (task.run_dir / "log.txt").read_text()

@@ -132,15 +132,24 @@ def test_fresh_on_a_live_run_is_refused_and_the_live_run_completes(tmp_path):
     assert proc.returncode == 0 and output_of(tmp_path, "--theta", "90", "--preset", "tiny").exists()
 
 
-def interrupted_run_dir(results):
-    """A tiny run stopped at its first checkpoint: the folder a later command resumes."""
-    proc = start("--theta", "90", "--preset", "tiny", results=results)
+def interrupted_at_first_checkpoint(*args, results) -> str:
+    """Run the tiny theta = 90 run (with ``args``), interrupt it at its first progress line and return what it
+    printed; it stops at its first checkpoint (exit 130)."""
+    proc = start("--theta", "90", "--preset", "tiny", *args, results=results)
+    said = []
     for line in proc.stdout:
+        said.append(line)
         if "strain" in line:
             proc.send_signal(signal.SIGINT)
             break
-    proc.communicate()
-    assert proc.returncode == 130
+    said.append(proc.communicate()[0])
+    assert proc.returncode == 130, "".join(said)
+    return "".join(said)
+
+
+def interrupted_run_dir(results):
+    """A tiny run stopped at its first checkpoint: the folder a later command resumes."""
+    interrupted_at_first_checkpoint(results=results)
     return run_spec.work_dir(run_spec.resolve(90, "tiny"), results)
 
 
@@ -177,15 +186,8 @@ def test_a_damaged_run_folder_is_a_one_line_error_that_suggests_fresh(interrupte
     assert proc.returncode == 2 and "Traceback" not in text
     errors = [line for line in text.splitlines() if "error:" in line]
     assert len(errors) == 1 and fragment in errors[0] and "FRESH=1" in errors[0], text
-    fresh = start("--theta", "90", "--preset", "tiny", "--fresh", results=tmp_path)  # starts over: to its first
-    said = []  # checkpoint is enough
-    for line in fresh.stdout:
-        said.append(line)
-        if "strain" in line:
-            fresh.send_signal(signal.SIGINT)
-            break
-    said.append(fresh.communicate()[0])
-    assert fresh.returncode == 130 and "resumed" not in "".join(said), "".join(said)
+    said = interrupted_at_first_checkpoint("--fresh", results=tmp_path)  # starts over: its first checkpoint shows it
+    assert "resumed" not in said, said
 
 
 def test_a_scene_killed_by_a_signal_is_reported_and_resumes(tmp_path):
