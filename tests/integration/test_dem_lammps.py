@@ -73,6 +73,15 @@ def both_engines(tmp_path_factory):
     return results, {engine: load(run_spec.output_path(tiny_spec(engine), results)) for engine in run_spec.ENGINES}
 
 
+def assert_holds_the_wall_stress(run):
+    """The wall stress held at p: within 20 % rms over the samples (the tiny cell's LAMMPS runs: 9–12 %; a wall
+    that lost its controller is off by order 1) and no sample beyond twice the alarm. A single sample may pass the
+    alarm itself, which stops a run only over ``stress_alarm_strain`` in a row: the tiny cell is chaotic, and
+    another order of the force sums (MPI ranks, the atoms' sorting) gives another trajectory."""
+    error = run.raw["wall_stress_error_mean"]
+    assert np.sqrt(np.mean(error ** 2)) < 0.2 and np.all(np.abs(error) < 2 * run.spec["stress_alarm"]), error
+
+
 def test_both_engines_run_one_spec_into_files_the_pipeline_reads_alike(both_engines):
     """Same samples, same fields and units, each file naming its engine; the same grains (one cloud generator), and
     both hold the wall stress at p through the run."""
@@ -88,7 +97,7 @@ def test_both_engines_run_one_spec_into_files_the_pipeline_reads_alike(both_engi
     np.testing.assert_array_equal(yade.grain_diameter, lammps.grain_diameter)
     for run in (yade, lammps):
         assert np.all(np.isfinite(run.raw["stress_contact"])) and np.all(np.isfinite(run.raw["fabric"]))
-        assert np.all(np.abs(run.raw["wall_stress_error_mean"]) < run.spec["stress_alarm"])
+        assert_holds_the_wall_stress(run)
         assert 0.5 < np.mean(run.raw["packing_fraction"]) < 0.7
         # the Love-Weber pressure of the central region against the wall's p = 1 (a 4d cell: loose agreement)
         p = -np.trace(run.raw["stress_contact"], axis1=1, axis2=2) / 3
@@ -169,7 +178,7 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
     assert two.cpu_seconds == pytest.approx(2 * two.parameters["loop_seconds"])  # both sessions on two cores
     assert one.cpu_seconds == pytest.approx(one.parameters["loop_seconds"])
     np.testing.assert_allclose(two.raw_all["strain"], one.raw_all["strain"], atol=1e-3)
-    assert np.all(np.abs(two.raw["wall_stress_error_mean"]) < two.spec["stress_alarm"])
+    assert_holds_the_wall_stress(two)
     refused = run_launcher("--theta", "90", "--preset", "tiny", "--ranks", "2", results=tmp_path)
     assert refused.returncode == 2 and "MPI ranks are for ENGINE=lammps" in refused.stderr
 
