@@ -87,6 +87,11 @@ $(call check,SLURM,$(NAME_CHARS) = : +,a list of key=value)
 $(call check,JOBS,$(DIGITS),a whole number)
 $(call check,SWEEP,$(NAME_CHARS),a sweep id)
 $(call check,SET,$(NAME_CHARS) = +,a list of key=value)
+# make versus A=preset/engine/key=value B=...; make bench-lammps-settings RUN_DIR=... A="LAMMPS commands; ..." B=...
+RUN_DIR ?=
+$(call check,A,$(NAME_CHARS) / = ;,a data set (preset/engine/key=value) or LAMMPS commands separated by ;)
+$(call check,B,$(NAME_CHARS) / = ;,a data set (preset/engine/key=value) or LAMMPS commands separated by ;)
+$(call check,RUN_DIR,$(NAME_CHARS) /,a run folder (letters, digits, _ . - /))
 ifneq ($(origin PRESET),undefined)
 $(call check,PRESET,$(NAME_CHARS),a preset name (letters, digits, _ . -))
 endif
@@ -121,7 +126,7 @@ DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config
 
 FORCE:
 .PHONY: FORCE help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-lammps system-slurm model-cycles \
-	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-angles fit-definitions fit-from fit-profile fidelity fidelity-table engines versus data-card cells jump stability profile-dem bench-dem compare figures demo-dem clean
+	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-angles fit-definitions fit-from fit-profile fidelity fidelity-table engines versus data-card cells jump stability profile-dem bench-dem bench-lammps-settings compare figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -154,6 +159,12 @@ bench: system venv ## benchmarks: model numerics, the material-point update, DEM
 bench-dem: system $(if $(findstring lammps,$(ENGINES)),system-lammps) venv ## DEM steps/s, bare and production loop (PRESETS=quick,reduced,paper; ENGINES=yade,lammps) -> results/bench/
 	$(PY) -m pipeline.studies.bench_dem --presets $(or $(PRESETS),quick$(comma)reduced$(comma)paper) --engines $(ENGINES) \
 	  --out results/bench
+
+bench-lammps-settings: system-lammps venv ## LAMMPS steps/s, two settings side by side from a run's checkpoint (RUN_DIR=...run A=... B=...) -> results/bench/
+	$(if $(RUN_DIR),,$(error make bench-lammps-settings needs RUN_DIR=results/<data set>/dem/<run>.run, a LAMMPS run \
+	  with a checkpoint (one in progress, or stopped by Ctrl-C)))
+	$(PY) -m pipeline.studies.bench_lammps_settings --run-dir $(RUN_DIR) --a "$(or $(A),atom_modify sort 0 0.0)" \
+	  --b "$(or $(B),atom_modify sort 1000 0.0)" --out results/bench
 
 # ---------------------------------------------------------------- set-up
 venv: $(VENV_STAMP) ## the project virtualenv from pyproject.toml

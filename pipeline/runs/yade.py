@@ -57,12 +57,18 @@ def environment(threads: int = 1) -> dict[str, str]:
 OUT = object()
 
 
-def run_script(module: str, spec, args: tuple, threads: int = 1, what: str = "") -> dict:
+def run_script(module: str, spec, args: tuple, threads: int = 1, what: str = "", run_dir: Path | None = None) -> dict:
     """Run ``dem.<module>`` on ``spec`` (a ``DemSpec``) in a scratch folder (its ``spec.json``) with ``args`` after
     the folder, ``OUT`` among them standing for the JSON file the script writes; that file's content, or a one-line
-    error with the script's last line on stderr."""
+    error with the script's last line on stderr. With ``run_dir`` (and no spec) the scratch folder is a copy of that
+    run folder's checkpoint (its files but the logs and status), which the script may change."""
     with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, "spec.json").write_text(json.dumps(spec.to_dict()))
+        if run_dir is None:
+            Path(tmp, "spec.json").write_text(json.dumps(spec.to_dict()))
+        else:
+            for path in run_dir.iterdir():
+                if path.is_file() and path.suffix != ".log" and path.name not in ("log.txt", "status.json"):
+                    shutil.copy2(path, tmp)
         out = Path(tmp, "out.json")
         argv = [out if a is OUT else a for a in args]
         proc = subprocess.run(command(module, tmp, *argv), capture_output=True, text=True, cwd=tmp,

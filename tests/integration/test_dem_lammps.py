@@ -154,6 +154,32 @@ def test_the_engines_benchmark_times_both_engines_on_one_preset(tmp_path):
     assert "| tiny | 54 + 48 |" in (tmp_path / "dem_engines.md").read_text()
 
 
+def test_the_settings_benchmark_times_two_settings_from_a_runs_checkpoint_and_leaves_it_as_it_was(tmp_path):
+    """Each round resumes a copy of the checkpoint once per setting (A then B, then B then A); the run folder
+    stays as it was, and a command LAMMPS refuses is one line naming it."""
+    from pipeline.studies.bench_lammps_settings import main as bench_main
+
+    interrupt_at_first_sample(tmp_path)
+    run_dir = run_spec.work_dir(tiny_spec("lammps"), tmp_path)
+    before = {p.name: p.read_bytes() for p in run_dir.iterdir() if p.is_file()}
+    out = tmp_path / "bench"
+    a, b = "atom_modify sort 0 0.0", "atom_modify sort 1000 0.0; neighbor 0.2 bin"
+    assert bench_main(["--run-dir", str(run_dir), "--a", a, "--b", b, "--steps", "100", "--rounds", "2",
+                       "--out", str(out)]) == 0
+    record = json.loads((out / "lammps_settings.json").read_text())
+    assert record["a"] == [a] and record["b"] == ["atom_modify sort 1000 0.0", "neighbor 0.2 bin"]
+    rates = np.array([record["a_steps_per_second"], record["b_steps_per_second"]])
+    assert rates.shape == (2, 2) and np.all(rates > 0)
+    np.testing.assert_allclose(record["ratios"], rates[1] / rates[0])
+    assert "B / A: median" in (out / "lammps_settings.md").read_text()
+    assert {p.name: p.read_bytes() for p in run_dir.iterdir() if p.is_file()} == before
+    proc = subprocess.run([sys.executable, "-m", "pipeline.studies.bench_lammps_settings", "--run-dir", str(run_dir),
+                           "--a", a, "--b", "atom_modify sort never", "--steps", "100", "--rounds", "1",
+                           "--out", str(tmp_path / "refused")], cwd=ROOT, capture_output=True, text=True)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "atom_modify sort never" in proc.stderr and "Traceback" not in proc.stderr
+
+
 def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_path):
     """RANKS=2 under Debian's OpenMPI: SIGINT reaches the ranks as SIGUSR1 through mpirun (which would kill them on
     SIGINT), they stop together at the next checkpoint (exit 138) and the same command resumes the run to the end;

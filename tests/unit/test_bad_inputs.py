@@ -91,11 +91,14 @@ MAKE_CASES = [
     ("ROTATE_AT=`touch INJECTED`", "ROTATE_AT='`touch INJECTED`' is not a number"),
     ("BOOT=0|touch INJECTED", "BOOT='0|touch INJECTED' is not a whole number"),
     ("ENGINE=lammps;touch INJECTED", "ENGINE='lammps;touch INJECTED' is not yade or lammps"),
+    ('A=sort 0" $$(touch INJECTED)', "A='sort 0\" $$(touch INJECTED)' is not a data set"),
+    ("RUN_DIR=results/x.run&&touch INJECTED", "RUN_DIR='results/x.run&&touch INJECTED' is not a run folder"),
 ]
 
 
 MAKE_TARGETS = [("dem", a, f) for a, f in MAKE_CASES] + [(t, *MAKE_CASES[k]) for k, t in
-                                                        ((0, "fit"), (1, "figures"), (5, "fit-bootstrap"))]
+                                                        ((0, "fit"), (1, "figures"), (5, "fit-bootstrap"),
+                                                         (8, "bench-lammps-settings"), (9, "bench-lammps-settings"))]
 
 
 @pytest.mark.slow
@@ -273,3 +276,26 @@ def test_an_engine_that_is_not_installed_is_one_line_naming_its_packages():
     with pytest.raises(ImportError) as err:
         new_lammps()
     assert "make system-lammps" in str(err.value) and "\n" not in str(err.value)
+
+
+# ---------------------------------------------------------------- make bench-lammps-settings (refused before LAMMPS)
+@pytest.mark.parametrize("folder, extra, fragment", [
+    ("empty", [], "no checkpoint there"),
+    ("yade", [], "a yade run, not a LAMMPS one"),
+    ("lammps", ["--a", " ; "], "--a ' ; ': no LAMMPS command"),
+    ("lammps", ["--steps", "10"], "--steps 10 must be at least 100"),
+    ("lammps", ["--rounds", "0"], "--rounds 0 must be at least 1"),
+])
+def test_the_lammps_settings_benchmark_refuses(tmp_path, folder, extra, fragment):
+    from pipeline.studies.bench_lammps_settings import main as bench_main
+
+    run_dir = tmp_path / "run.run"
+    run_dir.mkdir()
+    if folder != "empty":
+        (run_dir / "checkpoint.json").write_text("{}")
+        (run_dir / "spec.json").write_text(f'{{"engine": "{folder}"}}')
+    out = tmp_path / "bench"
+    proc = run_main(bench_main, ["--run-dir", str(run_dir), "--a", "atom_modify sort 0 0.0", "--b",
+                                 "atom_modify sort 1000 0.0", *extra, "--out", str(out)])
+    assert_refused(proc, fragment)
+    assert not out.exists()
