@@ -19,6 +19,9 @@ import model
 from . import global_fit
 
 DETERMINED, LOOSE = 0.1, 0.5  # relative standard error limits
+#: a misfit from here on (the model missing the runs by sqrt(2) times their noise or more) is said beside the
+#: intervals, with the intervals widened by sqrt(misfit)
+MISFIT_NOTED = 2.0
 LEVELS = {"68": 0.6827, "95": 0.95}
 Z = {"68": 1.0, "95": 1.959964}
 
@@ -70,21 +73,29 @@ UNMEASURED = "no interval: the noise is not measured (one cycle per run, no seed
 
 def summary(fit: global_fit.GlobalFit, data: list, hold: dict | None = None, measured: bool = True) -> dict:
     """Per parameter its interval and status, the best and worst determined combinations, Table 2's test.
+    Each parameter's ``intervals_misfit_widened`` take the misfit as if it were noise (standard errors times
+    sqrt(misfit), the most lenient reading): where the model misses the runs, the noise's own intervals describe
+    the noise, not what another set of runs would give, and even the widened ones assume that one parameter set
+    fits every run (``make fit-jackknife OVER=angles`` tests that).
     Without a ``measured`` noise (one cycle per run and no seeds) there are no intervals and no test: the
     scatter about a smoothed cycle misses the correlated part of the noise, and an interval from it
     would look tight and mean nothing."""
     params, intervals, loose = {}, {}, []
+    widening = float(np.sqrt(max(fit.misfit, 1.0)))
     for name, value, se in zip(fit.names, fit.values, fit.standard_errors, strict=True):
         se = se if measured else np.inf
         state = status(value, se) if measured else UNMEASURED
         ranges = {level: [value - z * se, value + z * se] if np.isfinite(se) else None for level, z in Z.items()}
+        wide = {level: [value - z * se * widening, value + z * se * widening] if np.isfinite(se) else None
+                for level, z in Z.items()}
         params[name] = {"value": float(value), "standard_error": float(se) if np.isfinite(se) else None,
-                        "status": state, "intervals": ranges}
+                        "status": state, "intervals": ranges, "intervals_misfit_widened": wide}
         intervals[name] = ranges["68"]
         if state == "not determined":
             loose.append(name)
     directions = list(fit.directions)
     described = [{**d, "combination": combination(d["direction"])} for d in directions]
     return {"parameters": params, "intervals_68": intervals, "not_determined": loose, "held": dict(hold or {}),
+            "misfit": float(fit.misfit), "misfit_widening": widening, "misfit_noted": bool(fit.misfit >= MISFIT_NOTED),
             "weakest": described[:3], "strongest": described[::-1][:3],
             "noise_measured": measured, "table2": None if hold or not measured else table2_test(fit, data)}

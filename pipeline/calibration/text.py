@@ -24,10 +24,17 @@ def print_global(report: dict) -> None:
     if report["fit_from"]:
         print(f"fitted past the reversal jump: the model restarts from the DEM's state {report['fit_from']:g} "
               "strain after each change of direction (make fit-from compares restarts)")
+    noted = ident["noise_measured"] and ident["misfit_noted"]
+    if noted:
+        print(f"the model misses these runs by sqrt(misfit) = {ident['misfit_widening']:.2f} times their noise: the "
+              "68 % intervals describe the noise alone; 'widened' takes the misfit as noise (the most lenient "
+              "reading), and both assume one parameter set fits every run: refits without one angle can move "
+              "much further (make fit-jackknife OVER=angles)")
     for name, p in ident["parameters"].items():
-        band = p["intervals"]["68"]
-        text = "[none]" if band is None else f"[{band[0]:+.4g}, {band[1]:+.4g}]"
-        print(f"{name:>8s} = {p['value']:+.4g}  68 % {text:>24s}  {p['status']}")
+        line = f"{name:>8s} = {p['value']:+.4g}  68 % {interval_text(p['intervals']['68']):>24s}  {p['status']}"
+        if noted:
+            line += f";  widened {interval_text(p['intervals_misfit_widened']['68'])}"
+        print(line)
     d = report["dilatancy"]
     if d is None:
         print("c2_coef, phi_c: not determined by these runs (Eq. 18's fit does not converge or sits at a bound); "
@@ -48,6 +55,10 @@ def print_global(report: dict) -> None:
         print(f"Table 2 on these data: chi^2 {t['relative_rise']:+.1%} above the best fit (a rise of "
               f"{t['chi2_rise']:.0f}{bound}): {where} the 95 % region from the noise, {lenient} it when widened "
               "by the misfit (make fit-definitions: under each definition)")
+
+
+def interval_text(band) -> str:
+    return "[none]" if band is None else f"[{band[0]:+.4g}, {band[1]:+.4g}]"
 
 
 def print_next_runs(report: dict, count: int = 5) -> None:

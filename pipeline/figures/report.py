@@ -45,22 +45,29 @@ def second_law_line(law: dict) -> str:
             f"({'holds' if law['holds'] else 'VIOLATED'})")
 
 
+def band_text(band) -> str:
+    return "open" if band is None else f"{band[0]:+.4g} to {band[1]:+.4g}"
+
+
 def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]:
     """Our parameters with their 68 % intervals and status beside Table 2; what the data fix; Table 2's test."""
     ident = (fit_json or {}).get("identifiability") or {}
     params = ident.get("parameters", {})
     dilatancy = (fit_json or {}).get("dilatancy") or {"free": [], "standard_errors": []}
     se = dict(zip(dilatancy["free"], dilatancy["standard_errors"], strict=True))
-    lines = ["| parameter | our fit | 68 % interval | status | Table 2 |", "|---|---|---|---|---|"]
+    noted = bool(ident.get("misfit_noted")) and ident.get("noise_measured", True)
+    wide_head = f" 68 %, widened × {ident['misfit_widening']:.2f} (√misfit) |" if noted else ""
+    lines = [f"| parameter | our fit | 68 % interval | status |{wide_head} Table 2 |",
+             "|---|---|---|---|" + ("---|" if noted else "") + "---|"]
     for name in NAMES:
         p = params.get(name)
         if p:
-            band = p["intervals"]["68"]
-            text = "open" if band is None else f"{band[0]:+.4g} to {band[1]:+.4g}"
-            lines.append(f"| {name} | {ours[name]:+.4g} | {text} | {p['status']} | {paper[name]:+.4g} |")
+            wide_cell = f" {band_text(p['intervals_misfit_widened']['68'])} |" if noted else ""
+            lines.append(f"| {name} | {ours[name]:+.4g} | {band_text(p['intervals']['68'])} | {p['status']} |"
+                         f"{wide_cell} {paper[name]:+.4g} |")
         else:
             spread = f"± {se[name]:.2g} (Φ scatter taken as white)" if name in se else ""
-            lines.append(f"| {name} | {ours[name]:+.4g} | {spread} | | {paper[name]:+.4g} |")
+            lines.append(f"| {name} | {ours[name]:+.4g} | {spread} | |{' |' if noted else ''} {paper[name]:+.4g} |")
     if not ident:
         return lines
     g, noise = fit_json["global"], fit_json["noise"]
@@ -73,7 +80,12 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
               f"{min(noise['A_tau_correlation']):+.2f} to {max(noise['A_tau_correlation']):+.2f}), "
               f"not scaled by the misfit. Misfit: {g['misfit']:.2f} (chi^2 per degree of freedom in noise units; "
               "1 = the model fits within the noise). `make fit-profile` gives the profile intervals, "
-              "`make fit-bootstrap` a bootstrap of the noise.", "",
+              "`make fit-bootstrap` a bootstrap of the noise."
+              + (f" **The model misses these runs by √misfit = {ident['misfit_widening']:.2f} times their noise**: "
+                 "the intervals from the noise alone describe the noise, not what other runs would give. The "
+                 "widened ones take the misfit as if it were noise (the most lenient reading). Both assume that "
+                 "one parameter set fits every run: refits without one angle can move much further "
+                 "(`make fit-jackknife OVER=angles`)." if noted else ""), "",
               "## What the data fix", "",
               "Eigen-directions of the covariance in relative parameters: a direction stands for the product of "
               "the powers shown, and its ± is one standard deviation of that product, relative.", "",

@@ -1,5 +1,7 @@
 """The calibration's noise model and intervals on model-made runs with DEM-like noise (known truth)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -62,6 +64,40 @@ def test_a_parameter_the_data_cannot_fix_has_a_flat_profile_and_is_reported_not_
     result = profiles(data, best, points=5)["parameters"]
     assert max(result["m"]["chi2_rise"]) < 1e-3 and result["m"]["intervals"]["68"] == [None, None]
     assert max(result["C"]["chi2_rise"]) > 10 and None not in result["C"]["intervals"]["68"]
+
+
+def test_a_model_that_misses_the_runs_says_so_beside_intervals_widened_by_the_root_of_its_misfit(tmp_path, capsys):
+    """Runs the model makes itself fit within their noise: no note. The same fit with a misfit of 9 (the model three
+    times the noise away) keeps the noise's intervals and gives beside them ones three times as wide, about the
+    same value; the printout and the report say it, and say nothing of it at the smaller misfit."""
+    from pipeline.calibration.text import print_global
+    from pipeline.figures.report import parameter_lines
+
+    runs = [synthetic_run(tmp_path, name=f"m{s}", seed=s, **NOISE) for s in range(2)]
+    data, nm = global_fit.prepare(runs)
+    fit = global_fit.refine(data, TRUE, noise=nm)
+    assert fit.misfit < identifiability.MISFIT_NOTED
+    near = identifiability.summary(fit, data)
+    far = identifiability.summary(dataclasses.replace(fit, misfit=9.0), data)
+    assert not near["misfit_noted"] and far["misfit_noted"] and far["misfit_widening"] == pytest.approx(3.0)
+    assert near["misfit_widening"] == pytest.approx(np.sqrt(max(fit.misfit, 1.0)))
+    for name, p in far["parameters"].items():
+        (low, high), (wide_low, wide_high) = p["intervals"]["68"], p["intervals_misfit_widened"]["68"]
+        assert p["intervals"] == near["parameters"][name]["intervals"], name
+        assert wide_high - wide_low == pytest.approx(3 * (high - low)), name
+        assert (wide_low + wide_high) / 2 == pytest.approx(p["value"]), name
+    ours = {**TRUE.to_dict(), "c2_coef": TRUE.c2_coef, "phi_c": TRUE.phi_c}
+    said = {}
+    for label, ident, misfit in (("near", near, fit.misfit), ("far", far, 9.0)):
+        report = {"global": {"misfit": misfit}, "identifiability": ident, "noise": nm.to_dict(),
+                  "global_runs": runs, "dilatancy": None, "fit_from": None, "persistence_exponent": 0.75}
+        print_global(report)
+        said[label] = (capsys.readouterr().out, "\n".join(parameter_lines(ours, ours, report)))
+    for printed, reported in (said["near"], said["far"]):
+        assert ("sqrt(misfit) = 3.00 times" in printed) == (";  widened [" in printed) == (printed is said["far"][0])
+        assert ("√misfit = 3.00 times" in reported) == ("widened × 3.00" in reported) == (reported is said["far"][1])
+    header = next(line for line in said["far"][1].splitlines() if line.startswith("| parameter"))
+    assert header.count("|") == next(line for line in said["far"][1].splitlines() if line.startswith("| C ")).count("|")
 
 
 def test_table_2_is_inside_the_region_on_its_own_data_and_outside_on_other_physics(tmp_path):
