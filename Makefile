@@ -88,10 +88,13 @@ $(call check,JOBS,$(DIGITS),a whole number)
 $(call check,SWEEP,$(NAME_CHARS),a sweep id)
 $(call check,SET,$(NAME_CHARS) = +,a list of key=value)
 # make versus A=preset/engine/key=value B=...; make bench-lammps-settings RUN_DIR=... A="LAMMPS commands; ..." B=...
+# (checked only for these targets: A and B are short names that a shell's environment may hold for other uses)
 RUN_DIR ?=
+ifneq ($(filter versus bench-lammps-settings,$(MAKECMDGOALS)),)
 $(call check,A,$(NAME_CHARS) / = ;,a data set (preset/engine/key=value) or LAMMPS commands separated by ;)
 $(call check,B,$(NAME_CHARS) / = ;,a data set (preset/engine/key=value) or LAMMPS commands separated by ;)
 $(call check,RUN_DIR,$(NAME_CHARS) /,a run folder (letters, digits, _ . - /))
+endif
 ifneq ($(origin PRESET),undefined)
 $(call check,PRESET,$(NAME_CHARS),a preset name (letters, digits, _ . -))
 endif

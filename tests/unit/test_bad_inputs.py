@@ -91,14 +91,18 @@ MAKE_CASES = [
     ("ROTATE_AT=`touch INJECTED`", "ROTATE_AT='`touch INJECTED`' is not a number"),
     ("BOOT=0|touch INJECTED", "BOOT='0|touch INJECTED' is not a whole number"),
     ("ENGINE=lammps;touch INJECTED", "ENGINE='lammps;touch INJECTED' is not yade or lammps"),
+]
+#: checked only for the targets that read them (A and B are short names a shell may hold for other uses)
+COMPARE_CASES = [
     ('A=sort 0" $$(touch INJECTED)', "A='sort 0\" $$(touch INJECTED)' is not a data set"),
     ("RUN_DIR=results/x.run&&touch INJECTED", "RUN_DIR='results/x.run&&touch INJECTED' is not a run folder"),
 ]
 
 
 MAKE_TARGETS = [("dem", a, f) for a, f in MAKE_CASES] + [(t, *MAKE_CASES[k]) for k, t in
-                                                        ((0, "fit"), (1, "figures"), (5, "fit-bootstrap"),
-                                                         (8, "bench-lammps-settings"), (9, "bench-lammps-settings"))]
+                                                        ((0, "fit"), (1, "figures"), (5, "fit-bootstrap"))] + [
+    ("bench-lammps-settings", *COMPARE_CASES[0]), ("bench-lammps-settings", *COMPARE_CASES[1]),
+    ("versus", *COMPARE_CASES[0])]
 
 
 @pytest.mark.slow
@@ -109,6 +113,18 @@ def test_make_variables_are_checked_before_any_command(tmp_path, target, assignm
     proc = run(["make", "-f", str(makefile), target, assignment], cwd=tmp_path)
     assert_refused(proc, fragment)
     assert listing(tmp_path) == [makefile.relative_to(tmp_path)]
+
+
+@pytest.mark.slow
+def test_a_short_variable_of_the_shell_does_not_stop_targets_that_do_not_read_it(tmp_path):
+    """A and B (make versus, make bench-lammps-settings) may hold anything in a user's shell: other targets run."""
+    import os
+
+    makefile = tmp_path / "Makefile"
+    shutil.copy(ROOT / "Makefile", makefile)
+    proc = subprocess.run(["make", "-f", str(makefile), "help"], capture_output=True, text=True, cwd=tmp_path,
+                          env={**os.environ, "A": 'a "quoted" $value', "B": "x|y"}, timeout=120)
+    assert proc.returncode == 0 and "make versus" in proc.stdout, proc.stderr
 
 
 # ---------------------------------------------------------------- make fit / fit-bootstrap / compare / figures
