@@ -25,15 +25,18 @@ def print_global(report: dict) -> None:
         print(f"fitted past the reversal jump: the model restarts from the DEM's state {report['fit_from']:g} "
               "strain after each change of direction (make fit-from compares restarts)")
     noted = ident["noise_measured"] and ident["misfit_noted"]
+    spread = (ident.get("spread_over_angles") or {}).get("ranges", {})
     if noted:
         print(f"the model misses these runs by sqrt(misfit) = {ident['misfit_widening']:.2f} times their noise: the "
               "68 % intervals describe the noise alone; 'widened' takes the misfit as noise (the most lenient "
-              "reading), and both assume one parameter set fits every run: refits without one angle can move "
-              "much further (make fit-jackknife OVER=angles)")
+              "reading), and both assume one parameter set fits every run; 'without one angle' is the range of "
+              "the refits that leave out each angle in turn (make fit-jackknife OVER=angles: each one's shift)")
     for name, p in ident["parameters"].items():
         line = f"{name:>8s} = {p['value']:+.4g}  68 % {interval_text(p['intervals']['68']):>24s}  {p['status']}"
         if noted:
             line += f";  widened {interval_text(p['intervals_misfit_widened']['68'])}"
+        if name in spread:
+            line += f";  without one angle {interval_text(spread[name])}"
         print(line)
     d = report["dilatancy"]
     if d is None:

@@ -56,18 +56,21 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
     dilatancy = (fit_json or {}).get("dilatancy") or {"free": [], "standard_errors": []}
     se = dict(zip(dilatancy["free"], dilatancy["standard_errors"], strict=True))
     noted = bool(ident.get("misfit_noted")) and ident.get("noise_measured", True)
-    wide_head = f" 68 %, widened × {ident['misfit_widening']:.2f} (√misfit) |" if noted else ""
-    lines = [f"| parameter | our fit | 68 % interval | status |{wide_head} Table 2 |",
-             "|---|---|---|---|" + ("---|" if noted else "") + "---|"]
+    spread = (ident.get("spread_over_angles") or {}).get("ranges", {}) if noted else {}
+    extra = ([f" 68 %, widened × {ident['misfit_widening']:.2f} (√misfit) |"] if noted else []) + (
+        [" refits without one angle |"] if spread else [])
+    lines = [f"| parameter | our fit | 68 % interval | status |{''.join(extra)} Table 2 |",
+             "|---|---|---|---|" + "---|" * len(extra) + "---|"]
     for name in NAMES:
         p = params.get(name)
         if p:
-            wide_cell = f" {band_text(p['intervals_misfit_widened']['68'])} |" if noted else ""
+            cells = ([f" {band_text(p['intervals_misfit_widened']['68'])} |"] if noted else []) + (
+                [f" {band_text(spread.get(name))} |"] if spread else [])
             lines.append(f"| {name} | {ours[name]:+.4g} | {band_text(p['intervals']['68'])} | {p['status']} |"
-                         f"{wide_cell} {paper[name]:+.4g} |")
+                         f"{''.join(cells)} {paper[name]:+.4g} |")
         else:
-            spread = f"± {se[name]:.2g} (Φ scatter taken as white)" if name in se else ""
-            lines.append(f"| {name} | {ours[name]:+.4g} | {spread} | |{' |' if noted else ''} {paper[name]:+.4g} |")
+            scatter = f"± {se[name]:.2g} (Φ scatter taken as white)" if name in se else ""
+            lines.append(f"| {name} | {ours[name]:+.4g} | {scatter} | |{' |' * len(extra)} {paper[name]:+.4g} |")
     if not ident:
         return lines
     g, noise = fit_json["global"], fit_json["noise"]
@@ -84,8 +87,12 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
               + (f" **The model misses these runs by √misfit = {ident['misfit_widening']:.2f} times their noise**: "
                  "the intervals from the noise alone describe the noise, not what other runs would give. The "
                  "widened ones take the misfit as if it were noise (the most lenient reading). Both assume that "
-                 "one parameter set fits every run: refits without one angle can move much further "
-                 "(`make fit-jackknife OVER=angles`)." if noted else ""), "",
+                 "one parameter set fits every run. " + (
+                     f"The last column is the range of the refits that leave out each of the "
+                     f"{len(ident['spread_over_angles']['left_out'])} angles in turn: where it is wider than the "
+                     "intervals, which angles are in the data set moves the parameter more than the noise does"
+                     if spread else "Refits without one angle can move further") +
+                 " (`make fit-jackknife OVER=angles`: each refit's shift)." if noted else ""), "",
               "## What the data fix", "",
               "Eigen-directions of the covariance in relative parameters: a direction stands for the product of "
               "the powers shown, and its ± is one standard deviation of that product, relative.", "",

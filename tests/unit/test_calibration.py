@@ -517,3 +517,25 @@ def test_a_normal_stress_difference_the_model_lacks_pulls_the_fabric_law_only_wh
                          for n, v, se in zip(fit.names, fit.values, fit.standard_errors, strict=True)}
     assert max(found["shear"].values()) < 4, found
     assert max(found["all"].values()) > 10, found["all"]
+
+
+@pytest.mark.slow
+def test_where_the_model_misses_the_runs_the_fit_gives_each_parameters_range_over_refits_without_one_angle(tmp_path):
+    """The reversal (two seeds), 30° and a 90° made with another fabric law (b2 -25, a2 0.4): one parameter set
+    misses them (misfit >= 2), so the fit refits without each angle in turn, and b2's range over those refits
+    reaches past the interval widened by the misfit."""
+    from pipeline.calibration.calibrate import calibrate
+
+    noise = {"noise": 0.003, "correlation_strain": 0.03, "a_tau_correlation": -0.5, "n_cycles": 2}
+    reversals = [synthetic_run(tmp_path, 180.0, name=f"r{s}", seed=s, **noise) for s in range(2)]
+    cross = (synthetic_run(tmp_path, 30.0, name="c30", seed=5, **noise),
+             synthetic_run(tmp_path, 90.0, name="c90", seed=6, params=TRUE.replace(b2=-25.0, a2=0.4), **noise))
+    ident = calibrate(reversals, cross).identifiability
+    assert ident["misfit_noted"] and ident["misfit"] >= 2
+    assert "spread_over_angles" in ident, (ident["noise_measured"], ident["misfit"])
+    spread = ident["spread_over_angles"]
+    assert spread["left_out"] == ["theta = 180", "theta = 30", "theta = 90"]
+    assert set(spread["ranges"]) == set(ident["parameters"])
+    low, high = spread["ranges"]["b2"]
+    wide_low, wide_high = ident["parameters"]["b2"]["intervals_misfit_widened"]["68"]
+    assert low < high and (low < wide_low or high > wide_high), (spread["ranges"]["b2"], (wide_low, wide_high))
