@@ -49,10 +49,10 @@ CHECKPOINT = "checkpoint.json"
 CONTINUE = "--continue"  # argument of a run going on after its own checkpoint (``Scene.reload``)
 CONTROL = "dem_lammps_control"  # the function fix python/invoke calls, in __main__
 SKIN = 0.3  # neighbour skin (d)
-#: atoms sorted in space every 1000 steps (LAMMPS's default, kept in memory near their neighbours: a sheared cell
-#: scatters them) and MPI ranks side by side across the cell's period, none split along e2 (the box is twice the gap
-#: tall, half of it empty). A resumed run sorts as an uninterrupted one does: both go on from the restart file at
-#: each checkpoint (``Scene.reload``), and the sorting steps are multiples of 1000
+#: atoms sorted in space every 1000 steps (LAMMPS's default: the grains come from a random cloud, so in creation
+#: order a grain's neighbours lie anywhere in memory) and MPI ranks side by side across the cell's period, none split
+#: along e2 (the box is twice the gap tall, half of it empty). A resumed run sorts as an uninterrupted one does: both
+#: go on from the restart file at each checkpoint (``Scene.reload``), and the sorting steps are multiples of 1000
 DOMAIN = ("atom_modify map array sort 1000 0.0", "processors * 1 *")
 
 

@@ -225,8 +225,8 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
             jack = global_fit.jackknife(data, jackknife_groups(settings.jackknife, reversals, cross_runs), refined,
                                         noise, progress=_progress("jackknife"))
             jack["over"] = settings.jackknife
-        angles = jackknife_groups("angles", reversals, cross_runs)
-        if identifiable["misfit_noted"] and noise.measured and len(angles) >= 3:  # the noise's ± would mislead
+        angles = jackknife_groups("angles", reversals, cross_runs) if identifiable["misfit_noted"] else {}
+        if len(angles) >= 3:  # the model misses the runs: the noise's ± would mislead
             spread = jack if settings.jackknife == "angles" else global_fit.jackknife(
                 data, angles, refined, noise, progress=_progress("the model misses the runs: refit without angle"))
             identifiable["spread_over_angles"] = identifiability.spread_over_angles(spread)

@@ -76,7 +76,8 @@ def summary(fit: global_fit.GlobalFit, data: list, hold: dict | None = None, mea
     Each parameter's ``intervals_misfit_widened`` take the misfit as if it were noise (standard errors times
     sqrt(misfit), the most lenient reading): where the model misses the runs, the noise's own intervals describe
     the noise, not what another set of runs would give, and even the widened ones assume that one parameter set
-    fits every run (``make fit-jackknife OVER=angles`` tests that).
+    fits every run (``make fit-jackknife OVER=angles`` tests that). ``misfit_noted``: the noise is measured and the
+    misfit is at least ``MISFIT_NOTED``, so the printout and the report say so beside the intervals.
     Without a ``measured`` noise (one cycle per run and no seeds) there are no intervals and no test: the
     scatter about a smoothed cycle misses the correlated part of the noise, and an interval from it
     would look tight and mean nothing."""
@@ -96,7 +97,8 @@ def summary(fit: global_fit.GlobalFit, data: list, hold: dict | None = None, mea
     directions = list(fit.directions)
     described = [{**d, "combination": combination(d["direction"])} for d in directions]
     return {"parameters": params, "intervals_68": intervals, "not_determined": loose, "held": dict(hold or {}),
-            "misfit": float(fit.misfit), "misfit_widening": widening, "misfit_noted": bool(fit.misfit >= MISFIT_NOTED),
+            "misfit": float(fit.misfit), "misfit_widening": widening,
+            "misfit_noted": bool(measured and fit.misfit >= MISFIT_NOTED),
             "weakest": described[:3], "strongest": described[::-1][:3],
             "noise_measured": measured, "table2": None if hold or not measured else table2_test(fit, data)}
 

@@ -24,7 +24,7 @@ def print_global(report: dict) -> None:
     if report["fit_from"]:
         print(f"fitted past the reversal jump: the model restarts from the DEM's state {report['fit_from']:g} "
               "strain after each change of direction (make fit-from compares restarts)")
-    noted = ident["noise_measured"] and ident["misfit_noted"]
+    noted = ident["misfit_noted"]
     spread = (ident.get("spread_over_angles") or {}).get("ranges", {})
     if noted:
         print(f"the model misses these runs by sqrt(misfit) = {ident['misfit_widening']:.2f} times their noise: the "

@@ -55,7 +55,7 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
     params = ident.get("parameters", {})
     dilatancy = (fit_json or {}).get("dilatancy") or {"free": [], "standard_errors": []}
     se = dict(zip(dilatancy["free"], dilatancy["standard_errors"], strict=True))
-    noted = bool(ident.get("misfit_noted")) and ident.get("noise_measured", True)
+    noted = bool(ident.get("misfit_noted"))
     spread = (ident.get("spread_over_angles") or {}).get("ranges", {}) if noted else {}
     extra = ([f" 68 %, widened × {ident['misfit_widening']:.2f} (√misfit) |"] if noted else []) + (
         [" refits without one angle |"] if spread else [])

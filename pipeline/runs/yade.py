@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..errors import PipelineError
 from ..paths import ROOT
+from .state import STATUS
 
 
 class YadeMissing(RuntimeError):
@@ -67,7 +68,7 @@ def run_script(module: str, spec, args: tuple, threads: int = 1, what: str = "",
             Path(tmp, "spec.json").write_text(json.dumps(spec.to_dict()))
         else:
             for path in run_dir.iterdir():
-                if path.is_file() and path.suffix != ".log" and path.name not in ("log.txt", "status.json"):
+                if path.is_file() and path.suffix != ".log" and path.name not in ("log.txt", STATUS):
                     shutil.copy2(path, tmp)
         out = Path(tmp, "out.json")
         argv = [out if a is OUT else a for a in args]

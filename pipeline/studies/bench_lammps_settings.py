@@ -5,14 +5,12 @@ checkpoint under two sets of engine commands, one process per setting and round,
 0.0" --b "atom_modify sort 1000 0.0" [--steps 3000] [--rounds 4] [--out results/bench]`` (several commands in one
 setting: separated by ``;``). Each process resumes a copy of the checkpoint, issues its setting's commands, shears
 200 steps, then times ``--steps`` (``dem/lammps_settings_bench.py``). A and B swap places every round, so a drift of
-the machine's load falls on both; the ratio B / A is taken within each round. A sheared cell's state matters here:
-a checkpoint late in a long run has its atoms scattered in memory, a freshly compacted one does not. Writes
-``lammps_settings.json`` and ``lammps_settings.md``.
+the machine's load falls on both; the ratio B / A is taken within each round. Writes ``lammps_settings.json`` and
+``lammps_settings.md``.
 """
 
 from __future__ import annotations
 
-import json
 import statistics
 import sys
 import time
@@ -23,6 +21,7 @@ from ..cli import Parser, one_line_errors
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs import yade
+from ..runs.state import read_json
 
 
 def commands(text: str, name: str) -> list[str]:
@@ -35,10 +34,10 @@ def commands(text: str, name: str) -> list[str]:
 
 def checked_run_dir(run_dir: Path) -> Path:
     """A LAMMPS run folder with a checkpoint, else a one-line error naming it."""
-    spec = run_dir / "spec.json"
-    if not (run_dir / "checkpoint.json").is_file() or not spec.is_file():
+    spec = read_json(run_dir / "spec.json")
+    if not (run_dir / "checkpoint.json").is_file() or spec is None:
         raise PipelineError(f"--run-dir {run_dir}: no checkpoint there (a run folder <run>.run of results/*/dem/)")
-    engine = json.loads(spec.read_text()).get("engine", "yade")
+    engine = spec.get("engine", "yade")
     if engine != "lammps":
         raise PipelineError(f"--run-dir {run_dir}: a {engine} run, not a LAMMPS one")
     return run_dir
