@@ -48,7 +48,8 @@ def candidates(existing_rotations: list[tuple[float, float]], n_cycles: int) -> 
     out += [new("another reversal seed (theta = 180)", 180.0)]
     out += [new(f"another seed at theta = {t:g}", t) for t in (30.0, 60.0, 90.0, 120.0, 150.0)]
     out += [new(f"a reversal before steady state (theta = 180 at {r:g})", 180.0, r) for r in (0.1, 0.2, 0.35)]
-    out += [new(f"theta = 90 rotated at {r:g} (Fig. 7)", 90.0, r) for r in (0.1, 0.2)]
+    out += [new(f"{'another seed of ' if (90.0, r) in existing_rotations else ''}theta = 90 rotated at {r:g} (Fig. 7)",
+                90.0, r) for r in (0.1, 0.2)]
     out += [new(f"a reversal run for {2 * n_cycles} cycles instead of {n_cycles}", 180.0, n_cycles=2 * n_cycles),
             new("a reversal sampled every 0.001 strain", 180.0, sample_strain=0.001, cost_factor=1.05)]
     return out

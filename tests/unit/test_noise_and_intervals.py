@@ -231,3 +231,15 @@ def test_the_next_runs_are_as_long_as_the_data_sets_and_priced_by_its_cpu_time(t
     assert rows["a reversal run for 6 cycles instead of 3"]["cpu_hours"] == pytest.approx(PRE + 6 * PERIOD)
     assert all(r["weakest_after"] <= r["weakest_before"] * (1 + 1e-9) for r in rows.values())
     assert seed["weakest_after"] < seed["weakest_before"]
+
+
+def test_a_committed_turn_of_fig_7_is_offered_as_fitted_or_as_another_seed_not_as_new():
+    """Where Fig. 7's turn at 0.2 is committed, the candidates fit it for free or run another seed of it; the turn
+    at 0.1, not committed, is offered as a new run."""
+    from pipeline.calibration import design
+
+    labels = [c.label for c in design.candidates([(90.0, 0.2)], n_cycles=5)]
+    assert "fit the committed theta = 90, rotated at 0.2 (no new run)" in labels
+    assert "another seed of theta = 90 rotated at 0.2 (Fig. 7)" in labels
+    assert "theta = 90 rotated at 0.2 (Fig. 7)" not in labels
+    assert "theta = 90 rotated at 0.1 (Fig. 7)" in labels
