@@ -49,6 +49,18 @@ def band_text(band) -> str:
     return "open" if band is None else f"{band[0]:+.4g} to {band[1]:+.4g}"
 
 
+def misfit_sentence(ident: dict) -> str:
+    """What the intervals mean where the model misses the runs (``identifiability.summary``'s ``misfit_noted``)."""
+    spread = ident.get("spread_over_angles")
+    angles = (f"The last column is the range of the refits that leave out each of the {len(spread['left_out'])} "
+              "angles in turn: where it is wider than the intervals, which angles are in the data set moves the "
+              "parameter more than the noise does" if spread else "Refits without one angle can move further")
+    return (f" **The model misses these runs by √misfit = {ident['misfit_widening']:.2f} times their noise**: the "
+            "intervals from the noise alone describe the noise, not what other runs would give. The widened ones "
+            "take the misfit as if it were noise (the most lenient reading). Both assume that one parameter set "
+            f"fits every run. {angles} (`make fit-jackknife OVER=angles`: each refit's shift).")
+
+
 def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]:
     """Our parameters with their 68 % intervals and status beside Table 2; what the data fix; Table 2's test."""
     ident = (fit_json or {}).get("identifiability") or {}
@@ -56,7 +68,7 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
     dilatancy = (fit_json or {}).get("dilatancy") or {"free": [], "standard_errors": []}
     se = dict(zip(dilatancy["free"], dilatancy["standard_errors"], strict=True))
     noted = bool(ident.get("misfit_noted"))
-    spread = (ident.get("spread_over_angles") or {}).get("ranges", {}) if noted else {}
+    spread = (ident.get("spread_over_angles") or {}).get("ranges", {})  # only where the misfit is noted
     extra = ([f" 68 %, widened × {ident['misfit_widening']:.2f} (√misfit) |"] if noted else []) + (
         [" refits without one angle |"] if spread else [])
     lines = [f"| parameter | our fit | 68 % interval | status |{''.join(extra)} Table 2 |",
@@ -84,15 +96,7 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
               f"not scaled by the misfit. Misfit: {g['misfit']:.2f} (chi^2 per degree of freedom in noise units; "
               "1 = the model fits within the noise). `make fit-profile` gives the profile intervals, "
               "`make fit-bootstrap` a bootstrap of the noise."
-              + (f" **The model misses these runs by √misfit = {ident['misfit_widening']:.2f} times their noise**: "
-                 "the intervals from the noise alone describe the noise, not what other runs would give. The "
-                 "widened ones take the misfit as if it were noise (the most lenient reading). Both assume that "
-                 "one parameter set fits every run. " + (
-                     f"The last column is the range of the refits that leave out each of the "
-                     f"{len(ident['spread_over_angles']['left_out'])} angles in turn: where it is wider than the "
-                     "intervals, which angles are in the data set moves the parameter more than the noise does"
-                     if spread else "Refits without one angle can move further") +
-                 " (`make fit-jackknife OVER=angles`: each refit's shift)." if noted else ""), "",
+              + (misfit_sentence(ident) if noted else ""), "",
               "## What the data fix", "",
               "Eigen-directions of the covariance in relative parameters: a direction stands for the product of "
               "the powers shown, and its ± is one standard deviation of that product, relative.", "",

@@ -4,6 +4,7 @@ the value, no traceback, and leaves nothing behind. (Damaged run folders need Ya
 The command lines run in-process (``run_main``: the same ``main`` a shell runs); Make itself runs as a
 process, in the ``slow`` tests."""
 
+import os
 import shutil
 import subprocess
 
@@ -118,8 +119,6 @@ def test_make_variables_are_checked_before_any_command(tmp_path, target, assignm
 @pytest.mark.slow
 def test_a_short_variable_of_the_shell_does_not_stop_targets_that_do_not_read_it(tmp_path):
     """A and B (make versus, make bench-lammps-settings) may hold anything in a user's shell: other targets run."""
-    import os
-
     makefile = tmp_path / "Makefile"
     shutil.copy(ROOT / "Makefile", makefile)
     proc = subprocess.run(["make", "-f", str(makefile), "help"], capture_output=True, text=True, cwd=tmp_path,
