@@ -276,6 +276,22 @@ def test_the_top_rung_is_set_against_the_extrapolation_and_says_whether_it_was_p
     assert "| mu |" in render.markdown(off).split("The top rung")[1]
 
 
+def test_two_top_rung_seeds_that_agree_by_chance_keep_their_own_errors():
+    """Two seeds 0.0006 apart, each with a windows' error of 0.003: their scatter alone (0.0003) would claim ten
+    times less than either run's noise allows; the error is at least their own errors' mean's (0.003 / sqrt 2)."""
+    rng = np.random.default_rng(3)
+    truth = lambda gap: 0.45 - 0.5 / gap  # noqa: E731
+    line = table.extrapolate(_cell_entries(rng, truth), 180.0, ["gap_d", "width_d"], "inverse", 17.0, {"mu": 0.01},
+                             ("mu",))
+    top = [{**_summary(f"paper{k}", 0.387 + d, se=0.003), "name": "theta180"} for k, d in enumerate((0.0, 0.0006))]
+    mu = table.top_check(top, {"cell": line}, ["cell"], "paper")["checks"]["cell"]["mu"]
+    assert mu["paper_cell"] == pytest.approx(0.3873)
+    assert mu["paper_cell_se"] == pytest.approx(0.003 / np.sqrt(2))
+    apart = [{**_summary(f"paper{k}", 0.387 + d, se=0.003), "name": "theta180"} for k, d in enumerate((0.0, 0.02))]
+    wide = table.top_check(apart, {"cell": line}, ["cell"], "paper")["checks"]["cell"]["mu"]
+    assert wide["paper_cell_se"] == pytest.approx(0.01)  # their scatter, where it is the larger
+
+
 def test_the_top_rungs_95_percent_verdict_covers_the_truth_about_95_percent_of_the_time():
     """Coverage of the check on synthetic ladders of known truth: the paper cell on the extrapolated line."""
     rng = np.random.default_rng(11)
