@@ -10,7 +10,8 @@ band and of the gap), the central band's strain per nominal strain, the fabric's
 as a fraction of its value before it (``make jump``'s measure) at gamma = 0.0005 ... 0.5 (below 0.005 from the runs
 with dense samples), and, for the reversals, the global fit on the run alone in the paper's definitions.
 
-Each quantity's mean over a side's runs, its standard error from their scatter (seeds are independent), and the
+Each quantity's mean over a side's runs, its standard error from their scatter (seeds are independent; for the
+steady values and the fit never below the runs' own errors, ``welch.own_floor``), and the
 difference in combined standard errors, ``z = (B - A) / sqrt(se_A^2 + se_B^2)``. With a few seeds per side z is a
 Welch t statistic, not a normal one: the sides agree on a quantity when |z| is below Welch's two-sided 95 %
 critical value at the Welch-Satterthwaite degrees of freedom (about 2.2 with six seeds each, 4.3 with two and
@@ -48,10 +49,12 @@ FIT_NAMES = ("C", "n", "a1", "a2", "b1", "b2")
 LEVEL = 0.95
 
 
-def run_measures(run, fit: bool) -> dict:
-    """One run's measures (see the module's doc), each a number (NaN where the run cannot give it)."""
+def run_measures(run, fit: bool) -> tuple[dict, dict]:
+    """One run's measures (see the module's doc), each a number (NaN where the run cannot give it), and the run's
+    own errors of those it has them for (the steady values: their windows' standard error; the fit's: its own)."""
     steady = steady_values(run)
     out = {label: steady[key]["mean"] for key, label in STEADY.items()}
+    own = {label: steady[key]["standard_error"] for key, label in STEADY.items()}
     out["band strain / nominal"] = bulk_over_nominal(run.with_definitions(Definitions(strain="bulk")))
     profiles = run_profiles(run, TRANSIENT_GAMMAS)
     for k, g in enumerate(TRANSIENT_GAMMAS):
@@ -61,7 +64,8 @@ def run_measures(run, fit: bool) -> dict:
         result = own_fit(run.with_definitions(PAPER_DEFINITIONS))
         for name in FIT_NAMES:
             out[f"fit {name}"] = result.get("values", {}).get(name, math.nan)
-    return out
+            own[f"fit {name}"] = (result.get("standard_errors") or {}).get(name)
+    return out, own
 
 
 def side(text: str) -> selection.DataSet:
@@ -73,9 +77,10 @@ def side(text: str) -> selection.DataSet:
     return selection.data_set(preset, engine, parse_overrides(rest))
 
 
-def compare(measures: dict, cycles: dict) -> list[dict]:
+def compare(measures: dict, cycles: dict, own: dict | None = None) -> list[dict]:
     """Per quantity: each side's mean, standard error and runs, and z (``measures`` holds two sides, A then B,
-    each a list of its runs' measure dicts; ``cycles`` the same sides' cycles per run). A side of one run
+    each a list of its runs' measure dicts; ``cycles`` the same sides' cycles per run; ``own`` their runs' own
+    errors, where known, below which a side's standard error from its scatter is not taken). A side of one run
     against a side of several is tested as a new draw from the other side (``one_against_many``)."""
     rows = []
     names = list(next(iter(m for m in measures.values() if m))[0]) if any(measures.values()) else []
@@ -85,6 +90,9 @@ def compare(measures: dict, cycles: dict) -> list[dict]:
         for label in labels:
             row[label] = dict(zip(("mean", "se", "n"), mean_and_error([m[name] for m in measures[label]]),
                                   strict=True))
+            floor = welch.own_floor([e.get(name) for e in own[label]]) if own else math.nan
+            if row[label]["n"] > 1 and floor > row[label]["se"]:
+                row[label]["se"] = floor
         a, b = row[labels[0]], row[labels[1]]
         single = [label for label in labels if row[label]["n"] == 1 and row[_other(labels, label)]["n"] > 1]
         if single:
@@ -124,10 +132,12 @@ def summarise(runs: dict, fits: bool = True) -> dict:
     groups, labels = {}, []
     for theta, by_side in runs.items():
         labels = list(by_side)
-        measures = {label: [run_measures(r, fit=fits and theta == "180") for r in by_side[label]]
+        measured = {label: [run_measures(r, fit=fits and theta == "180") for r in by_side[label]]
                     for label in labels}
+        measures = {label: [values for values, _ in runs] for label, runs in measured.items()}
+        own = {label: [errors for _, errors in runs] for label, runs in measured.items()}
         cycles = {label: [r.spec["n_cycles"] for r in by_side[label]] for label in labels}
-        groups[theta] = {"seeds": {e: len(m) for e, m in measures.items()}, "rows": compare(measures, cycles)}
+        groups[theta] = {"seeds": {e: len(m) for e, m in measures.items()}, "rows": compare(measures, cycles, own)}
     return {"sides": labels, "gammas": list(TRANSIENT_GAMMAS), "level": LEVEL, "groups": groups}
 
 
@@ -141,7 +151,8 @@ def markdown(summary: dict) -> str:
     a, b = summary["sides"]
     lines = [f"# {a} against {b}", "",
              f"Per quantity: each side's mean over its runs ± the standard error "
-             f"from their scatter (runs in brackets), and z = ({b} − {a}) / combined standard error; the sides "
+             f"from their scatter (runs in brackets; for the steady values and the fit never below what the runs' "
+             f"own errors give their mean), and z = ({b} − {a}) / combined standard error; the sides "
              f"agree at these seeds where |z| is below Welch's two-sided {summary['level']:.0%} critical value t* "
              "(about one quantity in twenty falls outside by chance). A side of one run against a side of several "
              "(z marked †) is tested as a new draw from the other side: its scatter is the other side's seed-to-seed "

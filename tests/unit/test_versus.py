@@ -71,6 +71,23 @@ def test_one_run_against_several_is_tested_as_a_new_draw_and_a_shifted_one_is_fl
     assert all(r["agree"] is None for r in alone["groups"]["180"]["rows"])
 
 
+def test_two_seeds_that_agree_by_chance_keep_their_own_errors():
+    """Two runs 0.0006 apart against three 0.001 apart, each run with its own error 0.003: their scatter alone
+    would make a 0.007 difference a disagreement; with the runs' own errors as the floor it is not. A quantity
+    without own errors keeps its scatter."""
+    a = [{"τ12/p": v, "A fraction at γ = 0.1": -0.45 + d} for v, d in ((0.379, 0.0), (0.380, 0.01), (0.381, -0.01))]
+    b = [{"τ12/p": v, "A fraction at γ = 0.1": -0.42 + d} for v, d in ((0.3870, 0.0), (0.3876, 0.0004))]
+    own = {"A": [{"τ12/p": 0.003, "A fraction at γ = 0.1": None}] * 3,
+           "B": [{"τ12/p": 0.003, "A fraction at γ = 0.1": None}] * 2}
+    rows = {r["quantity"]: r for r in versus.compare({"A": a, "B": b}, {"A": [5] * 3, "B": [5] * 2}, own)}
+    assert rows["τ12/p"]["B"]["se"] == pytest.approx(0.003 / np.sqrt(2))
+    assert rows["τ12/p"]["A"]["se"] == pytest.approx(0.003 / np.sqrt(3))  # A's scatter (0.0006) is below it too
+    assert rows["τ12/p"]["agree"]
+    bare = {r["quantity"]: r for r in versus.compare({"A": a, "B": b}, {"A": [5] * 3, "B": [5] * 2})}
+    assert bare["τ12/p"]["B"]["se"] == pytest.approx(0.0003) and not bare["τ12/p"]["agree"]
+    assert rows["A fraction at γ = 0.1"]["B"]["se"] == pytest.approx(0.0002)
+
+
 @pytest.mark.parametrize("cycles_ratio", [1, 4])
 def test_one_against_many_holds_95_percent_of_new_draws(cycles_ratio):
     """Three runs of five cycles and one run of 5 / ratio cycles, all from one normal population (a run's noise

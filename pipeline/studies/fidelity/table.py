@@ -188,20 +188,16 @@ def with_combinations(entries: list[tuple], found: dict) -> list[tuple]:
     return out
 
 
-def own_floor(top: list[dict], name: str) -> float:
-    """The top rung's seeds' own errors of ``name`` (μ: their windows'; a parameter: their own fits'), as the
-    standard error of their mean: sqrt(mean of squares / n). Two or three seeds that agree by chance more closely
-    than each one's noise allows would otherwise claim an error their scatter cannot carry."""
-    own = [s["steady"]["mu"]["standard_error"] if name == "mu"
-           else ((s.get("fit") or {}).get("standard_errors") or {}).get(name) for s in top]
-    own = [e for e in own if e is not None and np.isfinite(e)]
-    return float(np.sqrt(np.mean(np.square(own)) / len(top))) if own else 0.0
+def own_errors(top: list[dict], name: str) -> list:
+    """The top rung's seeds' own errors of ``name``: μ's from their windows, a parameter's from their own fits."""
+    return [s["steady"]["mu"]["standard_error"] if name == "mu"
+            else ((s.get("fit") or {}).get("standard_errors") or {}).get(name) for s in top]
 
 
 def top_check(top: list[dict], extrapolated: dict, checks: list[str], label: str) -> dict:
     """The top rung (the paper's cell) at one angle against each ``checks`` axis's extrapolation there: for μ and
     each fitted parameter, the top rung's value (its seeds' mean ± SD/sqrt(n), never below their own errors'
-    ``own_floor``; one run: its windows' standard error for μ, its own fit's for a parameter, which leave a
+    ``welch.own_floor``; one run: its windows' standard error for μ, its own fit's for a parameter, which leave a
     seed's scatter out), the extrapolated value, the difference in combined standard errors (z) and whether it
     lies within the two-sided 95 % quantile of Student's t, its degrees of freedom Welch's (the top rung's from
     its n - 1 seeds, or its windows for one run's μ; the line's taken as many)."""
@@ -217,10 +213,10 @@ def top_check(top: list[dict], extrapolated: dict, checks: list[str], label: str
                 value, se = ref["steady"]["mu"]["mean"], ref["steady"]["mu"]["standard_error"]
                 dof = len(top) - 1 if len(top) > 1 else len(top[0]["steady"]["mu"].get("windows", ())) - 1
                 if len(top) > 1:
-                    se = max(se, own_floor(top, name))
+                    se = max(se, welch.own_floor(own_errors(top, name)))
             elif name in ref["fit"] and len(top) > 1:
                 value, dof = ref["fit"][name]["mean"], len(top) - 1
-                se = max(ref["fit"][name]["standard_error"], own_floor(top, name))
+                se = max(ref["fit"][name]["standard_error"], welch.own_floor(own_errors(top, name)))
             elif name in ref["fit"]:
                 value, dof = ref["fit"][name]["mean"], np.inf  # a fit's error from thousands of samples
                 se = ((top[0].get("fit") or {}).get("standard_errors") or {}).get(name)
