@@ -72,8 +72,9 @@ def data_set(preset: str, engine: str | None = None, overrides: dict | None = No
     (where ``engine`` is not given or names the declared one's engine), which is also the one to make where neither
     has a run; seeds are dropped."""
     check_folder_name(preset)
-    chosen = {k: float(v) for k, v in (overrides or {}).items() if k not in SEED_KEYS}
-    run_spec.resolve(180, preset, overrides=chosen, engine=engine or run_spec.ENGINES[0])  # validates
+    given = {k: float(v) for k, v in (overrides or {}).items() if k not in SEED_KEYS}
+    # validates, and drops a preset's own values: they are no overrides
+    chosen = run_spec.resolve(180, preset, overrides=given, engine=engine or run_spec.ENGINES[0]).overrides
     if overrides:
         return DataSet(preset, engine or run_spec.ENGINES[0], tuple(sorted(chosen.items())))
     candidates = [DataSet(preset, engine or run_spec.ENGINES[0])]

@@ -242,6 +242,8 @@ def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | 
     unknown = sorted(set(overrides) - set(presets[preset]))
     if unknown:
         raise SpecError(f"unknown override key(s) {', '.join(unknown)} (see {presets_file.name})")
+    # a preset's own value is no override: the same run, in the same folder, with or without it
+    overrides = {k: v for k, v in overrides.items() if not _same_value(v, presets[preset][k])}
     values = {**presets[preset], **overrides}
     _check_values(values)
     if values["inertial_number"] > QUASI_STATIC_I and not allow_inertial:
@@ -258,6 +260,13 @@ def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | 
         raise SpecError(f"rotate_at={rotate_at!r} must lie strictly between 0 and period_strain={period}")
     return DemSpec(preset, theta, rotate_at, run_name(theta, rotate_at, default_rotate_at),
                    run_folder(preset, engine, overrides), overrides, values, engine)
+
+
+def _same_value(given, preset_value) -> bool:
+    try:
+        return float(given) == float(preset_value)
+    except (TypeError, ValueError):
+        return False  # not a number: _check_values names it
 
 
 def run_folder(preset: str, engine: str = ENGINES[0], overrides: dict | None = None) -> str:

@@ -93,3 +93,14 @@ def test_the_engine_names_the_folder_and_a_spec_without_one_is_yades():
     with pytest.raises(SpecError) as err:
         resolve(90, "reduced", engine="foo")
     assert str(err.value) == "engine='foo' is not a DEM engine here (known: yade, lammps)"
+
+
+def test_a_presets_own_value_is_no_override_and_names_no_other_folder():
+    """`SET="seed=1"` on the paper preset is the paper preset's run: the same spec and folder as without it (not a
+    second copy of the same run under a hash); a value that differs stays an override."""
+    plain, given = resolve(180, "paper", engine="lammps"), resolve(180, "paper", overrides={"seed": 1}, engine="lammps")
+    assert given.overrides == {} and given.folder == plain.folder == "paper-lammps"
+    reduced = resolve(180, "reduced", overrides={"inertial_number": 1e-3, "seed": 2})
+    assert reduced.overrides == {"seed": 2} and reduced.folder == run_spec.run_folder("reduced", "yade", {"seed": 2})
+    with pytest.raises(SpecError, match="seed='one' is not a number"):
+        resolve(180, "paper", overrides={"seed": "one"})

@@ -140,3 +140,8 @@ def test_make_fit_angles_and_jackknife_pass_their_options_and_refuse_no_angles()
     assert line.split("pipeline.calibration", 1)[1].split()[-4:] == ["--stress", "all", "--jackknife", "seeds"]
     proc = subprocess.run(["make", "-n", "fit-angles", "PRESET=reduced"], cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode != 0 and "ANGLES is empty" in proc.stderr and "pipeline.calibration" not in proc.stdout
+
+
+def test_a_data_set_given_its_presets_own_value_is_the_presets_own():
+    assert selection.data_set("paper", "lammps", {"inertial_number": 2.9e-4}) == DataSet("paper", "lammps")
+    assert selection.data_set("paper", "lammps", {"inertial_number": 1e-3}).folder == "paper-lammps-e29c082a"
