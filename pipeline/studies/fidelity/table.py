@@ -209,20 +209,18 @@ def top_check(top: list[dict], extrapolated: dict, checks: list[str], label: str
             continue
         rows = {}
         for name, q in line["quantities"].items():
+            several = len(top) > 1
             if name == "mu":
                 value, se = ref["steady"]["mu"]["mean"], ref["steady"]["mu"]["standard_error"]
-                dof = len(top) - 1 if len(top) > 1 else len(top[0]["steady"]["mu"].get("windows", ())) - 1
-                if len(top) > 1:
-                    se = max(se, welch.own_floor(own_errors(top, name)))
-            elif name in ref["fit"] and len(top) > 1:
-                value, dof = ref["fit"][name]["mean"], len(top) - 1
-                se = max(ref["fit"][name]["standard_error"], welch.own_floor(own_errors(top, name)))
+                dof = len(top) - 1 if several else len(top[0]["steady"]["mu"].get("windows", ())) - 1
             elif name in ref["fit"]:
-                value, dof = ref["fit"][name]["mean"], np.inf  # a fit's error from thousands of samples
-                se = ((top[0].get("fit") or {}).get("standard_errors") or {}).get(name)
+                value, se = ref["fit"][name]["mean"], ref["fit"][name]["standard_error"]  # NaN from one run
+                dof = len(top) - 1 if several else np.inf  # one run: its fit's error, from thousands of samples
             else:
                 continue
-            if se is None or not np.isfinite(se):
+            floor = welch.own_floor(own_errors(top, name))  # one run: its own error
+            se = max(se, floor) if np.isfinite(se) else floor
+            if not np.isfinite(se):
                 continue
             combined = float(np.hypot(se, q["at_target_se"]))
             critical = welch.critical(se, dof, q["at_target_se"], np.inf)
