@@ -231,9 +231,9 @@ demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 
 demo-dem-%: | $(VENV_STAMP)
 	$(PY) -m pipeline.runs run --theta $* --preset quick
 
-fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs [FIT_FROM=0.005] [STRESS=all] -> results/<data set>/fit/params.json, fit.json, fit.h5
+fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] -> results/<data set>/fit/params.json, fit.json, fit.h5
 
-FIT_OPTIONS := $(if $(FIT_FROM),--fit-from $(FIT_FROM)) $(if $(STRESS),--stress $(STRESS))
+FIT_OPTIONS := $(if $(FIT_FROM),--fit-from $(FIT_FROM)) $(if $(STRESS),--stress $(STRESS)) $(if $(WEIGHT),--weight $(WEIGHT))
 # the options of the last fit: a fit with other options is a new fit
 $(FIT_DIR)/options.txt: FORCE
 	@mkdir -p $(@D); echo '$(FIT_OPTIONS)' | cmp -s - $@ || echo '$(FIT_OPTIONS)' > $@
@@ -247,11 +247,11 @@ fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 ref
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration $(DATA_ARGS) --bootstrap $(BOOT) --out results/$(DATA_SET)/fit-bootstrap
 
-fit-jackknife: venv ## the fit plus a refit leaving out each reversal seed (OVER=seeds) or each angle (OVER=angles) [FIT_FROM] [STRESS] -> results/<data set>/fit-jackknife-<OVER>[-from<FIT_FROM>][-<STRESS>]/
+fit-jackknife: venv ## the fit plus a refit leaving out each reversal seed (OVER=seeds) or each angle (OVER=angles) [FIT_FROM] [STRESS] [WEIGHT] -> results/<data set>/fit-jackknife-<OVER>[-from<FIT_FROM>][-<STRESS>][-per-angle]/
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --jackknife $(OVER)
 
-fit-angles: venv ## the fit on the runs at some angles only (ANGLES="180 90 60 30", 180 among them) [FIT_FROM] [STRESS] -> results/<data set>/fit-angles-<ANGLES>[-from<FIT_FROM>][-<STRESS>]/
+fit-angles: venv ## the fit on the runs at some angles only (ANGLES="180 90 60 30", 180 among them) [FIT_FROM] [STRESS] [WEIGHT] -> results/<data set>/fit-angles-<ANGLES>[-from<FIT_FROM>][-<STRESS>][-per-angle]/
 	$(if $(strip $(ANGLES)),,$(error ANGLES is empty: give the angles to fit, e.g. ANGLES="180 90 60 30"))
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --angles $(ANGLES)

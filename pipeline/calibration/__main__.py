@@ -2,7 +2,7 @@
 
 ``python -m pipeline.calibration [--preset P] [--engine E] [--set K=V] [--runs a.h5 ...] [--window 0.05]
 [--fit-from 0.005] [--out DIR] [--angles 180 90 ...] [--bootstrap N] [--jackknife [seeds|angles]]
-[--hold NAME=VALUE]``. Without
+[--hold NAME=VALUE] [--weight runs|angles]``. Without
 ``--preset``, the most faithful preset that has a reversal run is used, and named; the runs are the preset's data set
 (``pipeline.dataset.selection``), the outputs go to ``results/<its folder>/fit``. The work is
 ``calibrate.calibrate``; outputs ``calibrate.write``.
@@ -47,6 +47,10 @@ def main(argv=None) -> int:
     parser.add_argument("--stress", default=global_fit.STRESS_DEFAULT, choices=sorted(global_fit.STRESS_FITS),
                         help="the components of tau/p fitted: shear (12, 32: tau:D'; the paper's, default) or all "
                              "(the diagonal too, which carries normal-stress differences the model does not give)")
+    parser.add_argument("--weight", default=global_fit.WEIGHT_DEFAULT, choices=global_fit.WEIGHTS,
+                        help="runs: each run counts once (an angle with three seeds pulls three times as hard; "
+                             "default); angles: each angle (protocol) counts once, its seeds' residuals averaged, "
+                             "as in the paper's one run per angle")
     parser.add_argument("--angles", nargs="+", type=float, metavar="THETA",
                         help="fit only the data set's runs at these angles (degrees, 180 among them); the outputs "
                              "go to results/<data set>/fit-angles-<thetas>[-from<STRAIN>][-<stress>]/")
@@ -56,7 +60,7 @@ def main(argv=None) -> int:
     if args.bootstrap is not None and args.bootstrap < 2:
         raise CalibrationError(f"bootstrap={args.bootstrap}: a bootstrap needs at least 2 resamples")
     settings = Settings(args.window, definitions_from(args), parse_hold(args.hold), args.fit_from,
-                        args.persistence_exponent, args.bootstrap or 0, args.jackknife, args.stress)
+                        args.persistence_exponent, args.bootstrap or 0, args.jackknife, args.stress, args.weight)
     if args.runs and args.angles:
         raise CalibrationError("--angles chooses among a data set's runs: give it without --runs")
     if args.runs:
@@ -70,7 +74,7 @@ def main(argv=None) -> int:
         if args.angles:
             cross = only_angles(args.angles, reversals, cross)
         out = args.out or preset_output(chosen.folder, folder_name(args.angles, args.jackknife, args.fit_from,
-                                                                   args.stress))
+                                                                   args.stress, args.weight))
         if not reversals:
             given = f' SET="{" ".join(chosen.settings)}"' if chosen.settings else ""
             raise CalibrationError(f"no reversal run of {chosen.label}: run `make dem THETA=180 "
@@ -82,10 +86,11 @@ def main(argv=None) -> int:
     return 0
 
 
-def folder_name(angles: list[float] | None, jackknife: str, fit_from: float, stress: str) -> str:
+def folder_name(angles: list[float] | None, jackknife: str, fit_from: float, stress: str,
+                weight: str = global_fit.WEIGHT_DEFAULT) -> str:
     """The fit's folder in the data set's results: ``fit`` (``make fit`` keeps its options in ``fit/options.txt``),
-    or beside it ``fit-angles-<thetas>`` or ``fit-jackknife-<over>``, with ``-from<FIT_FROM>`` and ``-<STRESS>``
-    when not the defaults, so that no fit replaces another's files."""
+    or beside it ``fit-angles-<thetas>`` or ``fit-jackknife-<over>``, with ``-from<FIT_FROM>``, ``-<STRESS>`` and
+    ``-per-<WEIGHT>`` when not the defaults, so that no fit replaces another's files."""
     if angles:
         name = "fit-angles-" + "-".join(f"{theta:g}" for theta in angles)
     elif jackknife:
@@ -93,7 +98,8 @@ def folder_name(angles: list[float] | None, jackknife: str, fit_from: float, str
     else:
         return "fit"
     return name + (f"-from{fit_from:g}" if fit_from else "") + (
-        f"-{stress}" if stress != global_fit.STRESS_DEFAULT else "")
+        f"-{stress}" if stress != global_fit.STRESS_DEFAULT else "") + (
+        f"-per-{weight.removesuffix('s')}" if weight != global_fit.WEIGHT_DEFAULT else "")
 
 
 def only_angles(angles: list[float], reversals: list, cross: tuple) -> tuple:

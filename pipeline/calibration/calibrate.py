@@ -35,7 +35,8 @@ class Settings:
     """How to calibrate: the Jaumann smoothing window (strain), the definitions the runs are read with, the
     parameters held (name -> value), the restart strain of the global fit past each change of direction, the
     persistence exponent k (held), the optional bootstrap (resamples), and the optional jackknife, leaving
-    out one reversal seed ("seeds") or one angle with all its runs ("angles") at a time."""
+    out one reversal seed ("seeds") or one angle with all its runs ("angles") at a time, the components of tau/p
+    fitted, and how a protocol's runs share the fit (``global_fit.WEIGHTS``)."""
 
     window: float = 0.05
     definitions: Definitions = PAPER_DEFINITIONS
@@ -45,9 +46,11 @@ class Settings:
     bootstrap: int = 0
     jackknife: str = ""  # "", or what to leave out one at a time: JACKKNIFE_OVER
     stress: str = global_fit.STRESS_DEFAULT  # the components of tau/p fitted (global_fit.STRESS_FITS)
+    weight: str = global_fit.WEIGHT_DEFAULT  # each run counts once, or each protocol (global_fit.WEIGHTS)
 
     def __post_init__(self):
         global_fit.check_stress(self.stress)
+        global_fit.check_weight(self.weight)
         if not math.isfinite(self.window) or self.window <= 0:
             raise CalibrationError(f"window={self.window} must be a positive strain")
         if not math.isfinite(self.fit_from) or not 0 <= self.fit_from < 0.5:
@@ -97,7 +100,8 @@ class Calibration:
     def to_dict(self) -> dict:
         s = self.settings
         return {"method": "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18), then a global least-squares refinement",
-                "definitions": dataclasses.asdict(s.definitions), "stress_fitted": s.stress, "held": s.hold,
+                "definitions": dataclasses.asdict(s.definitions), "stress_fitted": s.stress, "weight": s.weight,
+                "held": s.hold,
                 "fit_from": s.fit_from,
                 "persistence_exponent": s.persistence_exponent,
                 "jaumann_window_strain": s.window, "runs": self.per_run, "estimates": self.estimates,
@@ -208,7 +212,8 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
     refined = dilatancy = boot = noise = identifiable = jack = undetermined_dilatancy = None
     next_runs = []
     if refine:
-        data, noise = global_fit.prepare([*reversals, *cross_runs], settings.fit_from, settings.stress)
+        data, noise = global_fit.prepare([*reversals, *cross_runs], settings.fit_from, settings.stress,
+                                         settings.weight)
         refined = global_fit.refine(data, start, free, noise=noise)
         try:
             dilatancy = global_fit.refine_dilatancy(data, refined.params)
@@ -223,12 +228,13 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
             boot["stepwise"] = stepwise_bootstrap(reversals, settings.bootstrap, window)
         if settings.jackknife:
             jack = global_fit.jackknife(data, jackknife_groups(settings.jackknife, reversals, cross_runs), refined,
-                                        noise, progress=_progress("jackknife"))
+                                        noise, progress=_progress("jackknife"), weight=settings.weight)
             jack["over"] = settings.jackknife
         angles = jackknife_groups("angles", reversals, cross_runs) if identifiable["misfit_noted"] else {}
         if len(angles) >= 3:  # the model misses the runs: the noise's ± would mislead
             spread = jack if settings.jackknife == "angles" else global_fit.jackknife(
-                data, angles, refined, noise, progress=_progress("the model misses the runs: refit without angle"))
+                data, angles, refined, noise, progress=_progress("the model misses the runs: refit without angle"),
+                weight=settings.weight)
             identifiable["spread_over_angles"] = identifiability.spread_over_angles(spread)
     resampled = None
     if len(reversals) == 1 and reversals[0].spec["n_cycles"] > 1:  # one run: its error from its cycles

@@ -14,6 +14,7 @@ data beyond their noise.
 from __future__ import annotations
 
 import dataclasses
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,6 +43,28 @@ STRESS_FITS = {"shear": ((0, 1), (2, 1)), "all": COMPONENTS}
 STRESS_DEFAULT = "shear"
 
 
+#: how a protocol's runs (theta, rotate_at; its seeds) share the fit. "runs", the default: each run counts once, so
+#: an angle with three seeds pulls three times as hard (the efficient weighting were the model exact). "angles":
+#: each protocol counts once, its runs' squared residuals each weighted by 1 / their number (the same as fitting
+#: their mean with one run's noise): the paper's design of one run per angle with any number of seeds, whose
+#: parameters do not move with how many seeds each angle has while the model misses the runs beyond their noise.
+WEIGHTS = ("runs", "angles")
+WEIGHT_DEFAULT = "runs"
+
+
+def check_weight(weight: str) -> str:
+    if weight not in WEIGHTS:
+        raise CalibrationError(f"weight={weight!r}: the runs are weighted by one of {', '.join(WEIGHTS)}")
+    return weight
+
+
+def weighed(data: list[Cycle], weight: str = WEIGHT_DEFAULT) -> list[Cycle]:
+    """``data`` with each cycle's ``weight`` set by the scheme ``weight`` (``WEIGHTS``) among these cycles."""
+    count = Counter((d.theta_deg, d.rotate_at) for d in data)
+    share = (lambda d: 1.0) if check_weight(weight) == "runs" else (lambda d: 1.0 / count[d.theta_deg, d.rotate_at])
+    return [dataclasses.replace(d, weight=share(d)) for d in data]
+
+
 def check_stress(stress: str) -> str:
     if stress not in STRESS_FITS:
         raise CalibrationError(f"stress={stress!r}: the stress components fitted are one of {', '.join(STRESS_FITS)}")
@@ -66,19 +89,22 @@ def noise_scales(samples: int, noise: noise_model.NoiseModel | None, n_cycles: i
     return scales
 
 
-def fitted_residuals(data: list[Cycle]) -> int:
-    """How many residuals the data fit: every sample of every component with a finite scale."""
+def fitted_residuals(data: list[Cycle]) -> float:
+    """How many residuals the data fit: every sample of every component with a finite scale, each counted with its
+    run's weight (with ``WEIGHTS`` "angles", a protocol's seeds count as one run)."""
     i, j = np.array(COMPONENTS).T
-    return int(sum(np.isfinite(d.A_scale[:, i, j]).sum() + np.isfinite(d.tau_scale[:, i, j]).sum() for d in data))
+    return float(sum(d.weight * (np.isfinite(d.A_scale[:, i, j]).sum() + np.isfinite(d.tau_scale[:, i, j]).sum())
+                     for d in data))
 
 
-def prepare(runs: list, fit_from: float = 0.0,
-            stress: str = STRESS_DEFAULT) -> tuple[list[Cycle], noise_model.NoiseModel]:
+def prepare(runs: list, fit_from: float = 0.0, stress: str = STRESS_DEFAULT,
+            weight: str = WEIGHT_DEFAULT) -> tuple[list[Cycle], noise_model.NoiseModel]:
     """The noise model measured on ``runs`` and every run's cycle scaled by it, fitting the components of tau/p that
-    ``stress`` names; with ``fit_from`` > 0 each cycle is restarted that far past each change of direction
-    (``Cycle.restarted``)."""
+    ``stress`` names, weighted by ``weight`` (``weighed``); with ``fit_from`` > 0 each cycle is restarted that far
+    past each change of direction (``Cycle.restarted``)."""
+    check_weight(weight)
     noise = noise_model.estimate(runs)
-    return [scaled_cycle(r, noise, fit_from, stress) for r in runs], noise
+    return weighed([scaled_cycle(r, noise, fit_from, stress) for r in runs], weight), noise
 
 
 def scaled_cycle(run, noise: noise_model.NoiseModel | None, fit_from: float = 0.0,
@@ -179,8 +205,8 @@ def _restarted_residuals(d: Cycle, params: model.Params) -> tuple[np.ndarray, np
 
 
 def residuals(values: np.ndarray, data: list[Cycle], base: model.Params, names=FREE) -> np.ndarray:
-    """Model minus DEM over the noise scale: per run, per component, the A block then the tau block (a restarted
-    cycle's restart states profiled out: ``_restarted_residuals``)."""
+    """Model minus DEM over the noise scale, times the square root of the run's weight: per run, per component,
+    the A block then the tau block (a restarted cycle's restart states profiled out: ``_restarted_residuals``)."""
     params = base.replace(**dict(zip(names, map(float, values), strict=True)))
     out = []
     for d in data:
@@ -188,32 +214,35 @@ def residuals(values: np.ndarray, data: list[Cycle], base: model.Params, names=F
             r_A, r_tau = _restarted_residuals(d, params) if d.restarts else _scaled(d, d.prediction(params))
         except (model.SolverError, model.ParameterError):
             return np.full(sum(2 * len(x.strain) * len(COMPONENTS) for x in data), 1e3)
+        root = np.sqrt(d.weight)
         for c in range(len(COMPONENTS)):
-            out += [r_A[:, c], r_tau[:, c]]
+            out += [root * r_A[:, c], root * r_tau[:, c]]
     return np.concatenate(out)
 
 
 def noise_blocks(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None):
-    """(run index, the Jacobian's rows of one run and component, their noise correlation) for each block of
-    the residuals; the noise is independent between blocks (white without a noise model)."""
+    """(run index, the unweighted Jacobian's rows of one run and component, their noise correlation) for each
+    block of the residuals (``jac``: of the weighted residuals); the noise is independent between blocks (white
+    without a noise model)."""
     row = 0
     for i, d in enumerate(data):
         length = len(d.strain)
         for k in range(len(COMPONENTS)):
             sigma = np.eye(2 * length) if noise is None else sample_covariance(noise, k, d)
-            yield i, jac[row:row + 2 * length], sigma
+            yield i, jac[row:row + 2 * length] / np.sqrt(d.weight), sigma
             row += 2 * length
 
 
 def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None) -> tuple:
-    """(sandwich, white) covariance of the estimates: ``H^-1 J^T Sigma J H^-1`` with the noise's correlation
-    ``Sigma``, and ``H^-1`` (the noise taken as white). Parameters the data do not fix (a null direction of
-    H) get infinite variance."""
+    """(sandwich, white) covariance of the estimates: ``H^-1 J^T W Sigma W J H^-1`` with the noise's correlation
+    ``Sigma``, ``J`` unweighted and ``W`` the runs' weights (``H = J^T W J``: ``jac`` is of the weighted
+    residuals), and ``H^-1`` (the noise taken as white). Parameters the data do not fix (a null direction of H)
+    get infinite variance."""
     H = jac.T @ jac
     strength, vectors = np.linalg.eigh(H)
     null = strength <= 1e-10 * max(strength.max(), 1e-300)
     inverse = np.linalg.pinv(H, hermitian=True, rcond=1e-10)
-    meat = sum(J.T @ sigma @ J for _, J, sigma in noise_blocks(jac, data, noise))
+    meat = sum(data[i].weight ** 2 * J.T @ sigma @ J for i, J, sigma in noise_blocks(jac, data, noise))
     sandwich, white = inverse @ meat @ inverse, inverse.copy()
     loose = np.any(np.abs(vectors[:, null]) > 0.01, axis=1)
     for m in (sandwich, white):
@@ -223,18 +252,21 @@ def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseMode
 
 
 def shift_covariance(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None,
-                     left_out: list[int]) -> np.ndarray:
+                     left_out: list[int], kept_weights: list[float] | None = None) -> np.ndarray:
     """The covariance, from the noise alone, of (the fit without the runs ``left_out``) - (the fit with all),
-    linearized about the fit with all (``jac``, its Jacobian): each is ``-H^-1 J^T r`` over its own runs, and
-    the noise is independent between runs, so the shift's covariance is the sum over blocks of
-    ``L Sigma L^T`` with ``L = H_kept^-1 J^T`` (kept runs only) ``- H^-1 J^T``."""
-    run_of_row = np.repeat(np.arange(len(data)), [2 * len(d.strain) * len(COMPONENTS) for d in data])
-    kept = jac[~np.isin(run_of_row, left_out)]
+    linearized about the fit with all (``jac``, the Jacobian of its weighted residuals): each is
+    ``-H^-1 J^T W r`` over its own runs with its own weights ``W`` (the kept runs': ``kept_weights``, one per run
+    of ``data``, by default their weights in the fit with all), and the noise is independent between runs, so
+    the shift's covariance is the sum over blocks of ``L Sigma L^T`` with
+    ``L = w_kept H_kept^-1 J^T - w H^-1 J^T`` (``J`` unweighted; ``w_kept`` = 0 for a run left out)."""
+    weights = [0.0 if i in left_out else (d.weight if kept_weights is None else kept_weights[i])
+               for i, d in enumerate(data)]
+    blocks = list(noise_blocks(jac, data, noise))
     inverse = np.linalg.pinv(jac.T @ jac, hermitian=True, rcond=1e-10)
-    inverse_kept = np.linalg.pinv(kept.T @ kept, hermitian=True, rcond=1e-10)
+    inverse_kept = np.linalg.pinv(sum(weights[i] * J.T @ J for i, J, _ in blocks), hermitian=True, rcond=1e-10)
     out = np.zeros_like(inverse)
-    for i, J, sigma in noise_blocks(jac, data, noise):
-        L = (-inverse if i in left_out else inverse_kept - inverse) @ J.T
+    for i, J, sigma in blocks:
+        L = (weights[i] * inverse_kept - data[i].weight * inverse) @ J.T
         out += L @ sigma @ L.T
     return out
 
@@ -357,9 +389,10 @@ def bootstrap(data: list[Cycle], noise: noise_model.NoiseModel, best: GlobalFit,
 
 
 def jackknife(data: list[Cycle], groups: dict[str, list[int]], best: GlobalFit,
-              noise: noise_model.NoiseModel | None = None, progress=None) -> dict:
+              noise: noise_model.NoiseModel | None = None, progress=None, weight: str = WEIGHT_DEFAULT) -> dict:
     """Refit ``best``'s parameters leaving out one group of runs at a time (``groups``: a label for each, and
-    the indices in ``data`` of its runs; at least three groups); ``noise``: the noise model ``best`` was fitted with.
+    the indices in ``data`` of its runs; at least three groups), the runs kept weighted anew by ``weight``
+    (``weighed``: the same estimator on fewer runs); ``noise``: the noise model ``best`` was fitted with.
 
     Over the seeds of one protocol, the jackknife standard error sqrt((N-1)/N sum (theta_i - mean)^2) carries
     everything that differs between seeds (the packing, the fit's nonlinearity), which a noise model measured
@@ -372,10 +405,13 @@ def jackknife(data: list[Cycle], groups: dict[str, list[int]], best: GlobalFit,
                                f"({', '.join(groups) or 'none'})")
     values, shift_z = [], []
     for k, left in enumerate(groups.values()):
-        refit = refine([d for i, d in enumerate(data) if i not in left], best.params, best.names)
+        kept = [i for i in range(len(data)) if i not in left]
+        reweighed = dict(zip(kept, weighed([data[i] for i in kept], weight), strict=True))
+        refit = refine(list(reweighed.values()), best.params, best.names)
         values.append(refit.values)
+        kept_weights = [reweighed[i].weight if i in reweighed else 0.0 for i in range(len(data))]
         with np.errstate(invalid="ignore", divide="ignore"):
-            noise_only = np.sqrt(np.diag(shift_covariance(best.jacobian, data, noise, left)))
+            noise_only = np.sqrt(np.diag(shift_covariance(best.jacobian, data, noise, left, kept_weights)))
             shift_z.append(np.where(noise_only > 0, (refit.values - best.values) / noise_only, np.nan))
         if progress:
             progress(k + 1, len(groups))

@@ -11,8 +11,10 @@ def print_global(report: dict) -> None:
     g, ident, nm = report["global"], report["identifiability"], report["noise"]
     unit = ("the DEM's noise: 1 is a fit within the noise" if ident["noise_measured"] else
             "the scatter about a smoothed cycle, which is less than the noise")
-    print(f"global fit on {len(report['global_runs'])} run(s); misfit {g['misfit']:.2f} (chi^2 per degree of "
-          f"freedom in units of {unit})")
+    weighting = ("; each angle counts once, its seeds averaged" if report.get("weight", "runs") == "angles"
+                 else "")
+    print(f"global fit on {len(report['global_runs'])} run(s){weighting}; misfit {g['misfit']:.2f} (chi^2 per degree "
+          f"of freedom in units of {unit})")
     if not ident["noise_measured"]:
         print(f"intervals: none ({nm['source']}): run two cycles or more, or three seeds")
     else:

@@ -35,6 +35,9 @@ class Cycle:
     #: the DEM's A and Phi at the start) from which the model restarts
     restarts: tuple = ()
     fit_from: float = 0.0
+    #: the weight of this run's squared residuals in a fit (``global_fit.weighed``): 1, or 1 / the number of runs
+    #: of its protocol when each protocol counts once
+    weight: float = 1.0
 
     @classmethod
     def from_run(cls, run) -> Cycle:

@@ -115,9 +115,10 @@ def _other(labels: list, label: str) -> str:
 
 def one_against_many(value: float, many: dict, widen: float = 1.0, sign: int = 1) -> tuple[float, float]:
     """z and the two-sided critical value for one run's ``value`` against the mean of ``many`` runs (mean, se, n),
-    taken as a new draw: its scatter is the other side's seed-to-seed standard deviation s, times ``widen`` (the
-    square root of how many more cycles each of the many runs averages), so z = (value - mean) / sqrt(
-    (widen s)^2 + s^2 / n), against Student's t at n - 1 degrees of freedom (a prediction interval).
+    taken as a new draw: its scatter is the other side's standard deviation per run s = se sqrt(n) (the seeds'
+    scatter, or where ``welch.own_floor`` raised se, what the runs' own errors give), times ``widen`` (the square
+    root of how many more cycles each of the many runs averages), so z = (value - mean) / sqrt((widen s)^2 + s^2 / n),
+    against Student's t at n - 1 degrees of freedom (a prediction interval).
     ``sign`` -1 gives z as (mean - value), the table's B - A when the one run is side A."""
     sd = many["se"] * math.sqrt(many["n"])
     error = math.hypot(widen * sd, many["se"])

@@ -126,6 +126,8 @@ def test_each_fit_beside_the_main_one_writes_its_own_folder():
     assert names == ["fit-jackknife-angles", "fit-jackknife-angles-from0.005", "fit-jackknife-seeds-all",
                      "fit-angles-180-90-from0.005", "fit-angles-180-90-all", "fit-angles-180-90-60-30-from0.01-all"]
     assert folder_name(None, "", 0.005, "all") == "fit"  # make fit's own: its options are in fit/options.txt
+    assert folder_name(None, "seeds", 0.0, "shear", "angles") == "fit-jackknife-seeds-per-angle"
+    assert folder_name([180.0, 90.0], "", 0.0, "all", "runs") == "fit-angles-180-90-all"
 
 
 def test_make_fit_angles_and_jackknife_pass_their_options_and_refuse_no_angles():
