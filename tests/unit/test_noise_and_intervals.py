@@ -286,3 +286,15 @@ def test_with_each_angle_counted_once_the_intervals_and_the_seed_jackknifes_shif
             r.path.unlink()
     assert 0.55 <= np.mean(hits) <= 0.80, np.mean(hits, axis=0)
     assert np.isfinite(z).all() and 0.6 < np.sqrt(np.mean(np.square(z))) < 1.4, np.array(z)
+
+
+def test_the_noise_of_long_runs_in_a_large_cell_is_measured_not_floored(tmp_path):
+    """Three seeds of five cycles with 0.003 of white noise per sample (about the paper cell's, A and tau alike): the
+    noise of a run's five-cycle mean is measured at 0.003 / sqrt(5), with no seed part, and no floor stands in for
+    it."""
+    runs = [synthetic_run(tmp_path, name=f"q{s}", n_cycles=5, seed=s + 300, noise=0.003) for s in range(3)]
+    nm = noise.estimate(runs)
+    assert nm.source == "correlation from the seeds' cycle means about their protocol's mean"
+    for q in noise.QUANTITIES:
+        np.testing.assert_allclose(nm.sigma(q, 5), 0.003 / np.sqrt(5), rtol=0.25)
+        assert np.all(nm.sigma(q, 5) > 2 * noise.SIGMA_FLOOR[q])
