@@ -101,8 +101,11 @@ class Protocol:
     def compaction_check(self, err):
         st = self.state
         now, t = time.time(), self.time()
+        # the walls' heights at every call, whatever this process's clock says: where MPI ranks run one scene they
+        # are a reduction over the ranks, which every rank must make at the same step; only the printing may follow
+        # a rank's own clock
+        y_bottom, y_top = self.inner_planes()
         if now - self.last_print[0] > 10:
-            y_bottom, y_top = self.inner_planes()
             rate = (self.iteration() - self.last_print[1]) / (now - self.last_print[0])
             print(f"compaction: t = {t:.1f}, sigma_wall/p - 1 = {err:+.3f}, gap = {y_top - y_bottom:.2f} d, "
                   f"{rate:.0f} steps/s", flush=True)
@@ -116,7 +119,6 @@ class Protocol:
             mean = st["hold_sum"] / st["hold_n"]
             st["hold_since"] = None
             if abs(mean) < self.spec["compaction_tolerance"]:
-                y_bottom, y_top = self.inner_planes()
                 st.update(phase="shear", t_shear0=t, gap0=y_top - y_bottom,
                           wall_speed=self.gamma_dot * (y_top - y_bottom) / 2)
                 print(f"compaction done at t = {t:.1f}: gap H0 = {st['gap0']:.3f} d, "

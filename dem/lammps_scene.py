@@ -223,13 +223,18 @@ class Scene:
         setattr(__main__, CONTROL, self.control)
 
     def control(self, _ptr=None):
-        """``fix python/invoke``'s entry point; an exception stops the run with its message."""
+        """``fix python/invoke``'s entry point; an exception stops the run with its message (exit status 3). With
+        several ranks it ends every rank at once (``end_every_rank``): the others may not share it, and a rank
+        that halted alone would wait in the run's end for the others, which wait for it in the next step."""
         try:
             if self.agreed_stop(self.stop)["count"] >= 2:  # a second signal: stop now
                 self.run.stop_after_this_step()
             self.run.control()
         except Exception as exc:  # noqa: BLE001 - reported to the user and turned into exit status 3
             self.run.fail(f"{type(exc).__name__}: {exc} (in the controller)")
+            if COMM is not None:
+                sys.stderr.write(f"error: {self.run.failure}\n")
+                end_every_rank(SystemExit(3))
 
     def new_lammps(self):
         with driver.stop_signals_held():  # at one rank LAMMPS starts MPI here, and its threads

@@ -224,8 +224,9 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
     assert refused.returncode == 2 and "MPI ranks are for ENGINE=lammps" in refused.stderr
 
 
-#: the scene under mpirun with a fault at rank 0 alone, just after (warning) or in (quota) its first checkpoint:
-#: the moment rank 1, which neither syncs nor hashes the restart file, may have decided already to run on
+#: the scene under mpirun with a fault at rank 0 alone, just after (warning) or in (quota) its first checkpoint,
+#: the moment rank 1, which neither syncs nor hashes the restart file, may have decided already to run on, or in its
+#: controller at the first sample (an exception the other rank does not share)
 RANK_0_ALONE = """
 import errno, os, signal, sys
 from dem import driver, lammps_scene
@@ -253,8 +254,17 @@ def over_quota(path, columns):
     save_npz(path, columns)
 
 
+def sample_then_fault(self, strain):
+    if first_time_at_rank_0():
+        raise RuntimeError("a fault at rank 0 alone")
+    sample(self, strain)
+
+
 if sys.argv[2] == "warning":
     lammps_scene.Scene.save = save_then_warn
+elif sys.argv[2] == "controller":
+    sample = lammps_scene.Run.sample
+    lammps_scene.Run.sample = sample_then_fault
 else:
     driver.save_npz = over_quota
 lammps_scene.main(sys.argv[1])
@@ -274,12 +284,13 @@ def two_ranks(run_dir, *args):
 @pytest.mark.parametrize(("fault", "status", "message"), [
     ("warning", 138, "interrupted: checkpoint at iteration"),
     ("quota", 4, "Disk quota exceeded"),
+    ("controller", 3, "error: RuntimeError: a fault at rank 0 alone (in the controller)"),
 ])
 def test_a_fault_at_one_rank_during_a_checkpoint_ends_every_rank(tmp_path, fault, status, message):
     """A warning that reached rank 0 alone while it synced its restart file stops both ranks there (the ranks
-    decide together), and a quota that rank 0 alone meets (it alone writes) ends both with its exit status and
-    its one error line, instead of one rank running on while the other waits for it for ever (the deadlock a
-    SLURM warning met under load). The same folder then resumes to the end."""
+    decide together), and a quota that rank 0 alone meets (it alone writes) or an error in its controller ends both
+    with its exit status and its one error line, instead of one rank running on while the other waits for it for
+    ever (the deadlock a SLURM warning met under load). The same folder then resumes to the end."""
     run_dir = tmp_path / "run"
     run_dir.mkdir()
     (run_dir / "spec.json").write_text(json.dumps(tiny_spec("lammps").to_dict()))
@@ -289,6 +300,31 @@ def test_a_fault_at_one_rank_during_a_checkpoint_ends_every_rank(tmp_path, fault
     assert message in text and "Traceback" not in text
     resumed = two_ranks(run_dir, "-m", "dem.lammps_scene", run_dir)
     assert resumed.returncode == 0 and "done:" in resumed.stdout, resumed.stdout + resumed.stderr
+
+
+#: the scene under mpirun with rank 1's clock running 20 times fast: the ranks' wall-clock decisions (when to print
+#: the compaction's and the shear's progress) disagree, as between the nodes of a cluster or under load
+CLOCKS_APART = """
+import sys, time
+from dem import lammps_scene
+
+if lammps_scene.RANK == 1:
+    real, start = time.time, time.time()
+    time.time = lambda: start + 20 * (real() - start)
+lammps_scene.main(sys.argv[1])
+"""
+
+
+def test_ranks_whose_clocks_disagree_run_to_the_end(tmp_path):
+    """Each rank decides from its own clock when to print; only the printing may follow that decision, never a call
+    that every rank makes together (a wall's height is a reduction over the ranks), or the rank that prints waits in
+    it for the other, which waits for it in the next step, for ever. With rank 1's clock 20 times fast both ranks
+    run the tiny run to its end."""
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "spec.json").write_text(json.dumps(tiny_spec("lammps").to_dict()))
+    done = two_ranks(run_dir, "-c", CLOCKS_APART, run_dir)
+    assert done.returncode == 0 and "done:" in done.stdout, done.stdout + done.stderr
 
 
 def descriptors_and_children(pid: int) -> tuple[Counter, list[str]]:
