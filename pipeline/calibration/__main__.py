@@ -90,7 +90,7 @@ def folder_name(angles: list[float] | None, jackknife: str, fit_from: float, str
                 weight: str = global_fit.WEIGHT_DEFAULT) -> str:
     """The fit's folder in the data set's results: ``fit`` (``make fit`` keeps its options in ``fit/options.txt``),
     or beside it ``fit-angles-<thetas>`` or ``fit-jackknife-<over>``, with ``-from<FIT_FROM>``, ``-<STRESS>`` and
-    ``-per-<WEIGHT>`` when not the defaults, so that no fit replaces another's files."""
+    ``-per-angle`` (``WEIGHT=angles``) when not the defaults, so that no fit replaces another's files."""
     if angles:
         name = "fit-angles-" + "-".join(f"{theta:g}" for theta in angles)
     elif jackknife:

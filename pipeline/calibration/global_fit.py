@@ -102,7 +102,6 @@ def prepare(runs: list, fit_from: float = 0.0, stress: str = STRESS_DEFAULT,
     """The noise model measured on ``runs`` and every run's cycle scaled by it, fitting the components of tau/p that
     ``stress`` names, weighted by ``weight`` (``weighed``); with ``fit_from`` > 0 each cycle is restarted that far
     past each change of direction (``Cycle.restarted``)."""
-    check_weight(weight)
     noise = noise_model.estimate(runs)
     return weighed([scaled_cycle(r, noise, fit_from, stress) for r in runs], weight), noise
 
@@ -233,16 +232,20 @@ def noise_blocks(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseMod
             row += 2 * length
 
 
-def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None) -> tuple:
+def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None,
+                runs=None) -> tuple:
     """(sandwich, white) covariance of the estimates: ``H^-1 J^T W Sigma W J H^-1`` with the noise's correlation
     ``Sigma``, ``J`` unweighted and ``W`` the runs' weights (``H = J^T W J``: ``jac`` is of the weighted
-    residuals), and ``H^-1`` (the noise taken as white). Parameters the data do not fix (a null direction of H)
-    get infinite variance."""
+    residuals), and ``H^-1`` (the noise taken as white). With ``runs`` (indices into ``data``) the sandwich is
+    the part from those runs' noise alone (the noise is independent between runs: the parts add up to the
+    whole). Parameters the data do not fix (a null direction of H) get infinite variance."""
     H = jac.T @ jac
     strength, vectors = np.linalg.eigh(H)
     null = strength <= 1e-10 * max(strength.max(), 1e-300)
     inverse = np.linalg.pinv(H, hermitian=True, rcond=1e-10)
-    meat = sum(data[i].weight ** 2 * J.T @ sigma @ J for i, J, sigma in noise_blocks(jac, data, noise))
+    runs = range(len(data)) if runs is None else set(runs)
+    meat = sum(data[i].weight ** 2 * J.T @ sigma @ J for i, J, sigma in noise_blocks(jac, data, noise)
+               if i in runs)
     sandwich, white = inverse @ meat @ inverse, inverse.copy()
     loose = np.any(np.abs(vectors[:, null]) > 0.01, axis=1)
     for m in (sandwich, white):
@@ -396,10 +399,12 @@ def jackknife(data: list[Cycle], groups: dict[str, list[int]], best: GlobalFit,
 
     Over the seeds of one protocol, the jackknife standard error sqrt((N-1)/N sum (theta_i - mean)^2) carries
     everything that differs between seeds (the packing, the fit's nonlinearity), which a noise model measured
-    within runs may miss. Over the angles, which are no exchangeable draws, it is no standard error; there each
-    refit's shift from ``best`` is told in units of the standard deviation the noise alone would give it
-    (``shift_covariance``): a |z| of many says the group pulls the parameter where the others do not follow,
-    i.e. one parameter set does not fit every group."""
+    within runs may miss; it redraws only the noise of the runs it leaves out, so it is told against that part
+    of the sandwich (``over_their_noise``; ``covariances`` with ``runs``), not the whole (``over_sandwich``),
+    which also holds every other run's noise. Over the angles, which are no exchangeable draws, it is no standard
+    error; there each refit's shift from ``best`` is told in units of the standard deviation the noise alone
+    would give it (``shift_covariance``): a |z| of many says the group pulls the parameter where the others do not
+    follow, i.e. one parameter set does not fit every group."""
     if len(groups) < 3:
         raise CalibrationError(f"a jackknife needs at least 3 groups of runs to leave out, not {len(groups)} "
                                f"({', '.join(groups) or 'none'})")
@@ -418,6 +423,8 @@ def jackknife(data: list[Cycle], groups: dict[str, list[int]], best: GlobalFit,
     v = np.array(values)
     n = len(groups)
     se = np.sqrt((n - 1) / n * np.sum((v - v.mean(axis=0)) ** 2, axis=0))
+    their_noise, _ = covariances(best.jacobian, data, noise, runs=[i for left in groups.values() for i in left])
     finite = lambda a: np.where(np.isfinite(a), a, None).tolist()  # noqa: E731
     return {"free": list(best.names), "left_out": list(groups), "values": v.tolist(), "standard_error": se.tolist(),
-            "over_sandwich": (se / best.standard_errors).tolist(), "shift_z": finite(np.array(shift_z))}
+            "over_sandwich": (se / best.standard_errors).tolist(),
+            "over_their_noise": finite(se / np.sqrt(np.diag(their_noise))), "shift_z": finite(np.array(shift_z))}

@@ -138,9 +138,11 @@ def print_jackknife(j: dict) -> None:
     """Over seeds, the jackknife's standard errors against the noise model's; over angles (no exchangeable
     draws: no standard error), each refit without one angle and its shift in noise-only standard deviations."""
     if j["over"] == "seeds":
-        print(f"jackknife over the {len(j['left_out'])} reversal seeds: standard errors "
-              + ", ".join(f"{n} {se:.2g} ({r:.1f}x the noise model's)" for n, se, r in
-                          zip(j["free"], j["standard_error"], j["over_sandwich"], strict=True)))
+        print(f"jackknife over the {len(j['left_out'])} reversal seeds: standard errors, and in brackets their ratio "
+              "to the noise model's part from these runs (about 1 where the seeds differ by noise alone; rough with "
+              "few seeds) and to the whole sandwich's: "
+              + ", ".join(f"{n} {se:.2g} ({r:.1f}x, {w:.1f}x)" for n, se, r, w in
+                          zip(j["free"], j["standard_error"], j["over_their_noise"], j["over_sandwich"], strict=True)))
         return
     print(f"each of the {len(j['left_out'])} angles left out (with all its runs): the refit, and in brackets its "
           "shift from the fit on all of them in standard deviations of what the noise alone would give it "

@@ -271,8 +271,9 @@ def test_with_each_angle_counted_once_the_intervals_and_the_seed_jackknifes_shif
     """Three reversal seeds and one theta = 90 run weighted by angle (the seeds 1/3 each), 24 noise draws: the
     sandwich's 68 % intervals cover the truth in 55-80 % of them, and leaving out one seed (the other two then
     carry 1/2 each) shifts the fit by a unit normal in units of the standard deviation the noise alone gives it
-    (rms within 0.6-1.4)."""
-    hits, z = [], []
+    (rms within 0.6-1.4). The seed jackknife's standard errors match the sandwich's part from the seeds' noise
+    (rms ratio within 0.6-1.4), each below the whole sandwich's, which also holds the theta = 90 run's noise."""
+    hits, z, theirs, whole = [], [], [], []
     for draw in range(24):
         runs = [synthetic_run(tmp_path, t, name=f"a{draw}-{k}", seed=500 + 10 * draw + k, **NOISE)
                 for k, t in enumerate((180.0, 180.0, 180.0, 90.0))]
@@ -282,10 +283,14 @@ def test_with_each_angle_counted_once_the_intervals_and_the_seed_jackknifes_shif
         if draw < 6:
             jack = global_fit.jackknife(data, {f"seed {k}": [k] for k in range(3)}, fit, nm, weight="angles")
             z.append(np.array(jack["shift_z"], dtype=float))
+            theirs.append(np.array(jack["over_their_noise"], dtype=float))
+            whole.append(jack["over_sandwich"])
         for r in runs:
             r.path.unlink()
     assert 0.55 <= np.mean(hits) <= 0.80, np.mean(hits, axis=0)
     assert np.isfinite(z).all() and 0.6 < np.sqrt(np.mean(np.square(z))) < 1.4, np.array(z)
+    assert np.all(np.array(theirs) > np.array(whole)), (theirs, whole)
+    assert 0.6 < np.sqrt(np.mean(np.square(theirs))) < 1.4, (np.sqrt(np.mean(np.square(theirs))), np.array(theirs))
 
 
 def test_the_noise_of_long_runs_in_a_large_cell_is_measured_not_floored(tmp_path):
