@@ -17,6 +17,7 @@ import dataclasses
 import functools
 
 import numpy as np
+from scipy.linalg import lu_factor, lu_solve
 
 import model
 
@@ -69,8 +70,10 @@ def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel,
                                phi=pred.packing_fraction)
 
 
-def information(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit) -> np.ndarray:
-    """J^T Sigma^-1 J of one (pseudo-)run at the best fit, Sigma the noise's correlation at its sampling."""
+def information(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, factors: dict | None = None) -> np.ndarray:
+    """J^T Sigma^-1 J of one (pseudo-)run at the best fit, Sigma the noise's correlation at its sampling;
+    ``factors`` keeps each Sigma's LU factors for the next run of the same sampling (candidates share them)."""
+    factors = {} if factors is None else factors
     base = fit.params
     f0 = global_fit.residuals(fit.values, [data], base, fit.names)
     jac = np.empty((f0.size, len(fit.names)))
@@ -83,8 +86,10 @@ def information(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit) -> np
     ratio = data.strain[1] / noise.sample_strain if length > 1 else 1.0
     for k in range(len(COMPONENTS)):
         J = jac[row:row + 2 * length]
-        sigma = noise.covariance(k, length, lag_scale=ratio) + 1e-9 * np.eye(2 * length)
-        info += J.T @ np.linalg.solve(sigma, J)
+        key = (k, length, ratio)
+        if key not in factors:
+            factors[key] = lu_factor(noise.covariance(k, length, lag_scale=ratio) + 1e-9 * np.eye(2 * length))
+        info += J.T @ lu_solve(factors[key], J)
         row += 2 * length
     return info
 
@@ -110,14 +115,14 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rota
         return float(np.sqrt(weakest @ cov @ weakest)), float(np.max(np.sqrt(np.diag(cov)) / scale))
 
     before = measures(V)
-    out, failed = [], []
+    out, failed, factors = [], [], {}
     for c in candidates(existing_rotations, spec["n_cycles"]):
         try:
             data = candidate_data(c, spec["period_strain"], ratio, noise, fit.params, stress)
         except (model.SolverError, model.ParameterError) as exc:  # the best fit's cycle fails for this protocol
             failed.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "error": str(exc)})
             continue
-        after = measures(np.linalg.pinv(present + information(data, noise, fit), hermitian=True))
+        after = measures(np.linalg.pinv(present + information(data, noise, fit, factors), hermitian=True))
         hours = c.cost_factor * c.strain_run(spec["period_strain"], spec["pre_strain"]) * seconds_per_strain / 3600
         gain = 1 - after[0] / before[0]
         out.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "n_cycles": c.n_cycles,
