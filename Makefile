@@ -233,7 +233,8 @@ demo-dem-%: | $(VENV_STAMP)
 
 fit: $(FIT_DIR)/params.json ## calibrate on the preset's runs [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] -> results/<data set>/fit/params.json, fit.json, fit.h5
 
-FIT_OPTIONS := $(if $(FIT_FROM),--fit-from $(FIT_FROM)) $(if $(STRESS),--stress $(STRESS)) $(if $(WEIGHT),--weight $(WEIGHT))
+WEIGHT_OPTION := $(if $(WEIGHT),--weight $(WEIGHT))
+FIT_OPTIONS := $(if $(FIT_FROM),--fit-from $(FIT_FROM)) $(if $(STRESS),--stress $(STRESS)) $(WEIGHT_OPTION)
 # the options of the last fit: a fit with other options is a new fit
 $(FIT_DIR)/options.txt: FORCE
 	@mkdir -p $(@D); echo '$(FIT_OPTIONS)' | cmp -s - $@ || echo '$(FIT_OPTIONS)' > $@
@@ -256,17 +257,17 @@ fit-angles: venv ## the fit on the runs at some angles only (ANGLES="180 90 60 3
 	$(SAY_PRESET)
 	$(PY) -m pipeline.calibration $(DATA_ARGS) $(FIT_OPTIONS) --angles $(ANGLES)
 
-fit-definitions: venv ## the global fit under each definition of strain, Phi and p -> results/<data set>/fit/definitions.md
+fit-definitions: venv ## the global fit under each definition of strain, Phi and p [WEIGHT=angles] -> results/<data set>/fit/definitions.md
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration.definitions $(DATA_ARGS)
+	$(PY) -m pipeline.calibration.definitions $(DATA_ARGS) $(WEIGHT_OPTION)
 
-fit-from: venv ## the fit past the reversal jump: gamma0 = 0, 0.005, 0.01 and a profile of k -> fit/fit_from.md
+fit-from: venv ## the fit past the reversal jump: gamma0 = 0, 0.005, 0.01 and a profile of k [WEIGHT=angles] -> fit/fit_from.md
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration.restart $(DATA_ARGS)
+	$(PY) -m pipeline.calibration.restart $(DATA_ARGS) $(WEIGHT_OPTION)
 
-fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=bulk PHI=central] (minutes) -> fit/profiles*.json
+fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=bulk PHI=central] [WEIGHT=angles] (minutes) -> fit/profiles*.json
 	$(SAY_PRESET)
-	$(PY) -m pipeline.calibration.profile $(DATA_ARGS) --strain $(STRAIN) --phi $(PHI)
+	$(PY) -m pipeline.calibration.profile $(DATA_ARGS) --strain $(STRAIN) --phi $(PHI) $(WEIGHT_OPTION)
 
 fidelity: venv ## the fidelity ladder (config/fidelity.toml): make its missing DEM runs (JOBS=2), then results/fidelity/
 	$(PY) -m pipeline.studies.fidelity --run --jobs $(or $(JOBS),2) --engine $(ENGINE)

@@ -22,6 +22,7 @@ from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
 from . import global_fit
 from .calibrate import JACKKNIFE_OVER, Settings, fit, parse_hold
+from .options import add_weight_argument
 from .text import print_report
 
 
@@ -47,10 +48,7 @@ def main(argv=None) -> int:
     parser.add_argument("--stress", default=global_fit.STRESS_DEFAULT, choices=sorted(global_fit.STRESS_FITS),
                         help="the components of tau/p fitted: shear (12, 32: tau:D'; the paper's, default) or all "
                              "(the diagonal too, which carries normal-stress differences the model does not give)")
-    parser.add_argument("--weight", default=global_fit.WEIGHT_DEFAULT, choices=global_fit.WEIGHTS,
-                        help="runs: each run counts once (an angle with three seeds pulls three times as hard; "
-                             "default); angles: each angle (protocol) counts once, its seeds' residuals averaged, "
-                             "as in the paper's one run per angle")
+    add_weight_argument(parser)
     parser.add_argument("--angles", nargs="+", type=float, metavar="THETA",
                         help="fit only the data set's runs at these angles (degrees, 180 among them); the outputs "
                              "go to results/<data set>/fit-angles-<thetas>[-from<STRAIN>][-<stress>]/")

@@ -1,6 +1,7 @@
 """The global fit under every definition the paper leaves open, side by side (``make fit-definitions``).
 
-``python -m pipeline.calibration.definitions [--preset P] [--engine E] [--set K=V] [--out DIR]`` refits the
+``python -m pipeline.calibration.definitions [--preset P] [--engine E] [--set K=V] [--out DIR]
+[--weight runs|angles]`` refits the
 preset's runs (its data set) with each strain measure (bulk, nominal) x packing fraction (central, gap) x
 pressure (target, wall) x stress components fitted (shear, all: ``global_fit.STRESS_FITS``) and writes
 ``definitions.md`` and ``definitions.json`` beside the fit: the parameters with their standard errors from the
@@ -26,17 +27,20 @@ from ..dataset.lookup import fit_runs
 from ..errors import CalibrationError, PipelineError
 from ..paths import preset_output
 from . import global_fit, identifiability
+from .options import add_weight_argument, weighted_label
 from .residual_map import residual_map
 
 NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
 
 
 def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
-            persistence_exponent: float = 0.75, stress: str = global_fit.STRESS_DEFAULT) -> dict:
+            persistence_exponent: float = 0.75, stress: str = global_fit.STRESS_DEFAULT,
+            weight: str = global_fit.WEIGHT_DEFAULT) -> dict:
     """The global fit of ``runs`` read with ``definitions`` (restarted ``fit_from`` past each change of direction,
-    with the persistence exponent held at ``persistence_exponent``): parameters, standard errors from the noise,
-    status, misfit, chi^2, Table 2 as a hypothesis, and the share of chi^2 within 0.05 strain after a change."""
-    data, noise = global_fit.prepare([r.with_definitions(definitions) for r in runs], fit_from, stress)
+    with the persistence exponent held at ``persistence_exponent``, the runs weighted by ``weight``): parameters,
+    standard errors from the noise, status, misfit, chi^2, Table 2 as a hypothesis, and the share of chi^2 within
+    0.05 strain after a change."""
+    data, noise = global_fit.prepare([r.with_definitions(definitions) for r in runs], fit_from, stress, weight)
     start = model.Params().replace(persistence_exponent=persistence_exponent)
     refined = global_fit.refine(data, start, noise=noise)
     se = dict(zip(refined.names, refined.standard_errors.tolist(), strict=True))
@@ -49,7 +53,8 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
         note = f"Eq. 18's c2_coef and Phi_c not determined ({exc}): Table 2's shown"
         se.update({n: float("nan") for n in ("c2_coef", "phi_c")})
     summary = identifiability.summary(refined, data)
-    return {"definitions": dataclasses.asdict(definitions), "stress_fitted": stress, "fit_from": fit_from,
+    return {"definitions": dataclasses.asdict(definitions), "stress_fitted": stress, "weight": weight,
+            "fit_from": fit_from,
             "persistence_exponent": persistence_exponent, "dilatancy_note": note,
             "params": {n: getattr(params, n) for n in NAMES}, "model_params": params.to_dict(),
             "standard_errors": {n: se[n] for n in NAMES},
@@ -93,12 +98,12 @@ def preset_fit_runs(chosen: selection.DataSet) -> list:
     return runs
 
 
-def compare_definitions(runs: list) -> list[dict]:
+def compare_definitions(runs: list, weight: str = global_fit.WEIGHT_DEFAULT) -> list[dict]:
     rows = []
     for stress, (strain, phi, pressure) in itertools.product(global_fit.STRESS_FITS,
                                                              itertools.product(*Definitions.CHOICES.values())):
         definitions = Definitions(strain, phi, pressure)
-        rows.append(fit_row(runs, definitions, stress=stress))
+        rows.append(fit_row(runs, definitions, stress=stress, weight=weight))
         t = rows[-1]["table2"]
         print(f"{definitions.label()}, tau {stress}: misfit {rows[-1]['misfit']:.2f}, "
               f"Table 2 chi^2 {t['relative_rise']:+.1%}", flush=True)
@@ -136,11 +141,13 @@ def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration.definitions", description=__doc__.splitlines()[0])
     selection.add_arguments(parser)
     parser.add_argument("--out", help="output folder (default results/<data set folder>/fit)")
+    add_weight_argument(parser)
     args = parser.parse_args(argv)
     chosen = selection.from_arguments(args)
     out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
-    rows = compare_definitions(preset_fit_runs(chosen))
-    print(f"wrote {io.write_table(out, 'definitions', rows, markdown(rows, chosen.label))} and definitions.json")
+    rows = compare_definitions(preset_fit_runs(chosen), args.weight)
+    label = weighted_label(chosen.label, args.weight)
+    print(f"wrote {io.write_table(out, 'definitions', rows, markdown(rows, label))} and definitions.json")
     return 0
 
 

@@ -1,7 +1,7 @@
 """Profile likelihood of the global fit (``make fit-profile``): each parameter held on a grid, the rest refitted.
 
 ``python -m pipeline.calibration.profile [--preset P] [--engine E] [--set K=V] [--points 9] [--span 4]
-[--strain ...] [--phi ...]``
+[--strain ...] [--phi ...] [--weight runs|angles]``
 reads the preset's runs as ``make fit`` does (with the definitions given), fits them, then for every
 parameter of the global fit refits the others with it held at ``points`` values across +-``span``
 standard errors, and writes ``profiles.json`` beside the fit (``profiles-<strain>-<phi>-<p>.json`` for
@@ -32,6 +32,7 @@ from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError, PipelineError
 from ..paths import preset_output
 from . import global_fit
+from .options import add_weight_argument
 
 LEVELS = {"68": 1.0, "95": 3.841459}  # chi^2_1 quantiles, times each parameter's noise factor
 
@@ -93,6 +94,7 @@ def main(argv=None) -> int:
     parser.add_argument("--span", type=float, default=4.0, help="half-width in standard errors (default 4)")
     parser.add_argument("--out", help="output folder (default results/<data set folder>/fit)")
     add_definition_arguments(parser)
+    add_weight_argument(parser)
     args = parser.parse_args(argv)
     if args.points < 3 or not (np.isfinite(args.span) and args.span > 0):
         raise PipelineError(f"points={args.points} must be >= 3 and span={args.span} > 0")
@@ -102,7 +104,7 @@ def main(argv=None) -> int:
     runs = [r.with_definitions(definitions) for r in fit_runs(chosen)]
     if not runs:
         raise PipelineError(f"no run of {chosen.label}")
-    data, noise = global_fit.prepare(runs)
+    data, noise = global_fit.prepare(runs, weight=args.weight)
     best = global_fit.refine(data, model.Params(), noise=noise)
     tic = time.time()
 
@@ -111,7 +113,8 @@ def main(argv=None) -> int:
         print(f"profile {done}/{total} ({done / total:.0%}), {rate:.2f} fits/s, ETA {(total - done) / rate:.0f} s",
               flush=True)
 
-    result = {"definitions": dataclasses.asdict(definitions), **profiles(data, best, args.points, args.span, progress)}
+    result = {"definitions": dataclasses.asdict(definitions), "weight": args.weight,
+              **profiles(data, best, args.points, args.span, progress)}
     name = "profiles.json" if definitions == PAPER_DEFINITIONS else f"profiles-{definitions.slug()}.json"
     io.write_json(out / name, result)
     for key, p in result["parameters"].items():

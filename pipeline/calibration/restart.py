@@ -1,7 +1,7 @@
 """The global fit past the reversal jump, side by side (``make fit-from``).
 
 ``python -m pipeline.calibration.restart [--preset P] [--engine E] [--set K=V] [--fit-from 0,0.005,0.01]
-[--exponents 0.5,...,1]``
+[--exponents 0.5,...,1] [--weight runs|angles]``
 refits the preset's runs in the paper's definitions (nominal strain, Phi of the gap, the controlled p) with
 the model restarted from the DEM's state gamma0 past each change of direction (``Cycle.restarted``), for
 each gamma0, and then, at the first gamma0 > 0, with the persistence exponent k of Eq. 12 held at each value
@@ -27,7 +27,9 @@ from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS, states_after_changes
 from ..errors import PipelineError
 from ..paths import preset_output
+from . import global_fit
 from .definitions import NAMES, fit_row, own_reversal, preset_fit_runs
+from .options import add_weight_argument, weighted_label
 
 FIT_FROM = (0.0, 0.002, 0.005, 0.01)
 EXPONENTS = (0.5, 0.625, 0.75, 0.875, 1.0)
@@ -62,12 +64,13 @@ def settings(runs: list, fit_from=FIT_FROM, exponents=EXPONENTS) -> list[tuple]:
     return rows
 
 
-def table(runs: list, fit_from=FIT_FROM, exponents=EXPONENTS, definitions=PAPER_DEFINITIONS) -> list[dict]:
-    """One fit per ``settings`` row, with the number of runs it used."""
+def table(runs: list, fit_from=FIT_FROM, exponents=EXPONENTS, definitions=PAPER_DEFINITIONS,
+          weight: str = global_fit.WEIGHT_DEFAULT) -> list[dict]:
+    """One fit per ``settings`` row, with the number of runs it used (weighted by ``weight`` among them)."""
     todo = settings(runs, fit_from, exponents)
     rows, tic = [], time.time()
     for done, (g, k, used) in enumerate(todo, start=1):
-        rows.append({**fit_row(used, definitions, g, k), "runs": len(used)})
+        rows.append({**fit_row(used, definitions, g, k, weight=weight), "runs": len(used)})
         t = rows[-1]["table2"]
         eta = (time.time() - tic) / done * (len(todo) - done)
         print(f"[{done}/{len(todo)}, {done / len(todo):.0%}] fit from {g:g}, k = {k:g}, {len(used)} runs: misfit "
@@ -137,7 +140,8 @@ def write_row_params(out, row: dict):
     jump can be compared with the DEM and run in a continuum code; its metadata say how it was fitted and whether
     the model's own reversal runs with it."""
     metadata = {"fit": "global past the jump (pipeline.calibration.restart)", "fit_from": row["fit_from"],
-                "runs": row["runs"], "definitions": row["definitions"], "own_reversal": row["own_reversal"]}
+                "runs": row["runs"], "weight": row["weight"], "definitions": row["definitions"],
+                "own_reversal": row["own_reversal"]}
     return io.write_params(out / PARAMS_FOLDER / row_params_name(row), model.Params.from_dict(row["model_params"]),
                            metadata)
 
@@ -149,14 +153,16 @@ def main(argv=None) -> int:
     parser.add_argument("--fit-from", default=",".join(f"{g:g}" for g in FIT_FROM), help="gamma0 values (strain)")
     parser.add_argument("--exponents", default=",".join(f"{k:g}" for k in EXPONENTS), help="k values profiled")
     parser.add_argument("--out", help="output folder (default results/<data set folder>/fit)")
+    add_weight_argument(parser)
     args = parser.parse_args(argv)
     fit_from, exponents = _numbers("fit-from", args.fit_from), _numbers("exponents", args.exponents)
     chosen = selection.from_arguments(args)
     out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
-    rows = table(preset_fit_runs(chosen), fit_from, exponents)
+    rows = table(preset_fit_runs(chosen), fit_from, exponents, weight=args.weight)
     for row in rows:
         write_row_params(out, row)
-    print(f"wrote {io.write_table(out, 'fit_from', rows, markdown(rows, chosen.label))}, fit_from.json and each "
+    label = weighted_label(chosen.label, args.weight)
+    print(f"wrote {io.write_table(out, 'fit_from', rows, markdown(rows, label))}, fit_from.json and each "
           f"row's parameters in {out / PARAMS_FOLDER}/")
     return 0
 

@@ -374,7 +374,8 @@ def test_each_restart_row_writes_every_parameter_it_ran_with_where_the_compariso
     from pipeline.calibration.definitions import own_reversal
 
     params = model.Params().replace(persistence_exponent=0.5, a1=-0.03, b2=-40.0, phi_c=0.58)
-    row = {"fit_from": 0.005, "persistence_exponent": 0.5, "runs": 6, "model_params": params.to_dict(),
+    row = {"fit_from": 0.005, "persistence_exponent": 0.5, "runs": 6, "weight": "angles",
+           "model_params": params.to_dict(),
            "definitions": {"strain": "nominal", "phi": "gap", "pressure": "target"},
            "own_reversal": own_reversal(params)}
     path = restart.write_row_params(tmp_path, row)
@@ -382,6 +383,7 @@ def test_each_restart_row_writes_every_parameter_it_ran_with_where_the_compariso
     assert io.read_params(path) == params
     metadata = json.loads(path.read_text())["metadata"]
     assert metadata["fit_from"] == 0.005 and metadata["own_reversal"]["error"] is None
+    assert metadata["weight"] == "angles"
 
 
 def dense_fake_run(dense: bool = True):
@@ -431,6 +433,23 @@ def test_the_restart_table_fits_an_off_grid_gamma0_on_the_dense_runs_beside_the_
     assert [(g, k, len(r)) for g, k, r in rows] == [(0.0, 0.75, 2), (0.002, 0.75, 1), (0.005, 0.75, 1),
                                                     (0.005, 0.75, 2), (0.005, 0.5, 2)]
     assert rows[1][2] == [dense]
+
+
+def test_a_fit_row_weighs_the_runs_as_make_fit_does(tmp_path):
+    """``make fit-definitions`` and ``fit-from`` fit their rows with the weighting asked for: two reversal seeds and
+    one theta = 90 run counted once per angle give the global fit of ``prepare(weight="angles")``, not the one
+    run by run."""
+    from pipeline.calibration import definitions
+
+    runs = [synthetic_run(tmp_path, t, name=f"w{k}", seed=k + 7, noise=0.003, n_cycles=1)
+            for k, t in enumerate((180.0, 180.0, 90.0))]
+    paper = Definitions(strain="nominal", phi="gap")
+    row = definitions.fit_row(runs, paper, weight="angles")
+    data, noise = global_fit.prepare([r.with_definitions(paper) for r in runs], weight="angles")
+    per_angle = global_fit.refine(data, model.Params(), noise=noise)
+    assert row["weight"] == "angles" and row["misfit"] == pytest.approx(per_angle.misfit)
+    assert row["params"]["a1"] == pytest.approx(per_angle.params.a1)
+    assert definitions.fit_row(runs, paper)["chi2"] != pytest.approx(row["chi2"])
 
 
 @pytest.mark.slow

@@ -144,6 +144,18 @@ def test_make_fit_angles_and_jackknife_pass_their_options_and_refuse_no_angles()
     assert proc.returncode != 0 and "ANGLES is empty" in proc.stderr and "pipeline.calibration" not in proc.stdout
 
 
+def test_the_fits_beside_make_fit_take_its_weighting():
+    """``make fit-definitions``, ``fit-from`` and ``fit-profile`` with ``WEIGHT=angles`` give their stage
+    ``--weight angles`` (``make -n``: nothing runs), and nothing without it."""
+    for target, stage in (("fit-definitions", "pipeline.calibration.definitions"),
+                          ("fit-from", "pipeline.calibration.restart"),
+                          ("fit-profile", "pipeline.calibration.profile")):
+        line = next(x for x in dry_run(target, "PRESET=reduced", "WEIGHT=angles").splitlines() if stage in x)
+        assert line.split()[-2:] == ["--weight", "angles"], line
+        line = next(x for x in dry_run(target, "PRESET=reduced").splitlines() if stage in x)
+        assert "--weight" not in line, line
+
+
 def test_a_data_set_given_its_presets_own_value_is_the_presets_own():
     assert selection.data_set("paper", "lammps", {"inertial_number": 2.9e-4}) == DataSet("paper", "lammps")
     assert selection.data_set("paper", "lammps", {"inertial_number": 1e-3}).folder == "paper-lammps-e29c082a"
