@@ -112,14 +112,23 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
                   f"above the best fit, a rise of {t['chi2_rise']:.0f} against {t['quantiles']['95']:.0f} for the "
                   f"95 % region from the noise: {verdict[t['inside']['95']]} it; "
                   f"{verdict[t['inside_misfit_widened']['95']]} it when the region is widened by the misfit."]
+    return lines + next_runs_lines(fit_json)
+
+
+def next_runs_lines(fit_json: dict) -> list[str]:
+    """The best new runs per CPU-hour (``fit.json`` → ``next_runs``), and how they were ranked where the fit counts
+    each angle once."""
     runs = [r for r in fit_json.get("next_runs") or [] if "error" not in r]  # last: cycles the model fails
-    if runs:
-        lines += ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
-                  f"Its relative ± is {runs[0]['weakest_before']:.2g} now (fit.json: next_runs, every candidate).", "",
-                  "| run | weakest ± after | largest relative ± after | CPU-hours |", "|---|---|---|---|"]
-        lines += [f"| {r['run']} | {r['weakest_after']:.2g} | {r['worst_relative_se_after']:.2g} | "
-                  f"{r['cpu_hours']:.2f} |" for r in runs[:6]]
-    return lines
+    if not runs:
+        return []
+    return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
+            f"Its relative ± is {runs[0]['weakest_before']:.2g} now (fit.json: next_runs, every candidate)."
+            + (" Each run is ranked as if every run counted once: with each angle counted once (this fit), another "
+               "seed of an angle already run lowers only that angle's noise, and gains less than shown."
+               if fit_json.get("weight") == "angles" else ""), "",
+            "| run | weakest ± after | largest relative ± after | CPU-hours |", "|---|---|---|---|",
+            *(f"| {r['run']} | {r['weakest_after']:.2g} | {r['worst_relative_se_after']:.2g} | "
+              f"{r['cpu_hours']:.2f} |" for r in runs[:6])]
 
 
 def jump_lines(rows: list[dict], paper: dict) -> list[str]:
