@@ -2,14 +2,15 @@
 
 For each candidate run (another seed of an angle already run, a reversal before steady state, more
 cycles, denser sampling, or a committed run the fit leaves out) the model's cycle at the best fit gives
-its Jacobian; with the DEM's measured noise (scale and correlation along strain, ``noise.NoiseModel``)
-that is the information the run would add, ``J^T Sigma^-1 J`` (what a fit weighting by the full noise
-covariance would extract: an upper bound for our least squares). Added to the present information
-``V^-1`` it gives the covariance after the run. Reported per candidate: the standard deviation along the
-present weakest direction and the largest relative standard error of any parameter, before and after,
-and the CPU-hours the run costs (from the committed runs' CPU time per unit strain). Every candidate runs as
-many cycles as the data set's reversal run, as ``make dem`` with its preset would.
-"""
+its Jacobian J; with the DEM's measured noise (scale and correlation Sigma along strain, ``noise.NoiseModel``)
+that gives its parts of the fit's least squares, ``J^T J`` and ``J^T Sigma J``. Joined to the fit's own runs
+with the fit's weighting (``global_fit.weighed``) they give the sandwich covariance our least squares would have
+with the run, ``H^-1 M H^-1`` (``H = sum w J^T J``, ``M = sum w^2 J^T Sigma J``), not the information a fit
+weighting by the full noise covariance would extract: a run whose samples are many and correlated can widen it.
+Reported per candidate: the standard deviation along the present weakest direction and the largest relative
+standard error of any parameter, before and after, and the CPU-hours the run costs (from the committed runs' CPU
+time per unit strain). Every candidate runs as many cycles as the data set's reversal run, as ``make dem`` with
+its preset would."""
 
 from __future__ import annotations
 
@@ -17,7 +18,6 @@ import dataclasses
 import functools
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
 
 import model
 
@@ -70,10 +70,21 @@ def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel,
                                phi=pred.packing_fraction)
 
 
-def information(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, factors: dict | None = None) -> np.ndarray:
-    """J^T Sigma^-1 J of one (pseudo-)run at the best fit, Sigma the noise's correlation at its sampling;
-    ``factors`` keeps each Sigma's LU factors for the next run of the same sampling (candidates share them)."""
-    factors = {} if factors is None else factors
+def parts(jac: np.ndarray, data: Cycle, noise: NoiseModel) -> tuple[np.ndarray, np.ndarray]:
+    """(J^T J, J^T Sigma J) of one (pseudo-)run: ``jac`` the Jacobian of its scaled residuals (unweighted), per
+    component the A block then the tau block, Sigma the noise's correlation at its sampling: its parts of the
+    least squares' H and of the sandwich's middle term at weight 1."""
+    length = len(data.strain)
+    ratio = data.strain[1] / noise.sample_strain if length > 1 else 1.0
+    JJ, JSJ = jac.T @ jac, np.zeros((jac.shape[1],) * 2)
+    for k in range(len(COMPONENTS)):
+        J = jac[2 * length * k:2 * length * (k + 1)]
+        JSJ += J.T @ noise.covariance(k, length, lag_scale=ratio) @ J
+    return JJ, JSJ
+
+
+def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit) -> tuple[np.ndarray, np.ndarray]:
+    """``parts`` of a candidate's pseudo-run at the best fit (its Jacobian by forward differences)."""
     base = fit.params
     f0 = global_fit.residuals(fit.values, [data], base, fit.names)
     jac = np.empty((f0.size, len(fit.names)))
@@ -82,52 +93,64 @@ def information(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, facto
         shifted = fit.values.copy()
         shifted[k] += step
         jac[:, k] = (global_fit.residuals(shifted, [data], base, fit.names) - f0) / step
-    length, info, row = len(data.strain), np.zeros((len(fit.names),) * 2), 0
-    ratio = data.strain[1] / noise.sample_strain if length > 1 else 1.0
-    for k in range(len(COMPONENTS)):
-        J = jac[row:row + 2 * length]
-        key = (k, length, ratio)
-        if key not in factors:
-            factors[key] = lu_factor(noise.covariance(k, length, lag_scale=ratio) + 1e-9 * np.eye(2 * length))
-        info += J.T @ lu_solve(factors[key], J)
-        row += 2 * length
-    return info
+    return parts(jac, data, noise)
 
 
-def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rotations: list,
-         stress: str = global_fit.STRESS_DEFAULT) -> list[dict]:
+def fitted_parts(fit: global_fit.GlobalFit, data: list[Cycle], noise: NoiseModel) -> list[tuple]:
+    """``parts`` of each run of the fit (``data``, as fitted), from the fit's Jacobian."""
+    out = [[0.0, 0.0] for _ in data]
+    for i, J, sigma in global_fit.noise_blocks(fit.jacobian, data, noise):
+        out[i][0] = out[i][0] + J.T @ J
+        out[i][1] = out[i][1] + J.T @ sigma @ J
+    return [tuple(p) for p in out]
+
+
+def sandwich_after(run_parts: list[tuple], weights: list[float]) -> np.ndarray:
+    """The least squares' sandwich covariance ``H^-1 M H^-1`` of runs with ``parts`` ``run_parts`` weighted by
+    ``weights``: ``H = sum w J^T J``, ``M = sum w^2 J^T Sigma J`` (the noise independent between runs)."""
+    H = sum(w * JJ for w, (JJ, _) in zip(weights, run_parts, strict=True))
+    M = sum(w**2 * JSJ for w, (_, JSJ) in zip(weights, run_parts, strict=True))
+    inverse = np.linalg.pinv(H, hermitian=True, rcond=1e-10)
+    return inverse @ M @ inverse
+
+
+def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rotations: list, data: list[Cycle],
+         stress: str = global_fit.STRESS_DEFAULT, weight: str = global_fit.WEIGHT_DEFAULT) -> list[dict]:
     """Every candidate with its effect on the weakest direction and the worst relative error, best per
-    CPU-hour first (runs that cost nothing first of all); last, any whose model cycle fails at the best fit
-    (with its ``error``)."""
+    CPU-hour first (runs that cost nothing and narrow it first of all); last, any whose model cycle fails at the
+    best fit (with its ``error``). ``data``: the fit's runs as fitted; each candidate joins them weighted by
+    ``weight`` (``global_fit.weighed``: with "angles", another seed of an angle takes its share from that angle's
+    runs)."""
     scale = np.where(fit.values != 0, np.abs(fit.values), 1.0)
     V = fit.covariance
     if V is None or not np.all(np.isfinite(V)):
         return []
-    present = np.linalg.pinv(V, hermitian=True)
     weakest = np.array([fit.directions[0]["direction"][n] for n in fit.names]) / scale
     reference = next(r for r in runs if r.is_reversal)
     spec = reference.spec
     seconds_per_strain = float(np.mean([r.cpu_seconds / (r.spec["pre_strain"] + r.spec["n_cycles"]
                                                          * r.spec["period_strain"]) for r in runs]))
     ratio = bulk_over_nominal(reference)
+    present = fitted_parts(fit, data, noise)
 
     def measures(cov):
         return float(np.sqrt(weakest @ cov @ weakest)), float(np.max(np.sqrt(np.diag(cov)) / scale))
 
     before = measures(V)
-    out, failed, factors = [], [], {}
+    out, failed = [], []
     for c in candidates(existing_rotations, spec["n_cycles"]):
         try:
-            data = candidate_data(c, spec["period_strain"], ratio, noise, fit.params, stress)
+            probe = candidate_data(c, spec["period_strain"], ratio, noise, fit.params, stress)
         except (model.SolverError, model.ParameterError) as exc:  # the best fit's cycle fails for this protocol
             failed.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "error": str(exc)})
             continue
-        after = measures(np.linalg.pinv(present + information(data, noise, fit, factors), hermitian=True))
+        weights = [d.weight for d in global_fit.weighed([*data, probe], weight)]
+        after = measures(sandwich_after([*present, candidate_parts(probe, noise, fit)], weights))
         hours = c.cost_factor * c.strain_run(spec["period_strain"], spec["pre_strain"]) * seconds_per_strain / 3600
         gain = 1 - after[0] / before[0]
         out.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "n_cycles": c.n_cycles,
                     "sample_strain": c.sample_strain, "cpu_hours": hours,
                     "weakest_before": before[0], "weakest_after": after[0],
                     "worst_relative_se_before": before[1], "worst_relative_se_after": after[1],
-                    "gain_per_cpu_hour": gain / hours if hours > 0 else float("inf")})
+                    "gain_per_cpu_hour": gain / hours if hours > 0 else float("inf") if gain > 0 else float("-inf")})
     return sorted(out, key=lambda r: -r["gain_per_cpu_hour"]) + failed

@@ -203,8 +203,10 @@ def test_without_a_measured_noise_there_are_no_intervals_and_no_verdict_on_table
 @pytest.mark.slow
 def test_the_next_runs_are_as_long_as_the_data_sets_and_priced_by_its_cpu_time(tmp_path, monkeypatch):
     """A data set of three-cycle runs at one CPU-hour per unit strain: every new candidate runs three cycles (the
-    longer one six) and costs its strain in hours; more data never widens the weakest direction; a candidate whose
-    model cycle fails at the best fit comes last, with its error, instead of ending the fit."""
+    longer one six) and costs its strain in hours; another run at the data set's sampling never widens the weakest
+    direction, while a reversal sampled five times as densely does (our least squares weighs its correlated samples
+    as if independent) and is ranked last; a candidate whose model cycle fails at the best fit comes after it, with
+    its error, instead of ending the fit."""
     from pipeline.calibration import design
     from pipeline.calibration.calibrate import calibrate
     from tests.helpers.synthetic import PERIOD, PRE
@@ -229,8 +231,38 @@ def test_the_next_runs_are_as_long_as_the_data_sets_and_priced_by_its_cpu_time(t
     seed = rows["another reversal seed (theta = 180)"]
     assert seed["n_cycles"] == 3 and seed["cpu_hours"] == pytest.approx(PRE + 3 * PERIOD)
     assert rows["a reversal run for 6 cycles instead of 3"]["cpu_hours"] == pytest.approx(PRE + 6 * PERIOD)
+    dense = rows.pop("a reversal sampled every 0.001 strain")
     assert all(r["weakest_after"] <= r["weakest_before"] * (1 + 1e-9) for r in rows.values())
+    # five times the samples, correlated over the noise's length, weighed by the least squares as if independent
+    assert dense["weakest_after"] > dense["weakest_before"] and dense is ranked[-2]
     assert seed["weakest_after"] < seed["weakest_before"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("weight", global_fit.WEIGHTS)
+def test_the_ranking_predicts_the_errors_of_the_refit_with_the_new_run(tmp_path, weight):
+    """Two reversal seeds and a theta = 90 run: for another seed at 90, at 60 and of the reversal, the ranking's
+    standard deviation along the weakest direction is what the refit with such a run gives (the same noise model,
+    each run weighted as ``weight`` says; within 10 %), where the information a fit weighting by the full noise
+    covariance would extract promised 15-18 % less."""
+    from pipeline.calibration import design
+
+    runs = [synthetic_run(tmp_path, t, name=f"r{k}", seed=40 + k, n_cycles=2, **NOISE)
+            for k, t in enumerate((180.0, 180.0, 90.0))]
+    for run in runs:
+        run.parameters["cpu_seconds"] = 3600.0
+    data, nm = global_fit.prepare(runs, weight=weight)
+    fit = global_fit.refine(data, TRUE, noise=nm)
+    ranked = {r["run"]: r for r in design.rank(fit, nm, runs, [], data, weight=weight)}
+    weakest = np.array([fit.directions[0]["direction"][n] for n in fit.names]) / np.abs(fit.values)
+    for label, theta in (("another seed at theta = 90", 90.0), ("another seed at theta = 60", 60.0),
+                         ("another reversal seed (theta = 180)", 180.0)):
+        new = synthetic_run(tmp_path, theta, name=f"new{theta:g}", seed=90, n_cycles=2, **NOISE)
+        refit = global_fit.refine(global_fit.weighed([*data, global_fit.scaled_cycle(new, nm)], weight), fit.params,
+                                  noise=nm)
+        after = float(np.sqrt(weakest @ refit.covariance @ weakest))
+        assert ranked[label]["weakest_after"] == pytest.approx(after, rel=0.1), label
+        assert ranked[label]["weakest_after"] < ranked[label]["weakest_before"]
 
 
 def test_a_committed_turn_of_fig_7_is_offered_as_fitted_or_as_another_seed_not_as_new():
