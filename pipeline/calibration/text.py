@@ -72,9 +72,8 @@ def print_next_runs(report: dict, count: int = 5) -> None:
         return
     first = ranked[0]
     print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first['weakest_before']:.2g}; "
-          "fit.json: next_runs" + ("; ranked as if each run counted once: with each angle counted once, another "
-                                   "seed of an angle already run gains less" if report.get("weight") == "angles"
-                                   else "") + "):")
+          "fit.json: next_runs" + ("; another seed of an angle shares that angle's weight"
+                                   if report.get("weight") == "angles" else "") + "):")
     for r in ranked[:count]:
         print(f"  {r['run']}: ±{r['weakest_after']:.2g}, {r['cpu_hours']:.2f} CPU-hours")
 

@@ -116,16 +116,16 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
 
 
 def next_runs_lines(fit_json: dict) -> list[str]:
-    """The best new runs per CPU-hour (``fit.json`` → ``next_runs``), and how they were ranked where the fit counts
-    each angle once."""
+    """The best new runs per CPU-hour (``fit.json`` → ``next_runs``), each joined to the fit's runs with its
+    weighting."""
     runs = [r for r in fit_json.get("next_runs") or [] if "error" not in r]  # last: cycles the model fails
     if not runs:
         return []
     return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
-            f"Its relative ± is {runs[0]['weakest_before']:.2g} now (fit.json: next_runs, every candidate)."
-            + (" Each run is ranked as if every run counted once: with each angle counted once (this fit), another "
-               "seed of an angle already run lowers only that angle's noise, and gains less than shown."
-               if fit_json.get("weight") == "angles" else ""), "",
+            f"Its relative ± is {runs[0]['weakest_before']:.2g} now (fit.json: next_runs, every candidate); each "
+            "run is joined to the fit's runs"
+            + (" with each angle counted once, so another seed of an angle shares that angle's weight."
+               if fit_json.get("weight") == "angles" else ", each counting once."), "",
             "| run | weakest ± after | largest relative ± after | CPU-hours |", "|---|---|---|---|",
             *(f"| {r['run']} | {r['weakest_after']:.2g} | {r['worst_relative_se_after']:.2g} | "
               f"{r['cpu_hours']:.2f} |" for r in runs[:6])]
