@@ -70,20 +70,24 @@ def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel,
                                phi=pred.packing_fraction)
 
 
-def parts(jac: np.ndarray, data: Cycle, noise: NoiseModel) -> tuple[np.ndarray, np.ndarray]:
+def parts(jac: np.ndarray, data: Cycle, noise: NoiseModel, sigmas: dict | None = None) -> tuple:
     """(J^T J, J^T Sigma J) of one (pseudo-)run: ``jac`` the Jacobian of its scaled residuals (unweighted), per
     component the A block then the tau block, Sigma the noise's correlation at its sampling: its parts of the
-    least squares' H and of the sandwich's middle term at weight 1."""
+    least squares' H and of the sandwich's middle term at weight 1. ``sigmas`` keeps each Sigma for the next run
+    of the same sampling (the candidates share them)."""
+    sigmas = {} if sigmas is None else sigmas
     length = len(data.strain)
     ratio = data.strain[1] / noise.sample_strain if length > 1 else 1.0
     JJ, JSJ = jac.T @ jac, np.zeros((jac.shape[1],) * 2)
     for k in range(len(COMPONENTS)):
         J = jac[2 * length * k:2 * length * (k + 1)]
-        JSJ += J.T @ noise.covariance(k, length, lag_scale=ratio) @ J
+        if (k, length, ratio) not in sigmas:
+            sigmas[k, length, ratio] = noise.covariance(k, length, lag_scale=ratio)
+        JSJ += J.T @ sigmas[k, length, ratio] @ J
     return JJ, JSJ
 
 
-def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit) -> tuple[np.ndarray, np.ndarray]:
+def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, sigmas: dict | None = None) -> tuple:
     """``parts`` of a candidate's pseudo-run at the best fit (its Jacobian by forward differences)."""
     base = fit.params
     f0 = global_fit.residuals(fit.values, [data], base, fit.names)
@@ -93,7 +97,7 @@ def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit) -
         shifted = fit.values.copy()
         shifted[k] += step
         jac[:, k] = (global_fit.residuals(shifted, [data], base, fit.names) - f0) / step
-    return parts(jac, data, noise)
+    return parts(jac, data, noise, sigmas)
 
 
 def fitted_parts(fit: global_fit.GlobalFit, data: list[Cycle], noise: NoiseModel) -> list[tuple]:
@@ -137,7 +141,7 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rota
         return float(np.sqrt(weakest @ cov @ weakest)), float(np.max(np.sqrt(np.diag(cov)) / scale))
 
     before = measures(V)
-    out, failed = [], []
+    out, failed, sigmas = [], [], {}
     for c in candidates(existing_rotations, spec["n_cycles"]):
         try:
             probe = candidate_data(c, spec["period_strain"], ratio, noise, fit.params, stress)
@@ -145,7 +149,7 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rota
             failed.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "error": str(exc)})
             continue
         weights = [d.weight for d in global_fit.weighed([*data, probe], weight)]
-        after = measures(sandwich_after([*present, candidate_parts(probe, noise, fit)], weights))
+        after = measures(sandwich_after([*present, candidate_parts(probe, noise, fit, sigmas)], weights))
         hours = c.cost_factor * c.strain_run(spec["period_strain"], spec["pre_strain"]) * seconds_per_strain / 3600
         gain = 1 - after[0] / before[0]
         out.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "n_cycles": c.n_cycles,

@@ -109,16 +109,16 @@ class NoiseModel:
         """Correlation matrix of the stacked (A_k over ``length`` samples, tau_k over the same samples);
         ``lag_scale``: the sampling interval in units of the measured one (interpolated between lags)."""
         g = self.autocovariance[k]
-        lag = (np.arange(length)[None, :] - np.arange(length)[:, None]) * lag_scale  # j - i, in measured samples
         measured = np.arange(len(g))
-
-        def at(x, y):
-            return np.interp(np.abs(lag), measured, g[:, x, y], right=0.0)
-
-        out = np.zeros((2 * length, 2 * length))
+        steps = np.arange(length) * lag_scale  # |j - i| in measured samples
+        by_lag = np.arange(length)[None, :] - np.arange(length)[:, None] + length - 1  # j - i, from 0
+        out = np.empty((2 * length, 2 * length))
         for x in range(2):
             for y in range(2):
-                out[x * length:(x + 1) * length, y * length:(y + 1) * length] = np.where(lag >= 0, at(x, y), at(y, x))
+                ahead = np.interp(steps, measured, g[:, x, y], right=0.0)  # j >= i
+                behind = np.interp(steps, measured, g[:, y, x], right=0.0)  # j < i: the pair the other way
+                out[x * length:(x + 1) * length, y * length:(y + 1) * length] = np.concatenate(
+                    [behind[:0:-1], ahead])[by_lag]
         return out
 
     def to_dict(self) -> dict:
