@@ -71,11 +71,11 @@ def print_next_runs(report: dict, count: int = 5) -> None:
     if not ranked:
         return
     first = ranked[0]
-    print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first['weakest_before']:.2g}; "
+    print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first['weakest_before']:.3g}; "
           "fit.json: next_runs" + ("; another seed of an angle shares that angle's weight"
                                    if report.get("weight") == "angles" else "") + "):")
     for r in ranked[:count]:
-        print(f"  {r['run']}: ±{r['weakest_after']:.2g}, {r['cpu_hours']:.2f} CPU-hours")
+        print(f"  {r['run']}: ±{r['weakest_after']:.3g}, {r['cpu_hours']:.2f} CPU-hours")
 
 
 def print_residual_map(report: dict, top: int = 4) -> None:

@@ -122,12 +122,12 @@ def next_runs_lines(fit_json: dict) -> list[str]:
     if not runs:
         return []
     return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
-            f"Its relative ± is {runs[0]['weakest_before']:.2g} now (fit.json: next_runs, every candidate); each "
+            f"Its relative ± is {runs[0]['weakest_before']:.3g} now (fit.json: next_runs, every candidate); each "
             "run is joined to the fit's runs"
             + (" with each angle counted once, so another seed of an angle shares that angle's weight."
                if fit_json.get("weight") == "angles" else ", each counting once."), "",
             "| run | weakest ± after | largest relative ± after | CPU-hours |", "|---|---|---|---|",
-            *(f"| {r['run']} | {r['weakest_after']:.2g} | {r['worst_relative_se_after']:.2g} | "
+            *(f"| {r['run']} | {r['weakest_after']:.3g} | {r['worst_relative_se_after']:.3g} | "
               f"{r['cpu_hours']:.2f} |" for r in runs[:6])]
 
 
