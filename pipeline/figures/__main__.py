@@ -74,6 +74,10 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
         made.append(laws.fabric_law(fit_h5, fitted, paper, figures / "fig3_fabric_law.png"))
         made.append(laws.flow_rule(fit_h5, fitted, paper, figures / "fig4_flow_rule.png"))
     fit_from = read_json(fit_dir / "fit_from.json") if (fit_dir / "fit_from.json").exists() else None
+    if fit_from and not report.same_weighting(fit_from, fit_json):
+        print(f"{fit_dir / 'fit_from.json'} weighs the runs otherwise than fit.json: left out of the report "
+              "(make fit-from with the fit's WEIGHT)")
+        fit_from = None
     made.append(report.write(metrics, fit_json, out / "report.md", n_runs, fit_from))
     return made
 

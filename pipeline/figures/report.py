@@ -115,6 +115,13 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
     return lines + next_runs_lines(fit_json)
 
 
+def same_weighting(rows: list[dict], fit_json: dict | None) -> bool:
+    """Whether the rows of ``make fit-from`` (``fit_from.json``) weighed the runs as the fit in ``fit.json`` did
+    (files from before the weighting was recorded counted each run once)."""
+    weight = lambda d: d.get("weight", "runs")  # noqa: E731
+    return all(weight(r) == weight(fit_json or {}) for r in rows)
+
+
 def next_runs_lines(fit_json: dict) -> list[str]:
     """The best new runs per CPU-hour (``fit.json`` → ``next_runs``), each joined to the fit's runs with its
     weighting."""

@@ -211,6 +211,15 @@ def test_the_report_says_how_new_runs_join_the_fit():
     assert next_runs_lines({"next_runs": []}) == []
 
 
+def test_the_report_takes_the_fits_past_the_jump_only_of_the_fits_weighting():
+    from pipeline.figures.report import same_weighting
+
+    rows = [{"fit_from": 0.005, "weight": "angles"}, {"fit_from": 0.0, "weight": "angles"}]
+    assert same_weighting(rows, {"weight": "angles"}) and not same_weighting(rows, {"weight": "runs"})
+    assert same_weighting([{"fit_from": 0.005}], {"weight": "runs"})  # from before the weighting was recorded
+    assert not same_weighting([{"fit_from": 0.005}], {"weight": "angles"})
+
+
 def test_atomic_writes_leave_files_as_readable_as_a_plain_write(tmp_path):
     """The temporary each atomic write renames into place has the permissions a plain ``open`` would give (the
     umask's), not ``mkstemp``'s owner-only ones: results on a shared disk stay readable by the group."""
