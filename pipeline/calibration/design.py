@@ -10,7 +10,7 @@ weighting by the full noise covariance would extract: a run whose samples are ma
 Reported per candidate: the standard deviation along the present weakest direction and the largest relative
 standard error of any parameter, before and after, and the CPU-hours the run costs (from the committed runs' CPU
 time per unit strain). Every candidate runs as many cycles as the data set's reversal run, as ``make dem`` with
-its preset would."""
+its preset would, and is fitted as the fit's runs are (past the jump with ``FIT_FROM``)."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ import model
 from ..dataset.cycle import Cycle
 from ..dataset.derived import bulk_over_nominal
 from . import global_fit
-from .noise import COMPONENTS, NoiseModel
+from .noise import NoiseModel
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,38 +57,29 @@ def candidates(existing_rotations: list[tuple[float, float]], n_cycles: int) -> 
 
 
 def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel, params: model.Params,
-                   stress: str = global_fit.STRESS_DEFAULT):
+                   stress: str = global_fit.STRESS_DEFAULT, fit_from: float = 0.0) -> Cycle:
     """A pseudo-run of ``c``: the model's cycle as data (the values do not matter, only the Jacobian) with the
-    noise scales of an ``n_cycles`` mean."""
+    noise scales of an ``n_cycles`` mean; with ``fit_from`` > 0 restarted that far past each change of direction,
+    as the fit's runs are (``Cycle.restarted``, from the model's own state there). A protocol the model's cycle
+    fails for raises ``model.SolverError`` or ``ParameterError``; one whose segments are too short to restart in,
+    ``ValueError``."""
     strain = np.arange(round(period / c.sample_strain)) * c.sample_strain
     probe = Cycle(c.theta_deg, c.rotate_at, period, ratio, c.n_cycles, strain, np.zeros((len(strain), 3, 3)),
                   np.zeros((len(strain), 3, 3)), np.ones((len(strain), 3, 3)), np.ones((len(strain), 3, 3)),
                   np.zeros(len(strain)))
     pred = probe.prediction(params)
     scales = global_fit.noise_scales(len(strain), noise, c.n_cycles, stress)
-    return dataclasses.replace(probe, A=pred.A, tau=pred.tau, A_scale=scales[0], tau_scale=scales[1],
-                               phi=pred.packing_fraction)
+    probe = dataclasses.replace(probe, A=pred.A, tau=pred.tau, A_scale=scales[0], tau_scale=scales[1],
+                                phi=pred.packing_fraction)
+    if not fit_from:
+        return probe
+    at = dataclasses.replace(probe, strain=np.array([fit_from, c.rotate_at + fit_from])).prediction(params)
+    return probe.restarted(fit_from, (at.A, at.packing_fraction))
 
 
-def parts(jac: np.ndarray, data: Cycle, noise: NoiseModel, sigmas: dict | None = None) -> tuple:
-    """(J^T J, J^T Sigma J) of one (pseudo-)run: ``jac`` the Jacobian of its scaled residuals (unweighted), per
-    component the A block then the tau block, Sigma the noise's correlation at its sampling: its parts of the
-    least squares' H and of the sandwich's middle term at weight 1. ``sigmas`` keeps each Sigma for the next run
-    of the same sampling (the candidates share them)."""
-    sigmas = {} if sigmas is None else sigmas
-    length = len(data.strain)
-    ratio = data.strain[1] / noise.sample_strain if length > 1 else 1.0
-    JJ, JSJ = jac.T @ jac, np.zeros((jac.shape[1],) * 2)
-    for k in range(len(COMPONENTS)):
-        J = jac[2 * length * k:2 * length * (k + 1)]
-        if (k, length, ratio) not in sigmas:
-            sigmas[k, length, ratio] = noise.covariance(k, length, lag_scale=ratio)
-        JSJ += J.T @ sigmas[k, length, ratio] @ J
-    return JJ, JSJ
-
-
-def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, sigmas: dict | None = None) -> tuple:
-    """``parts`` of a candidate's pseudo-run at the best fit (its Jacobian by forward differences)."""
+def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, cache: dict | None = None) -> tuple:
+    """A candidate's pseudo-run's parts of the least squares (``global_fit.run_parts``) at the best fit, its
+    Jacobian by forward differences."""
     base = fit.params
     f0 = global_fit.residuals(fit.values, [data], base, fit.names)
     jac = np.empty((f0.size, len(fit.names)))
@@ -97,25 +88,7 @@ def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, s
         shifted = fit.values.copy()
         shifted[k] += step
         jac[:, k] = (global_fit.residuals(shifted, [data], base, fit.names) - f0) / step
-    return parts(jac, data, noise, sigmas)
-
-
-def fitted_parts(fit: global_fit.GlobalFit, data: list[Cycle], noise: NoiseModel) -> list[tuple]:
-    """``parts`` of each run of the fit (``data``, as fitted), from the fit's Jacobian."""
-    out = [[0.0, 0.0] for _ in data]
-    for i, J, sigma in global_fit.noise_blocks(fit.jacobian, data, noise):
-        out[i][0] = out[i][0] + J.T @ J
-        out[i][1] = out[i][1] + J.T @ sigma @ J
-    return [tuple(p) for p in out]
-
-
-def sandwich_after(run_parts: list[tuple], weights: list[float]) -> np.ndarray:
-    """The least squares' sandwich covariance ``H^-1 M H^-1`` of runs with ``parts`` ``run_parts`` weighted by
-    ``weights``: ``H = sum w J^T J``, ``M = sum w^2 J^T Sigma J`` (the noise independent between runs)."""
-    H = sum(w * JJ for w, (JJ, _) in zip(weights, run_parts, strict=True))
-    M = sum(w**2 * JSJ for w, (_, JSJ) in zip(weights, run_parts, strict=True))
-    inverse = np.linalg.pinv(H, hermitian=True, rcond=1e-10)
-    return inverse @ M @ inverse
+    return global_fit.run_parts(jac, [data], noise, cache)[0]
 
 
 def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rotations: list, data: list[Cycle],
@@ -124,7 +97,7 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rota
     CPU-hour first (runs that cost nothing and narrow it first of all); last, any whose model cycle fails at the
     best fit (with its ``error``). ``data``: the fit's runs as fitted; each candidate joins them weighted by
     ``weight`` (``global_fit.weighed``: with "angles", another seed of an angle takes its share from that angle's
-    runs)."""
+    runs) and restarted past each change of direction as they are (their ``fit_from``)."""
     scale = np.where(fit.values != 0, np.abs(fit.values), 1.0)
     V = fit.covariance
     if V is None or not np.all(np.isfinite(V)):
@@ -135,21 +108,22 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rota
     seconds_per_strain = float(np.mean([r.cpu_seconds / (r.spec["pre_strain"] + r.spec["n_cycles"]
                                                          * r.spec["period_strain"]) for r in runs]))
     ratio = bulk_over_nominal(reference)
-    present = fitted_parts(fit, data, noise)
+    present = global_fit.run_parts(fit.jacobian, data, noise)
+    fit_from = data[0].fit_from
 
     def measures(cov):
         return float(np.sqrt(weakest @ cov @ weakest)), float(np.max(np.sqrt(np.diag(cov)) / scale))
 
     before = measures(V)
-    out, failed, sigmas = [], [], {}
+    out, failed, cache = [], [], {}
     for c in candidates(existing_rotations, spec["n_cycles"]):
         try:
-            probe = candidate_data(c, spec["period_strain"], ratio, noise, fit.params, stress)
-        except (model.SolverError, model.ParameterError) as exc:  # the best fit's cycle fails for this protocol
+            probe = candidate_data(c, spec["period_strain"], ratio, noise, fit.params, stress, fit_from)
+        except (model.SolverError, model.ParameterError, ValueError) as exc:  # the model fails, or no restart fits
             failed.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "error": str(exc)})
             continue
         weights = [d.weight for d in global_fit.weighed([*data, probe], weight)]
-        after = measures(sandwich_after([*present, candidate_parts(probe, noise, fit, sigmas)], weights))
+        after = measures(global_fit.sandwich([*present, candidate_parts(probe, noise, fit, cache)], weights)[0])
         hours = c.cost_factor * c.strain_run(spec["period_strain"], spec["pre_strain"]) * seconds_per_strain / 3600
         gain = 1 - after[0] / before[0]
         out.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "n_cycles": c.n_cycles,

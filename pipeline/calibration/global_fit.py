@@ -219,39 +219,67 @@ def residuals(values: np.ndarray, data: list[Cycle], base: model.Params, names=F
     return np.concatenate(out)
 
 
-def noise_blocks(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None):
-    """(run index, the unweighted Jacobian's rows of one run and component, their noise correlation) for each
-    block of the residuals (``jac``: of the weighted residuals); the noise is independent between blocks (white
-    without a noise model)."""
-    row = 0
-    for i, d in enumerate(data):
-        length = len(d.strain)
+def sample_covariance(noise: noise_model.NoiseModel, k: int, d: Cycle, cache: dict | None = None) -> np.ndarray:
+    """The noise's correlation of component ``k`` over the cycle's (A, tau) samples, at the cycle's sampling step
+    (the noise's lags scaled to it: ``NoiseModel.covariance``); for a restarted cycle, the rows and columns of its
+    kept samples out of the full grid's (the gaps keep their true lags). ``cache`` keeps each full grid's matrix
+    for the next cycle of the same grid."""
+    index = np.arange(len(d.strain)) if d.grid_index is None else d.grid_index
+    full = int(index[-1]) + 1
+    step = (d.strain[-1] - d.strain[0]) / (index[-1] - index[0]) if len(index) > 1 else noise.sample_strain
+    key = (k, full, round(step / noise.sample_strain, 9))
+    cache = {} if cache is None else cache
+    if key not in cache:
+        cache[key] = noise.covariance(k, full, lag_scale=key[2])
+    if d.grid_index is None:
+        return cache[key]
+    pick = np.concatenate([index, index + full])
+    return cache[key][np.ix_(pick, pick)]
+
+
+def run_parts(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None,
+              cache: dict | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each run's parts of the least squares, ``(J^T J, J^T Sigma J)``, with ``J`` its unweighted rows of ``jac``
+    (the Jacobian of the weighted residuals: per run, per component, the A block then the tau block) and
+    ``Sigma`` the noise's correlation (``sample_covariance``; white without a noise model); the noise is
+    independent between runs and components. ``cache``: as for ``sample_covariance``."""
+    out, row, cache = [], 0, {} if cache is None else cache
+    for d in data:
+        length, JJ, JSJ = len(d.strain), 0.0, 0.0
         for k in range(len(COMPONENTS)):
-            sigma = np.eye(2 * length) if noise is None else sample_covariance(noise, k, d)
-            yield i, jac[row:row + 2 * length] / np.sqrt(d.weight), sigma
-            row += 2 * length
+            J = jac[row:row + 2 * length] / np.sqrt(d.weight)
+            sigma = np.eye(2 * length) if noise is None else sample_covariance(noise, k, d, cache)
+            JJ, JSJ, row = JJ + J.T @ J, JSJ + J.T @ sigma @ J, row + 2 * length
+        out.append((JJ, JSJ))
+    return out
+
+
+def sandwich(parts: list[tuple], weights: list[float], runs=None) -> tuple[np.ndarray, np.ndarray]:
+    """(sandwich, white) covariance of the least squares over runs with ``parts`` (``run_parts``) weighted by
+    ``weights``: ``H^-1 M H^-1`` with ``H = sum w J^T J`` and ``M = sum w^2 J^T Sigma J``, and ``H^-1`` (the noise
+    taken as white). With ``runs`` (indices) ``M`` sums those runs alone: the part of the sandwich from their noise
+    (the parts add up to the whole). Parameters the data do not fix (a null direction of H) get infinite
+    variance."""
+    H = sum(w * JJ for w, (JJ, _) in zip(weights, parts, strict=True))
+    strength, vectors = np.linalg.eigh(H)
+    null = strength <= 1e-10 * max(strength.max(), 1e-300)
+    inverse = np.linalg.pinv(H, hermitian=True, rcond=1e-10)
+    runs = range(len(parts)) if runs is None else set(runs)
+    meat = sum(w**2 * JSJ for i, (w, (_, JSJ)) in enumerate(zip(weights, parts, strict=True)) if i in runs)
+    covariance, white = inverse @ meat @ inverse, inverse.copy()
+    loose = np.any(np.abs(vectors[:, null]) > 0.01, axis=1)
+    for m in (covariance, white):
+        m[loose, :] = np.inf
+        m[:, loose] = np.inf
+    return covariance, white
 
 
 def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None,
                 runs=None) -> tuple:
-    """(sandwich, white) covariance of the estimates: ``H^-1 J^T W Sigma W J H^-1`` with the noise's correlation
-    ``Sigma``, ``J`` unweighted and ``W`` the runs' weights (``H = J^T W J``: ``jac`` is of the weighted
-    residuals), and ``H^-1`` (the noise taken as white). With ``runs`` (indices into ``data``) the sandwich is
-    the part from those runs' noise alone (the noise is independent between runs: the parts add up to the
-    whole). Parameters the data do not fix (a null direction of H) get infinite variance."""
-    H = jac.T @ jac
-    strength, vectors = np.linalg.eigh(H)
-    null = strength <= 1e-10 * max(strength.max(), 1e-300)
-    inverse = np.linalg.pinv(H, hermitian=True, rcond=1e-10)
-    runs = range(len(data)) if runs is None else set(runs)
-    meat = sum(data[i].weight ** 2 * J.T @ sigma @ J for i, J, sigma in noise_blocks(jac, data, noise)
-               if i in runs)
-    sandwich, white = inverse @ meat @ inverse, inverse.copy()
-    loose = np.any(np.abs(vectors[:, null]) > 0.01, axis=1)
-    for m in (sandwich, white):
-        m[loose, :] = np.inf
-        m[:, loose] = np.inf
-    return sandwich, white
+    """``sandwich`` of the fit whose weighted residuals have the Jacobian ``jac`` over ``data``: (the sandwich
+    ``H^-1 J^T W Sigma W J H^-1``, ``W`` the runs' weights, or with ``runs`` its part from those runs' noise;
+    ``H^-1``, the noise taken as white)."""
+    return sandwich(run_parts(jac, data, noise), [d.weight for d in data], runs)
 
 
 def shift_covariance(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None,
@@ -260,28 +288,19 @@ def shift_covariance(jac: np.ndarray, data: list[Cycle], noise: noise_model.Nois
     linearized about the fit with all (``jac``, the Jacobian of its weighted residuals): each is
     ``-H^-1 J^T W r`` over its own runs with its own weights ``W`` (the kept runs': ``kept_weights``, one per run
     of ``data``, by default their weights in the fit with all), and the noise is independent between runs, so
-    the shift's covariance is the sum over blocks of ``L Sigma L^T`` with
-    ``L = w_kept H_kept^-1 J^T - w H^-1 J^T`` (``J`` unweighted; ``w_kept`` = 0 for a run left out)."""
+    the shift's covariance is the sum over runs of ``P J^T Sigma J P^T`` with
+    ``P = w_kept H_kept^-1 - w H^-1`` (``J`` unweighted; ``w_kept`` = 0 for a run left out)."""
     weights = [0.0 if i in left_out else (d.weight if kept_weights is None else kept_weights[i])
                for i, d in enumerate(data)]
-    blocks = list(noise_blocks(jac, data, noise))
+    parts = run_parts(jac, data, noise)
     inverse = np.linalg.pinv(jac.T @ jac, hermitian=True, rcond=1e-10)
-    inverse_kept = np.linalg.pinv(sum(weights[i] * J.T @ J for i, J, _ in blocks), hermitian=True, rcond=1e-10)
+    inverse_kept = np.linalg.pinv(sum(w * JJ for w, (JJ, _) in zip(weights, parts, strict=True)), hermitian=True,
+                                  rcond=1e-10)
     out = np.zeros_like(inverse)
-    for i, J, sigma in blocks:
-        L = (weights[i] * inverse_kept - data[i].weight * inverse) @ J.T
-        out += L @ sigma @ L.T
+    for w_kept, d, (_, JSJ) in zip(weights, data, parts, strict=True):
+        P = w_kept * inverse_kept - d.weight * inverse
+        out += P @ JSJ @ P.T
     return out
-
-
-def sample_covariance(noise: noise_model.NoiseModel, k: int, d: Cycle) -> np.ndarray:
-    """The noise's correlation of component ``k`` over the cycle's (A, tau) samples; for a restarted cycle,
-    the rows and columns of its kept samples out of the full grid's (the gaps keep their true lags)."""
-    if d.grid_index is None:
-        return noise.covariance(k, len(d.strain))
-    full = int(d.grid_index.max()) + 1
-    pick = np.concatenate([d.grid_index, d.grid_index + full])
-    return noise.covariance(k, full)[np.ix_(pick, pick)]
 
 
 def refine(data: list[Cycle], start: model.Params, names=FREE, max_nfev: int = 200,

@@ -28,6 +28,49 @@ def test_the_noise_model_measures_the_scatter_its_correlation_and_the_a_tau_coup
     assert white.correlation_strain()["A"][0] < 0.012
 
 
+def _ar1_noise(step: float = 0.005, lags: int = 40) -> noise.NoiseModel:
+    """A noise model measured every ``step`` strain: A and tau each AR(1) along strain, A_k(s) and tau_k(s + lag)
+    correlated by -0.5 rho(lag), tau_k(s) and A_k(s + lag) by -0.5 rho(lag)^2 (one value at lag 0)."""
+    rho = np.exp(-np.arange(lags) * step / 0.03)
+    g = np.stack([np.stack([rho, -0.5 * rho], -1), np.stack([-0.5 * rho**2, rho], -1)], -2)  # (lags, 2, 2)
+    ones = {q: np.ones(len(noise.COMPONENTS)) for q in noise.QUANTITIES}
+    return noise.NoiseModel(step, ones, ones, np.repeat(g[None], len(noise.COMPONENTS), axis=0), "test")
+
+
+def test_the_noise_correlation_matrix_holds_each_pair_of_samples_at_its_lag_and_order():
+    """Sigma[i, j] of the stacked (A over L samples, tau over the same) is the autocovariance at lag j - i, the A-tau
+    block taking the pair the right way round; at half the measured sampling the lags fall between the measured
+    ones (linear) and the matrix stays symmetric."""
+    nm, L = _ar1_noise(), 6
+    g = nm.autocovariance[0]
+    sigma = nm.covariance(0, L)
+    assert sigma[1, 4] == g[3, 0, 0] and sigma[L + 1, L + 4] == g[3, 1, 1]
+    assert sigma[1, L + 4] == g[3, 0, 1]  # A at 1, tau 3 samples later
+    assert sigma[4, L + 1] == g[3, 1, 0]  # A at 4, tau 3 samples earlier: tau first
+    np.testing.assert_array_equal(sigma, sigma.T)
+    half = nm.covariance(0, L, lag_scale=0.5)
+    assert half[0, 1] == pytest.approx((g[0, 0, 0] + g[1, 0, 0]) / 2)
+    assert half[0, 2] == pytest.approx(g[1, 0, 0])
+    np.testing.assert_allclose(half, half.T)
+
+
+def test_a_cycles_noise_correlation_follows_its_own_sampling_and_its_restarted_grid():
+    """A cycle sampled at half the noise's step gets the lags scaled to its step; a restarted cycle, the rows and
+    columns of its kept samples out of its full grid's, so the samples either side of a gap keep their true lag."""
+    nm = _ar1_noise()
+    strain = np.arange(40) * 0.0025
+    zeros, ones = np.zeros((40, 3, 3)), np.ones((40, 3, 3))
+    dense = Cycle(180.0, 0.05, 0.1, 1.0, 2, strain, zeros, zeros, ones, ones, np.zeros(40))
+    np.testing.assert_array_equal(global_fit.sample_covariance(nm, 1, dense), nm.covariance(1, 40, lag_scale=0.5))
+    kept = np.r_[4:20, 24:40]
+    restarted = dataclasses.replace(dense, strain=strain[kept], grid_index=kept)
+    sigma = global_fit.sample_covariance(nm, 1, restarted)
+    full = nm.covariance(1, 40, lag_scale=0.5)
+    assert sigma.shape == (2 * len(kept),) * 2
+    assert sigma[15, 16] == full[19, 24]  # across the gap: 5 samples apart, not 1
+    assert sigma[15, len(kept) + 16] == full[19, 40 + 24]
+
+
 @pytest.mark.slow
 def test_68_percent_intervals_cover_the_truth_at_their_rate_and_white_noise_ones_do_not(tmp_path):
     """40 noise draws of three reversal seeds with correlated noise: the sandwich intervals cover each
@@ -239,30 +282,49 @@ def test_the_next_runs_are_as_long_as_the_data_sets_and_priced_by_its_cpu_time(t
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("weight", global_fit.WEIGHTS)
-def test_the_ranking_predicts_the_errors_of_the_refit_with_the_new_run(tmp_path, weight):
+@pytest.mark.parametrize(("weight", "fit_from"), [("runs", 0.0), ("angles", 0.0), ("runs", 0.05)])
+def test_the_ranking_predicts_the_errors_of_the_refit_with_the_new_run(tmp_path, weight, fit_from):
     """Two reversal seeds and a theta = 90 run: for another seed at 90, at 60 and of the reversal, the ranking's
     standard deviation along the weakest direction is what the refit with such a run gives (the same noise model,
-    each run weighted as ``weight`` says; within 10 %), where the information a fit weighting by the full noise
-    covariance would extract promised 15-18 % less."""
+    each run weighted as ``weight`` says and restarted ``fit_from`` past each change of direction; within 10 %),
+    where the information a fit weighting by the full noise covariance would extract promised 15-18 % less."""
     from pipeline.calibration import design
 
     runs = [synthetic_run(tmp_path, t, name=f"r{k}", seed=40 + k, n_cycles=2, **NOISE)
             for k, t in enumerate((180.0, 180.0, 90.0))]
     for run in runs:
         run.parameters["cpu_seconds"] = 3600.0
-    data, nm = global_fit.prepare(runs, weight=weight)
+    data, nm = global_fit.prepare(runs, fit_from, weight=weight)
     fit = global_fit.refine(data, TRUE, noise=nm)
     ranked = {r["run"]: r for r in design.rank(fit, nm, runs, [], data, weight=weight)}
     weakest = np.array([fit.directions[0]["direction"][n] for n in fit.names]) / np.abs(fit.values)
     for label, theta in (("another seed at theta = 90", 90.0), ("another seed at theta = 60", 60.0),
                          ("another reversal seed (theta = 180)", 180.0)):
         new = synthetic_run(tmp_path, theta, name=f"new{theta:g}", seed=90, n_cycles=2, **NOISE)
-        refit = global_fit.refine(global_fit.weighed([*data, global_fit.scaled_cycle(new, nm)], weight), fit.params,
-                                  noise=nm)
+        refit = global_fit.refine(global_fit.weighed([*data, global_fit.scaled_cycle(new, nm, fit_from)], weight),
+                                  fit.params, noise=nm)
         after = float(np.sqrt(weakest @ refit.covariance @ weakest))
         assert ranked[label]["weakest_after"] == pytest.approx(after, rel=0.1), label
         assert ranked[label]["weakest_after"] < ranked[label]["weakest_before"]
+
+
+def test_a_candidate_of_a_fit_past_the_jump_is_restarted_from_the_models_state_or_says_why_it_cannot_be():
+    """With ``fit_from`` the candidate's pseudo-run keeps the samples from ``fit_from`` past each change of direction
+    and restarts there from the model's own periodic state (so the model restarted reproduces its cycle); a reversal
+    turned at 0.1 has no room to restart 0.15 past the turn, and says so."""
+    from pipeline.calibration import design
+    from tests.helpers.synthetic import PERIOD
+
+    nm = _ar1_noise()
+    whole = design.candidate_data(design.Candidate("r", 180.0), PERIOD, 1.0, nm, TRUE)
+    restarted = design.candidate_data(design.Candidate("r", 180.0), PERIOD, 1.0, nm, TRUE, "shear", 0.05)
+    assert restarted.fit_from == 0.05 and [r[0] for r in restarted.restarts] == pytest.approx([0.05, 0.75])
+    np.testing.assert_array_equal(restarted.strain, whole.strain[restarted.grid_index])
+    assert restarted.strain.min() == pytest.approx(0.05) and not np.any((restarted.strain > 0.7 - 1e-9)
+                                                                        & (restarted.strain < 0.75 - 1e-9))
+    np.testing.assert_allclose(restarted.prediction(TRUE).A, restarted.A, atol=1e-5)
+    with pytest.raises(ValueError, match="fit_from=0.15"):
+        design.candidate_data(design.Candidate("early", 180.0, rotate_at=0.1), PERIOD, 1.0, nm, TRUE, "shear", 0.15)
 
 
 def test_a_committed_turn_of_fig_7_is_offered_as_fitted_or_as_another_seed_not_as_new():
