@@ -127,7 +127,10 @@ def next_runs_lines(fit_json: dict) -> list[str]:
     weighting."""
     runs = [r for r in fit_json.get("next_runs") or [] if "error" not in r]  # last: cycles the model fails
     if not runs:
-        return []
+        failed = fit_json.get("next_runs") or []
+        return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
+                f"None can be told: the model's cycle fails at the best fit for every candidate (the first, "
+                f"{failed[0]['run']}: {failed[0]['error']}; fit.json: next_runs)."] if failed else []
     return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
             f"Its relative ± is {runs[0]['weakest_before']:.3g} now (fit.json: next_runs, every candidate); each "
             "run is joined to the fit's runs"
