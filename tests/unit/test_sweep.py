@@ -69,7 +69,7 @@ def test_a_lammps_sweep_on_slurm_asks_one_task_per_rank_and_bounds_checkpoints_a
     script = slurm.job_script(sweep, config, [0])
     assert "--ntasks=4 --cpus-per-task=1" in script.replace("\n#SBATCH ", " ") and "--ranks 4" in script
     slurm.check_slurm(config, sweep, cluster["throughput"])
-    # a checkpoint interval of the paper cell: 30000 steps at LAMMPS's 250 steps/s (Yade's 100 would be 300 s)
+    # a checkpoint interval of the paper cell: 30000 steps at LAMMPS's 250 steps/s (Yade's 20 would be 1500 s)
     short = slurm.apply_overrides(config, ["signal_lead_seconds=150", "time_limit=00:10:00"], "slurm")
     with pytest.raises(SpecError, match="shorter than a checkpoint interval of preset paper \\(about 120 s\\)"):
         slurm.check_slurm(slurm.apply_overrides(short, ["signal_lead_seconds=100"], "slurm"), sweep,
