@@ -221,9 +221,9 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
             undetermined_dilatancy = str(exc)
         identifiable = identifiability.summary(refined, data, hold, measured=noise.measured)
         if not hold and noise.measured:
-            rotations = [(r.spec["theta_deg"], r.spec["rotate_at_strain"]) for r in left_out]
-            next_runs = design.rank(refined, noise, [*reversals, *cross_runs], rotations, data, settings.stress,
-                                    settings.weight)
+            next_runs = design.rank(refined, noise, [*reversals, *cross_runs],
+                                    [r.with_definitions(settings.definitions) for r in left_out], data,
+                                    settings.stress, settings.weight)
         if settings.bootstrap:
             boot = global_fit.bootstrap(data, noise, refined, settings.bootstrap, progress=_progress("bootstrap"))
             boot["stepwise"] = stepwise_bootstrap(reversals, settings.bootstrap, window)

@@ -23,6 +23,7 @@ import model
 
 from ..dataset.cycle import Cycle
 from ..dataset.derived import bulk_over_nominal
+from ..errors import CalibrationError
 from . import global_fit
 from .noise import NoiseModel
 
@@ -35,6 +36,7 @@ class Candidate:
     n_cycles: int = 2
     sample_strain: float = 0.005
     cost_factor: float = 1.0  # CPU time relative to a run of the same strain at the default sampling
+    committed: bool = False  # a committed run the fit leaves out: fitted as it is, at no cost
 
     def strain_run(self, period: float, pre: float) -> float:
         return pre + self.n_cycles * period
@@ -44,8 +46,8 @@ def candidates(existing_rotations: list[tuple[float, float]], n_cycles: int) -> 
     """The runs considered, each ``n_cycles`` long as the data set's runs are: committed runs the fit leaves out
     first (they cost nothing), then new ones."""
     new = functools.partial(Candidate, n_cycles=n_cycles)
-    out = [new(f"fit the committed theta = {t:g}, rotated at {r:g} (no new run)", t, r, cost_factor=0.0)
-           for t, r in existing_rotations]
+    out = [new(f"fit the committed theta = {t:g}, rotated at {r:g} (no new run)", t, r, cost_factor=0.0,
+               committed=True) for t, r in existing_rotations]
     out += [new("another reversal seed (theta = 180)", 180.0)]
     out += [new(f"another seed at theta = {t:g}", t) for t in (30.0, 60.0, 90.0, 120.0, 150.0)]
     out += [new(f"a reversal before steady state (theta = 180 at {r:g})", 180.0, r) for r in (0.1, 0.2, 0.35)]
@@ -91,13 +93,16 @@ def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, c
     return global_fit.run_parts(jac, [data], noise, cache)[0]
 
 
-def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rotations: list, data: list[Cycle],
+def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: list, data: list[Cycle],
          stress: str = global_fit.STRESS_DEFAULT, weight: str = global_fit.WEIGHT_DEFAULT) -> list[dict]:
     """Every candidate with its effect on the weakest direction and the worst relative error, best per
-    CPU-hour first (runs that cost nothing and narrow it first of all); last, any whose model cycle fails at the
-    best fit (with its ``error``). ``data``: the fit's runs as fitted; each candidate joins them weighted by
-    ``weight`` (``global_fit.weighed``: with "angles", another seed of an angle takes its share from that angle's
-    runs) and restarted past each change of direction as they are (their ``fit_from``)."""
+    CPU-hour first (runs that cost nothing and narrow it first of all); last, any that cannot be weighed (the
+    model's cycle fails at the best fit, no restart fits; with its ``error``). ``data``: the fit's runs as fitted;
+    each candidate joins them weighted by ``weight`` (``global_fit.weighed``: with "angles", another seed of an
+    angle takes its share from that angle's runs) and restarted past each change of direction as they are (their
+    ``fit_from``). Another seed of a protocol the fit has, sampled and as long as its run, brings that run's parts;
+    a committed run of ``left_out`` (read with the fit's definitions), and another seed of it, its own data's; any
+    other candidate, a pseudo-run of the model (``candidate_data``)."""
     scale = np.where(fit.values != 0, np.abs(fit.values), 1.0)
     V = fit.covariance
     if V is None or not np.all(np.isfinite(V)):
@@ -110,20 +115,40 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rota
     ratio = bulk_over_nominal(reference)
     present = global_fit.run_parts(fit.jacobian, data, noise)
     fit_from = data[0].fit_from
+    committed = {(r.spec["theta_deg"], r.spec["rotate_at_strain"]): r for r in left_out}
+    fitted = {}
+    for i, d in enumerate(data):
+        fitted.setdefault(_protocol(d.theta_deg, d.rotate_at, d.n_cycles, d.sample_step), i)
+    cache, own_parts = {}, {}
+
+    def parts_of(c: Candidate) -> tuple[Cycle, tuple]:
+        key = _protocol(c.theta_deg, c.rotate_at, c.n_cycles, c.sample_strain)
+        if key in fitted:
+            return data[fitted[key]], present[fitted[key]]
+        own = committed.get((c.theta_deg, c.rotate_at))
+        if own is not None and (c.committed or key == _protocol(c.theta_deg, c.rotate_at, own.spec["n_cycles"],
+                                                                 own.spec["sample_strain"])):
+            if key not in own_parts:
+                probe = global_fit.scaled_cycle(own, noise, fit_from, stress)
+                probe.prediction(fit.params)  # the model's failure named, not read as a run that adds nothing
+                own_parts[key] = probe, candidate_parts(probe, noise, fit, cache)
+            return own_parts[key]
+        probe = candidate_data(c, spec["period_strain"], ratio, noise, fit.params, stress, fit_from)
+        return probe, candidate_parts(probe, noise, fit, cache)
 
     def measures(cov):
         return float(np.sqrt(weakest @ cov @ weakest)), float(np.max(np.sqrt(np.diag(cov)) / scale))
 
     before = measures(V)
-    out, failed, cache = [], [], {}
-    for c in candidates(existing_rotations, spec["n_cycles"]):
+    out, failed = [], []
+    for c in candidates(list(committed), spec["n_cycles"]):
         try:
-            probe = candidate_data(c, spec["period_strain"], ratio, noise, fit.params, stress, fit_from)
-        except (model.SolverError, model.ParameterError, ValueError) as exc:  # the model fails, or no restart fits
+            probe, part = parts_of(c)
+        except (model.SolverError, model.ParameterError, ValueError, CalibrationError) as exc:
             failed.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "error": str(exc)})
             continue
         weights = [d.weight for d in global_fit.weighed([*data, probe], weight)]
-        after = measures(global_fit.sandwich([*present, candidate_parts(probe, noise, fit, cache)], weights)[0])
+        after = measures(global_fit.sandwich([*present, part], weights)[0])
         hours = c.cost_factor * c.strain_run(spec["period_strain"], spec["pre_strain"]) * seconds_per_strain / 3600
         gain = 1 - after[0] / before[0]
         out.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "n_cycles": c.n_cycles,
@@ -132,3 +157,9 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, existing_rota
                     "worst_relative_se_before": before[1], "worst_relative_se_after": after[1],
                     "gain_per_cpu_hour": gain / hours if hours > 0 else float("inf") if gain > 0 else float("-inf")})
     return sorted(out, key=lambda r: -r["gain_per_cpu_hour"]) + failed
+
+
+def _protocol(theta_deg: float, rotate_at: float, n_cycles: int, sample_strain: float) -> tuple:
+    """What makes two runs' parts of the least squares the same, up to their noise: the protocol, the cycles
+    averaged and the sampling."""
+    return float(theta_deg), round(float(rotate_at), 9), int(n_cycles), round(float(sample_strain), 9)

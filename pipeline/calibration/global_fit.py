@@ -226,8 +226,7 @@ def sample_covariance(noise: noise_model.NoiseModel, k: int, d: Cycle, cache: di
     for the next cycle of the same grid."""
     index = np.arange(len(d.strain)) if d.grid_index is None else d.grid_index
     full = int(index[-1]) + 1
-    step = (d.strain[-1] - d.strain[0]) / (index[-1] - index[0]) if len(index) > 1 else noise.sample_strain
-    key = (k, full, round(step / noise.sample_strain, 9))
+    key = (k, full, round((d.sample_step or noise.sample_strain) / noise.sample_strain, 9))
     cache = {} if cache is None else cache
     if key not in cache:
         cache[key] = noise.covariance(k, full, lag_scale=key[2])

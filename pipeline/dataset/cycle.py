@@ -39,6 +39,12 @@ class Cycle:
     #: of its protocol when each protocol counts once
     weight: float = 1.0
 
+    @property
+    def sample_step(self) -> float:
+        """The strain between samples of the full cycle grid (a restarted cycle's gaps left aside)."""
+        index = np.arange(len(self.strain)) if self.grid_index is None else self.grid_index
+        return float((self.strain[-1] - self.strain[0]) / (index[-1] - index[0])) if len(index) > 1 else 0.0
+
     @classmethod
     def from_run(cls, run) -> Cycle:
         """The cycle of a :class:`pipeline.dataset.dem_file.DemRun`, read with its definitions."""

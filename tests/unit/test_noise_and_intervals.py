@@ -327,6 +327,41 @@ def test_a_candidate_of_a_fit_past_the_jump_is_restarted_from_the_models_state_o
         design.candidate_data(design.Candidate("early", 180.0, rotate_at=0.1), PERIOD, 1.0, nm, TRUE, "shear", 0.15)
 
 
+@pytest.mark.slow
+def test_runs_of_the_data_set_are_weighed_from_their_own_data_even_where_the_models_pseudo_runs_fail(tmp_path,
+                                                                                                       monkeypatch):
+    """With every pseudo-run of the model failing: a committed run the fit leaves out is still weighed, from its own
+    data, as the refit with it says (within 10 %), and another seed of it the same; another seed of a fitted
+    protocol brings exactly that run's parts; a seed at an angle the data set lacks comes last with the model's
+    error."""
+    from pipeline.calibration import design
+
+    runs = [synthetic_run(tmp_path, t, name=f"c{k}", seed=60 + k, n_cycles=2, **NOISE)
+            for k, t in enumerate((180.0, 180.0, 90.0))]
+    kept = synthetic_run(tmp_path, 60.0, name="kept", seed=70, n_cycles=2, **NOISE)
+    for run in [*runs, kept]:
+        run.parameters["cpu_seconds"] = 3600.0
+    data, nm = global_fit.prepare(runs)
+    fit = global_fit.refine(data, TRUE, noise=nm)
+
+    def failing(*args):
+        raise model.SolverError("dop853: too many steps")
+
+    monkeypatch.setattr(design, "candidate_data", failing)
+    ranked = {r["run"]: r for r in design.rank(fit, nm, runs, [kept], data)}
+    weakest = np.array([fit.directions[0]["direction"][n] for n in fit.names]) / np.abs(fit.values)
+    refit = global_fit.refine([*data, global_fit.scaled_cycle(kept, nm)], fit.params, noise=nm)
+    committed = ranked["fit the committed theta = 60, rotated at 0.7 (no new run)"]
+    assert committed["weakest_after"] == pytest.approx(float(np.sqrt(weakest @ refit.covariance @ weakest)), rel=0.1)
+    assert ranked["another seed at theta = 60"]["weakest_after"] == committed["weakest_after"]
+    present = global_fit.run_parts(fit.jacobian, data, nm)
+    at_90 = global_fit.sandwich([*present, present[2]], [1.0] * 4)[0]
+    assert ranked["another seed at theta = 90"]["weakest_after"] == pytest.approx(
+        float(np.sqrt(weakest @ at_90 @ weakest)), rel=1e-12)
+    assert ranked["another reversal seed (theta = 180)"]["weakest_after"] < committed["weakest_before"]
+    assert ranked["another seed at theta = 30"]["error"] == "dop853: too many steps"
+
+
 def test_a_committed_turn_of_fig_7_is_offered_as_fitted_or_as_another_seed_not_as_new():
     """Where Fig. 7's turn at 0.2 is committed, the candidates fit it for free or run another seed of it; the turn
     at 0.1, not committed, is offered as a new run."""
