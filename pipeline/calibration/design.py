@@ -1,12 +1,13 @@
 """Which DEM runs would fix the worst-determined parameters best per CPU-hour (``fit.json`` → ``next_runs``).
 
 For each candidate run (another seed of an angle already run, a reversal before steady state, more
-cycles, denser sampling, or a committed run the fit leaves out) the model's cycle at the best fit gives
-its Jacobian J; with the DEM's measured noise (scale and correlation Sigma along strain, ``noise.NoiseModel``)
-that gives its parts of the fit's least squares, ``J^T J`` and ``J^T Sigma J``. Joined to the fit's own runs
-with the fit's weighting (``global_fit.weighed``) they give the sandwich covariance our least squares would have
-with the run, ``H^-1 M H^-1`` (``H = sum w J^T J``, ``M = sum w^2 J^T Sigma J``), not the information a fit
-weighting by the full noise covariance would extract: a run whose samples are many and correlated can widen it.
+cycles, denser sampling, or a committed run the fit leaves out) the best fit gives its Jacobian J (on the run's
+own data where the data set has it or a run of its protocol, else on the model's cycle); with the DEM's
+measured noise (scale and correlation Sigma along strain, ``noise.NoiseModel``) that gives its parts of the
+fit's least squares, ``J^T J`` and ``J^T Sigma J``. Joined to the fit's own runs with the fit's weighting
+(``global_fit.weighed``) they give the sandwich covariance our least squares would have with the run,
+``H^-1 M H^-1`` (``H = sum w J^T J``, ``M = sum w^2 J^T Sigma J``), not the information a fit weighting by the
+full noise covariance would extract: a run whose samples are many and correlated can widen it.
 Reported per candidate: the standard deviation along the present weakest direction and the largest relative
 standard error of any parameter, before and after, and the CPU-hours the run costs (from the committed runs' CPU
 time per unit strain). Every candidate runs as many cycles as the data set's reversal run, as ``make dem`` with
