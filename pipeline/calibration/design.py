@@ -70,14 +70,14 @@ def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel,
     probe = Cycle(c.theta_deg, c.rotate_at, period, ratio, c.n_cycles, strain, np.zeros((len(strain), 3, 3)),
                   np.zeros((len(strain), 3, 3)), np.ones((len(strain), 3, 3)), np.ones((len(strain), 3, 3)),
                   np.zeros(len(strain)))
-    pred = probe.prediction(params)
+    restarts = np.array([fit_from, c.rotate_at + fit_from]) if fit_from else np.empty(0)
+    times, where = np.unique(np.concatenate([strain, restarts]), return_inverse=True)  # one periodic cycle for both
+    pred = dataclasses.replace(probe, strain=times).prediction(params)
+    on, at = where[:len(strain)], where[len(strain):]
     scales = global_fit.noise_scales(len(strain), noise, c.n_cycles, stress)
-    probe = dataclasses.replace(probe, A=pred.A, tau=pred.tau, A_scale=scales[0], tau_scale=scales[1],
-                                phi=pred.packing_fraction)
-    if not fit_from:
-        return probe
-    at = dataclasses.replace(probe, strain=np.array([fit_from, c.rotate_at + fit_from])).prediction(params)
-    return probe.restarted(fit_from, (at.A, at.packing_fraction))
+    probe = dataclasses.replace(probe, A=pred.A[on], tau=pred.tau[on], A_scale=scales[0], tau_scale=scales[1],
+                                phi=pred.packing_fraction[on])
+    return probe.restarted(fit_from, (pred.A[at], pred.packing_fraction[at])) if fit_from else probe
 
 
 def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, cache: dict | None = None) -> tuple:
