@@ -71,8 +71,8 @@ def print_next_runs(report: dict, count: int = 5) -> None:
     if not ranked:
         if report["next_runs"]:
             first = report["next_runs"][0]
-            print(f"runs that would fix the weakest combination: none can be told, the model's cycle fails at the "
-                  f"best fit for every candidate (the first, {first['run']}: {first['error']}; fit.json: next_runs)")
+            print(f"runs that would fix the weakest combination: none can be told, no candidate can be weighed at the "
+                  f"best fit (the first, {first['run']}: {first['error']}; fit.json: next_runs)")
         return
     first = ranked[0]
     print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first['weakest_before']:.3g}; "

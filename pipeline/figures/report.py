@@ -125,11 +125,11 @@ def same_weighting(rows: list[dict], fit_json: dict | None) -> bool:
 def next_runs_lines(fit_json: dict) -> list[str]:
     """The best new runs per CPU-hour (``fit.json`` → ``next_runs``), each joined to the fit's runs with its
     weighting."""
-    runs = [r for r in fit_json.get("next_runs") or [] if "error" not in r]  # last: cycles the model fails
+    runs = [r for r in fit_json.get("next_runs") or [] if "error" not in r]  # last: those that cannot be weighed
     if not runs:
         failed = fit_json.get("next_runs") or []
         return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
-                f"None can be told: the model's cycle fails at the best fit for every candidate (the first, "
+                f"None can be told: no candidate can be weighed at the best fit (the first, "
                 f"{failed[0]['run']}: {failed[0]['error']}; fit.json: next_runs)."] if failed else []
     return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
             f"Its relative ± is {runs[0]['weakest_before']:.3g} now (fit.json: next_runs, every candidate); each "

@@ -560,9 +560,10 @@ def test_where_the_model_misses_the_runs_the_fit_gives_each_parameters_range_ove
     assert low < high and (low < wide_low or high > wide_high), (spread["ranges"]["b2"], (wide_low, wide_high))
 
 
-def test_the_printout_says_why_no_new_run_is_ranked_when_the_model_fails_for_every_one(capsys):
-    """Where the best fit's cycle fails for every candidate (a fit past the jump whose model cannot run its own
-    reversal), the printout says so with the first reason instead of leaving the ranking out without a word."""
+def test_the_printout_says_why_no_new_run_is_ranked_when_none_can_be_weighed(capsys):
+    """Where no candidate can be weighed (a fit past the jump whose model cannot run its own reversal, or whose
+    segments are too short to restart in), the printout says so with the first reason instead of leaving the
+    ranking out without a word."""
     from pipeline.calibration.text import print_next_runs
 
     print_next_runs({"next_runs": [{"run": "another reversal seed (theta = 180)", "error": "dop853: too many steps"},

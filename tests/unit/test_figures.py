@@ -210,7 +210,7 @@ def test_the_report_says_how_new_runs_join_the_fit():
     assert per_angle[3].endswith("another seed of an angle shares that angle's weight.")
     assert next_runs_lines({"next_runs": []}) == []
     failed = next_runs_lines({"next_runs": [{"run": "another seed at theta = 30", "error": "dop853: too many steps"}]})
-    assert failed[-1].startswith("None can be told: the model's cycle fails at the best fit for every candidate")
+    assert failed[-1].startswith("None can be told: no candidate can be weighed at the best fit")
     assert "another seed at theta = 30: dop853: too many steps" in failed[-1]
 
 
