@@ -16,7 +16,7 @@ from pathlib import Path
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.dem_file import load
-from ..dataset.lookup import other_angles, preset_runs, reversal_seeds
+from ..dataset.lookup import every_seed, other_angles, reversals_of
 from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
@@ -67,8 +67,8 @@ def main(argv=None) -> int:
     else:
         chosen = selection.from_arguments(args)
         print(f"runs: {chosen.label}")
-        every = preset_runs(chosen)
-        reversals, cross = reversal_seeds(chosen), tuple(other_angles(every))
+        every = every_seed(chosen)
+        reversals, cross = reversals_of(every), tuple(other_angles(every))
         if args.angles:
             cross = only_angles(args.angles, reversals, cross)
         out = args.out or preset_output(chosen.folder, folder_name(args.angles, args.jackknife, args.fit_from,

@@ -1,7 +1,7 @@
 """``make compare``: the model against a data set's DEM runs -> ``results/<its folder>/compare/``.
 
-``python -m pipeline.comparison [--preset P] [--engine E] [--set K=V] [--params FILE] [--out DIR]`` predicts every run's
-cycle with Table 2 and with the fitted parameters (``fit/params.json``), reading the runs in the
+``python -m pipeline.comparison [--preset P] [--engine E] [--set K=V] [--params FILE] [--seed N] [--out DIR]`` predicts
+every run's cycle with Table 2 and with the fitted parameters (``fit/params.json``), reading the runs in the
 definitions of strain, Phi and p that the parameters were fitted in (their file's metadata), and writes, atomically:
 ``compare.h5`` (per run: the DEM's cycle mean and standard error, and each parameter set's model
 cycle at the same samples, in the fit's strain measure; the reversal split into backstress and isotropic part) and
@@ -26,7 +26,7 @@ from .. import io
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
-from ..dataset.lookup import preset_runs
+from ..dataset.lookup import preset_runs, runs_at_seed
 from ..errors import DemFileError, PipelineError
 from ..paths import preset_output
 from . import metrics
@@ -151,19 +151,24 @@ def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.comparison", description=__doc__.splitlines()[0])
     selection.add_arguments(parser)
     parser.add_argument("--params", type=Path, help="fitted parameters (default results/<folder>/fit/params.json)")
-    parser.add_argument("--out", type=Path, help="output folder (default results/<data set folder>/compare)")
+    parser.add_argument("--seed", type=int, help="compare the runs of this seed (default: the data set's own "
+                        "folder's, its first seed)")
+    parser.add_argument("--out", type=Path, help="output folder (default results/<data set folder>/compare, or "
+                        "compare-seed<N>)")
     args = parser.parse_args(argv)
     chosen = selection.from_arguments(args)
     params_file = args.params or preset_output(chosen.folder, "fit", "params.json")
     fitted = io.read_params(params_file)
     definitions = fitted_in(params_file)
     print(f"reading the runs in the definitions {params_file.name} was fitted in: {definitions.label()}")
-    runs = [r.with_definitions(definitions) for r in preset_runs(chosen)]
+    runs = preset_runs(chosen) if args.seed is None else runs_at_seed(chosen, args.seed)
     if not runs:
         raise DemFileError(f"no DEM run of {chosen.label}: run `make dem PRESET={chosen.preset}` first")
-    out = args.out or preset_output(chosen.folder, "compare")
+    runs = [r.with_definitions(definitions) for r in runs]
+    out = args.out or preset_output(chosen.folder, "compare" if args.seed is None else f"compare-seed{args.seed}")
     fit_h5 = smoothed_reversals(params_file, chosen.folder, definitions)
-    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5, out, chosen.preset, chosen.label)
+    label = chosen.label if args.seed is None else f"{chosen.label}, seed {args.seed}"
+    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5, out, chosen.preset, label)
     print(f"wrote {out / 'compare.h5'} and metrics.json")
     return 0
 

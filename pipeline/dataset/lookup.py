@@ -35,9 +35,27 @@ def preset_runs(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[D
     return [r for r in runs if chosen.matches(r.engine, r.overrides)]
 
 
+def every_seed(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
+    """The data set's runs at every seed: its own folder's and every ``<preset>[-<engine>]-<hash>`` variant's whose
+    overrides are the data set's besides the seed; sorted by angle, rotation and seed."""
+    runs = [load_of_preset(p, chosen.preset) for p in preset_files(engine_folder(chosen.preset, chosen.engine), roots)]
+    return sorted((r for r in runs if chosen.matches(r.engine, r.overrides)),
+                  key=lambda r: (r.spec["theta_deg"], r.spec["rotate_at_strain"], r.spec["seed"]))
+
+
+def runs_at_seed(chosen: DataSet, seed: int, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
+    """The data set's runs of one ``seed``, every angle and rotation; none there is a one-line error naming the
+    seeds that are."""
+    every = every_seed(chosen, roots)
+    runs = [r for r in every if r.spec["seed"] == seed]
+    if every and not runs:
+        raise PipelineError(f"seed={seed}: {chosen.label} has runs of seeds "
+                            f"{', '.join(str(s) for s in sorted({r.spec['seed'] for r in every}))} only")
+    return runs
+
+
 def seed_runs(chosen: DataSet, theta_deg: float, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
-    """The data set's runs at ``theta_deg`` and the default rotation, every seed: its own folder's and every
-    ``<preset>[-<engine>]-<hash>`` variant whose overrides are the data set's besides the seed."""
+    """The data set's runs at ``theta_deg`` and the default rotation, every seed."""
     name = f"theta{int(round(theta_deg)):03d}.h5"
     runs = [load_of_preset(p, chosen.preset) for p in preset_files(engine_folder(chosen.preset, chosen.engine), roots)
             if p.name == name]
@@ -47,7 +65,12 @@ def seed_runs(chosen: DataSet, theta_deg: float, roots: tuple[Path, ...] = DATA_
 
 def reversal_seeds(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
     """The data set's reversals (theta = 180, default rotation) at every seed."""
-    return [r for r in seed_runs(chosen, 180.0, roots) if r.is_reversal]
+    return reversals_of(every_seed(chosen, roots))
+
+
+def reversals_of(runs: list[DemRun]) -> list[DemRun]:
+    """The reversals (theta = 180, default rotation) among ``runs``."""
+    return [r for r in runs if r.is_reversal and r.default_rotation]
 
 
 def other_angles(runs: list[DemRun]) -> list[DemRun]:
@@ -56,5 +79,7 @@ def other_angles(runs: list[DemRun]) -> list[DemRun]:
 
 
 def fit_runs(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
-    """What the global fit uses: the data set's reversal seeds, then its other angles at the default rotation."""
-    return [*reversal_seeds(chosen, roots), *other_angles(preset_runs(chosen, roots))]
+    """What the global fit uses: the data set's reversals, then its other angles at the default rotation, every
+    seed of each."""
+    every = every_seed(chosen, roots)
+    return [*reversals_of(every), *other_angles(every)]

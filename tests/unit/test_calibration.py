@@ -99,10 +99,11 @@ def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(
 
 def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path):
     results, reference = tmp_path / "results", tmp_path / "reference"
-    for root, folder, theta, kw in ((results, "p", 180.0, {}), (reference, "p", 180.0, {}),
-                                    (reference, "p-1a2b", 180.0, {"overrides": {"seed": 2}}),
-                                    (reference, "p-9f9f", 180.0, {"overrides": {"friction_deg": 30}}),
-                                    (reference, "p", 90.0, {})):
+    seed2 = {"overrides": {"seed": 2}, "seed": 2}  # a run's spec holds its seed, its overrides what was set
+    for root, folder, theta, kw in ((results, "p", 180.0, {"seed": 1}), (reference, "p", 180.0, {"seed": 1}),
+                                    (reference, "p-1a2b", 180.0, seed2),
+                                    (reference, "p-9f9f", 180.0, {"overrides": {"friction_deg": 30}, "seed": 1}),
+                                    (reference, "p", 90.0, {"seed": 1}), (reference, "p-1a2b", 90.0, seed2)):
         (root / folder / "dem").mkdir(parents=True, exist_ok=True)
         path = synthetic_file(root / folder / "dem", theta=theta, name=f"theta{int(theta):03d}", n_cycles=1,
                               preset="p", **kw)
@@ -112,6 +113,15 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
                                                                    reference / "p-1a2b/dem/theta180.h5"]
     angles = lookup.other_angles(lookup.preset_runs(DataSet("p"), roots))
     assert [r.path for r in angles] == [reference / "p/dem/theta090.h5"]
+    # the fit takes every seed of every angle, the other overrides' runs apart
+    assert [r.path for r in lookup.fit_runs(DataSet("p"), roots)] == [
+        results / "p/dem/theta180.h5", reference / "p-1a2b/dem/theta180.h5",
+        reference / "p/dem/theta090.h5", reference / "p-1a2b/dem/theta090.h5"]
+    # one seed's runs, for `python -m pipeline.comparison --seed N`; a seed with no run names the seeds there are
+    assert [r.path for r in lookup.runs_at_seed(DataSet("p"), 2, roots)] == [reference / "p-1a2b/dem/theta090.h5",
+                                                                          reference / "p-1a2b/dem/theta180.h5"]
+    with pytest.raises(PipelineError, match=r"seed=5: p \(yade\) has runs of seeds 1, 2 only"):
+        lookup.runs_at_seed(DataSet("p"), 5, roots)
     # a writer's hidden temporary is not a run
     (results / "p/dem/.theta090.tmp123.h5").write_bytes(b"partial")
     assert [r.path for r in lookup.preset_runs(DataSet("p"), roots)] == [reference / "p/dem/theta090.h5",
