@@ -50,15 +50,18 @@ def flow_rule(fit_h5: Path, params, paper, out: Path) -> Path:
     """Fig. 4: C (left) and Y (right) against S, from the 12 and 32 components at every angle."""
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     S_line = np.linspace(0, 0.25, 50)
+    colors = {}  # one colour and one legend entry per angle, however many seeds it has
     with h5py.File(fit_h5, "r") as f:
-        for n, key in enumerate(f.get("cross_check", {})):
+        for key in f.get("cross_check", {}):
             g = f["cross_check"][key]
-            label = f"θ = {g.attrs['theta_deg']:g}°"
-            axes[0].plot(g["S"][()], g["C"][()], ".", ms=3, color=f"C{n}", label=label)
-            axes[1].plot(g["S"][()], g["Y"][()], ".", ms=3, color=f"C{n}", label=label)
-        for key in f["reversal"]:
+            theta = g.attrs["theta_deg"]
+            label = None if theta in colors else f"θ = {theta:g}°"
+            color = colors.setdefault(theta, f"C{len(colors)}")
+            axes[0].plot(g["S"][()], g["C"][()], ".", ms=3, color=color, label=label)
+            axes[1].plot(g["S"][()], g["Y"][()], ".", ms=3, color=color, label=label)
+        for n, key in enumerate(f["reversal"]):
             g = f["reversal"][key]
-            axes[1].plot(g["S"][()], g["Y"][()], "x", ms=3, color="grey", label="reversal (Eq. 16)")
+            axes[1].plot(g["S"][()], g["Y"][()], "x", ms=3, color="grey", label=None if n else "reversal (Eq. 16)")
     axes[0].axhline(params.C, color="C1", label="our fit")
     axes[0].axhline(paper.C, color="k", ls="--", label="Table 2")
     axes[1].plot(S_line, params.n + params.m * S_line, "C1-", label="our fit")

@@ -234,3 +234,27 @@ def test_atomic_writes_leave_files_as_readable_as_a_plain_write(tmp_path):
     plain.write_text("x")
     written = io.write_text(tmp_path / "atomic.txt", "x")
     assert os.stat(written).st_mode & 0o777 == os.stat(plain).st_mode & 0o777
+
+
+def test_the_flow_rule_figure_gives_each_angle_one_colour_and_one_legend_entry_however_many_seeds(tmp_path,
+                                                                                                 monkeypatch):
+    from pipeline.figures import laws
+
+    with h5py.File(tmp_path / "fit.h5", "w") as f:
+        for k, theta in enumerate((120.0, 120.0, 150.0)):
+            g = f.create_group(f"cross_check/{k:02d}")
+            g.attrs["theta_deg"] = theta
+            for key in ("S", "C", "Y"):
+                g.create_dataset(key, data=np.linspace(0.01, 0.2, 5))
+        for k in range(3):
+            for key in ("S", "Y"):
+                f.create_dataset(f"reversal/{k:02d}/{key}", data=np.linspace(0.01, 0.2, 5))
+    drawn = []
+    monkeypatch.setattr(laws, "save", lambda fig, out: drawn.append(fig) or out)
+    laws.flow_rule(tmp_path / "fit.h5", model.Params(), model.Params(), tmp_path / "fig4.png")
+    left, right = drawn[0].axes
+    labels = right.get_legend_handles_labels()[1]
+    assert labels.count("θ = 120°") == 1 and labels.count("θ = 150°") == 1
+    assert labels.count("reversal (Eq. 16)") == 1
+    seed1, seed2, other = (line.get_color() for line in left.lines[:3])
+    assert seed1 == seed2 != other
