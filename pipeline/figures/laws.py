@@ -23,15 +23,15 @@ def fabric_law(fit_h5: Path, params, paper, out: Path) -> Path:
         for col, i in enumerate((1, 2)):
             a, b = getattr(params, f"a{i}"), getattr(params, f"b{i}")
             pa, pb = getattr(paper, f"a{i}"), getattr(paper, f"b{i}")
+            inset = axes[0, col].inset_axes([0.55, 0.55, 0.4, 0.4])  # one per panel: every seed in it
             for g in groups:
                 S, alpha, beta = g["S"][()], g[f"alpha{i}"][()], g[f"beta{i}"][()]
                 axes[0, col].plot(S, alpha, ".", ms=3, color="C0", alpha=0.6)
                 axes[1, col].plot(S, beta, ".", ms=3, color="C0", alpha=0.6)
-                inset = axes[0, col].inset_axes([0.55, 0.55, 0.4, 0.4])
                 ok = (S > 0) & np.isfinite(alpha) & (alpha != 0)
                 inset.loglog(S[ok], np.abs(alpha[ok]), ".", ms=2, color="C0")
-                inset.loglog(S_line, np.abs((a + b * S_line) / S_line**k), "C1-", lw=1)
-                inset.tick_params(labelsize=6)
+            inset.loglog(S_line, np.abs((a + b * S_line) / S_line**k), "C1-", lw=1)
+            inset.tick_params(labelsize=6)
             axes[0, col].plot(S_line, (a + b * S_line) / S_line**k, "C1-", label="our fit")
             axes[0, col].plot(S_line, (pa + pb * S_line) / S_line**k, "k--", label="Table 2")
             axes[1, col].plot(S_line, a + b * S_line, "C1-", label="our fit")

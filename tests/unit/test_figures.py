@@ -258,3 +258,19 @@ def test_the_flow_rule_figure_gives_each_angle_one_colour_and_one_legend_entry_h
     assert labels.count("reversal (Eq. 16)") == 1
     seed1, seed2, other = (line.get_color() for line in left.lines[:3])
     assert seed1 == seed2 != other
+
+
+def test_the_fabric_law_figure_draws_every_reversal_seed_into_one_inset_per_panel(tmp_path, monkeypatch):
+    from pipeline.figures import laws
+
+    S = np.linspace(0.01, 0.2, 5)
+    with h5py.File(tmp_path / "fit.h5", "w") as f:
+        for k in range(3):
+            for key in ("S", "alpha1", "beta1", "alpha2", "beta2"):
+                f.create_dataset(f"reversal/{k:02d}/{key}", data=S if key == "S" else -S - k)
+    drawn = []
+    monkeypatch.setattr(laws, "save", lambda fig, out: drawn.append(fig) or out)
+    laws.fabric_law(tmp_path / "fit.h5", model.Params(), model.Params(), tmp_path / "fig3.png")
+    for panel in drawn[0].axes[:2]:  # the top row, alpha_1 and alpha_2
+        insets = panel.child_axes
+        assert len(insets) == 1 and len(insets[0].lines) == 3 + 1  # three seeds and our fit's line
