@@ -14,11 +14,11 @@ from .output import save, strain_label
 def backstress_figure(parts: list, C: float, out: Path) -> Path:
     """``parts``: compare.h5's reversal groups."""
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for d in parts:
+    for n, d in enumerate(parts):  # every reversal seed, named once in the legend
         x = d["strain"][()] - d["strain"][0]
-        axes[0].plot(x, d["backstress12"][()], "C0-", label="backstress $C A_{12}$")
-        axes[0].plot(x, d["isotropic12"][()], "C1-", label=r"isotropic part $\tau_{12}/p - C A_{12}$")
-        axes[0].plot(x, d["tau12"][()], "k:", label=r"$\tau_{12}/p$")
+        axes[0].plot(x, d["backstress12"][()], "C0-", label=None if n else "backstress $C A_{12}$")
+        axes[0].plot(x, d["isotropic12"][()], "C1-", label=None if n else r"isotropic part $\tau_{12}/p - C A_{12}$")
+        axes[0].plot(x, d["tau12"][()], "k:", label=None if n else r"$\tau_{12}/p$")
         axes[1].plot(d["A12"][()], d["tau12"][()], "C0.-", ms=2)
     axes[0].set_xlabel("strain after the reversal")
     axes[0].legend(fontsize=7)

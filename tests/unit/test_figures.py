@@ -274,3 +274,16 @@ def test_the_fabric_law_figure_draws_every_reversal_seed_into_one_inset_per_pane
     for panel in drawn[0].axes[:2]:  # the top row, alpha_1 and alpha_2
         insets = panel.child_axes
         assert len(insets) == 1 and len(insets[0].lines) == 3 + 1  # three seeds and our fit's line
+
+
+def test_the_backstress_figure_names_each_part_once_however_many_reversal_seeds(tmp_path, monkeypatch):
+    from pipeline.figures import reversal
+
+    x = np.linspace(0.7, 1.4, 8)
+    parts = [{"strain": x, "backstress12": -x, "isotropic12": x - k, "tau12": x + k, "A12": -x / 10}
+             for k in range(3)]
+    drawn = []
+    monkeypatch.setattr(reversal, "save", lambda fig, out: drawn.append(fig) or out)
+    reversal.backstress_figure(parts, -5.0, tmp_path / "fig8.png")
+    left = drawn[0].axes[0]
+    assert len(left.lines) == 9 and len(left.get_legend_handles_labels()[1]) == 3
