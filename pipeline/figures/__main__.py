@@ -88,11 +88,12 @@ def main(argv=None) -> int:
     selection.add_arguments(parser)
     parser.add_argument("--compare", type=Path, help="comparison folder (default results/<data set folder>/compare)")
     parser.add_argument("--fit", type=Path, help="calibration folder (default results/<data set folder>/fit)")
-    parser.add_argument("--out", type=Path, help="output folder (default results/<data set folder>)")
+    parser.add_argument("--out", type=Path, help="output folder (default results/<data set folder>, or the "
+                        "comparison folder given: another comparison's figures never replace the data set's)")
     args = parser.parse_args(argv)
     folder = selection.from_arguments(args).folder
     made = draw(args.compare or preset_output(folder, "compare"), args.fit or preset_output(folder, "fit"),
-                args.out or preset_output(folder))
+                args.out or args.compare or preset_output(folder))
     for path in made:
         print(f"wrote {path}")
     return 0

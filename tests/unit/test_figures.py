@@ -112,6 +112,13 @@ def test_figures_and_report_only_read_the_files(compared, tmp_path):
     assert "| theta060 (2 cycles) | after the turn back |" in report
 
 
+def test_another_comparisons_figures_go_beside_it_not_over_the_data_sets(compared):
+    """``--compare DIR`` without ``--out`` (another seed's comparison, say) draws into DIR."""
+    tmp, _ = compared
+    assert main(["--preset", "tiny", "--compare", str(tmp / "compare"), "--fit", str(tmp / "fit")]) == 0
+    assert (tmp / "compare" / "report.md").exists() and (tmp / "compare" / "figures" / "fig4_flow_rule.png").exists()
+
+
 def test_missing_inputs_are_one_line_errors(tmp_path, capsys):
     assert main(["--preset", "no-such-preset", "--out", str(tmp_path)]) == 2
     assert "unknown preset 'no-such-preset'" in capsys.readouterr().err
