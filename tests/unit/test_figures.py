@@ -112,6 +112,7 @@ def test_figures_and_report_only_read_the_files(compared, tmp_path):
     assert "| theta060 (2 cycles) | after the turn back |" in report
 
 
+@pytest.mark.slow  # draws every figure again (test_figures_and_report_only_read_the_files draws them fast)
 def test_another_comparisons_figures_go_beside_it_not_over_the_data_sets(compared):
     """``--compare DIR`` without ``--out`` (another seed's comparison, say) draws into DIR."""
     tmp, _ = compared
