@@ -35,11 +35,17 @@ def preset_runs(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[D
     return [r for r in runs if chosen.matches(r.engine, r.overrides)]
 
 
+def _of_data_set(chosen: DataSet, roots: tuple[Path, ...], name: str | None = None) -> list[DemRun]:
+    """The data set's runs at every seed (those named ``name`` only, if given): its own folder's and every
+    ``<preset>[-<engine>]-<hash>`` variant's whose overrides are the data set's besides the seed."""
+    runs = [load_of_preset(p, chosen.preset) for p in preset_files(engine_folder(chosen.preset, chosen.engine), roots)
+            if name is None or p.name == name]
+    return [r for r in runs if chosen.matches(r.engine, r.overrides)]
+
+
 def every_seed(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
-    """The data set's runs at every seed: its own folder's and every ``<preset>[-<engine>]-<hash>`` variant's whose
-    overrides are the data set's besides the seed; sorted by angle, rotation and seed."""
-    runs = [load_of_preset(p, chosen.preset) for p in preset_files(engine_folder(chosen.preset, chosen.engine), roots)]
-    return sorted((r for r in runs if chosen.matches(r.engine, r.overrides)),
+    """The data set's runs at every seed, sorted by angle, rotation and seed."""
+    return sorted(_of_data_set(chosen, roots),
                   key=lambda r: (r.spec["theta_deg"], r.spec["rotate_at_strain"], r.spec["seed"]))
 
 
@@ -57,10 +63,7 @@ def runs_at_seed(chosen: DataSet, seed: int, roots: tuple[Path, ...] = DATA_ROOT
 def seed_runs(chosen: DataSet, theta_deg: float, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
     """The data set's runs at ``theta_deg`` and the default rotation, every seed."""
     name = f"theta{int(round(theta_deg)):03d}.h5"
-    runs = [load_of_preset(p, chosen.preset) for p in preset_files(engine_folder(chosen.preset, chosen.engine), roots)
-            if p.name == name]
-    return [r for r in runs if chosen.matches(r.engine, r.overrides) and r.default_rotation
-            and r.spec["theta_deg"] == theta_deg]
+    return [r for r in _of_data_set(chosen, roots, name) if r.default_rotation and r.spec["theta_deg"] == theta_deg]
 
 
 def reversal_seeds(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
