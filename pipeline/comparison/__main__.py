@@ -26,7 +26,7 @@ from .. import io
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
-from ..dataset.lookup import preset_runs, runs_at_seed
+from ..dataset.lookup import every_seed, preset_runs, protocol_and_seed, runs_at_seed
 from ..errors import DemFileError, PipelineError
 from ..paths import preset_output
 from . import metrics
@@ -80,17 +80,19 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
                 g.create_dataset(f"model/{label}/fraction", data=fraction)
 
 
-def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str, label: str = "") -> dict:
-    """Predict, measure and write ``compare.h5`` and ``metrics.json`` into ``out_dir``."""
+def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str, label: str = "",
+            other_seeds: tuple = ()) -> dict:
+    """Predict, measure and write ``compare.h5`` and ``metrics.json`` into ``out_dir``; ``other_seeds`` (the same
+    protocols at other seeds) enter only the errors' spread over seeds."""
     io.check_writable_dir(out_dir)
     predictions = [metrics.model_for(run, sets) for run in runs]
     ours = sets["our fit"]
+    rows = metrics.error_rows(runs, predictions)
     result = {"preset": preset, "data_set": label or preset, "definitions": dataclasses.asdict(runs[0].definitions),
               "param_sets": {label: p.to_dict() for label, p in sets.items()},
-              "components": list(metrics.COMPONENTS),
-              "errors": [{"run": Path(run.path).stem, "parameters": label, **metrics.errors(data, pred)}
-                         for run, preds in zip(runs, predictions, strict=True)
-                         for label, (data, pred) in preds.items()]}
+              "components": list(metrics.COMPONENTS), "errors": rows,
+              "seed_spread": metrics.seed_spread(
+                  rows + metrics.error_rows(other_seeds, [metrics.model_for(r, sets) for r in other_seeds]))}
     result["overshoot"] = [row for run, preds in zip(runs, predictions, strict=True)
                            for row in metrics.overshoots(run, preds)]
     curves = [c for run, preds in zip(runs, predictions, strict=True) for c in metrics.memory_curves(run, preds)]
@@ -165,10 +167,12 @@ def main(argv=None) -> int:
     if not runs:
         raise DemFileError(f"no DEM run of {chosen.label}: run `make dem PRESET={chosen.preset}` first")
     runs = [r.with_definitions(definitions) for r in runs]
+    compared = {protocol_and_seed(r) for r in runs}
+    others = tuple(r.with_definitions(definitions) for r in every_seed(chosen) if protocol_and_seed(r) not in compared)
     out = args.out or preset_output(chosen.folder, "compare" if args.seed is None else f"compare-seed{args.seed}")
     fit_h5 = smoothed_reversals(params_file, chosen.folder, definitions)
     label = chosen.label if args.seed is None else f"{chosen.label}, seed {args.seed}"
-    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5, out, chosen.preset, label)
+    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5, out, chosen.preset, label, others)
     print(f"wrote {out / 'compare.h5'} and metrics.json")
     return 0
 

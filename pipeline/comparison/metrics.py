@@ -8,6 +8,8 @@ or |tau12/p| of the cycle).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 import model
@@ -42,6 +44,26 @@ def errors(data: Cycle, pred: model.Result) -> dict[str, float]:
         mod = getattr(pred, field)[:, i, j]
         out[name] = float(np.sqrt(np.mean((mod - dem) ** 2)) / steady[field])
     return out
+
+
+def error_rows(runs: list, predictions: list) -> list[dict]:
+    """``errors`` of every run (named by its file, with its seed) against each parameter set's prediction
+    (``model_for``'s, one per run)."""
+    return [{"run": Path(run.path).stem, "seed": run.spec["seed"], "parameters": label, **errors(data, pred)}
+            for run, preds in zip(runs, predictions, strict=True) for label, (data, pred) in preds.items()]
+
+
+def seed_spread(rows: list[dict]) -> list[dict]:
+    """Per run and parameter set measured at several seeds (``error_rows``' rows): the seeds, and each component's
+    mean, least and largest error over them. With two or three seeds the range is what they show; no spread is
+    drawn from so few."""
+    groups: dict[tuple, list[dict]] = {}
+    for row in rows:
+        groups.setdefault((row["run"], row["parameters"]), []).append(row)
+    return [{"run": run, "parameters": label, "seeds": sorted(r["seed"] for r in group),
+             **{k: {"mean": float(np.mean([r[k] for r in group])), "least": min(r[k] for r in group),
+                    "largest": max(r[k] for r in group)} for k in COMPONENTS}}
+            for (run, label), group in groups.items() if len(group) > 1]
 
 
 def backstress_share(run, C: float) -> float:

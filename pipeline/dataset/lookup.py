@@ -43,10 +43,14 @@ def _of_data_set(chosen: DataSet, roots: tuple[Path, ...], name: str | None = No
     return [r for r in runs if chosen.matches(r.engine, r.overrides)]
 
 
+def protocol_and_seed(run: DemRun) -> tuple[float, float, int]:
+    """What tells a data set's runs apart: the angle, the rotation's strain and the seed."""
+    return run.spec["theta_deg"], run.spec["rotate_at_strain"], run.spec["seed"]
+
+
 def every_seed(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
     """The data set's runs at every seed, sorted by angle, rotation and seed."""
-    return sorted(_of_data_set(chosen, roots),
-                  key=lambda r: (r.spec["theta_deg"], r.spec["rotate_at_strain"], r.spec["seed"]))
+    return sorted(_of_data_set(chosen, roots), key=protocol_and_seed)
 
 
 def runs_at_seed(chosen: DataSet, seed: int, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:

@@ -66,7 +66,7 @@ def relaxation_strain(strain: np.ndarray, x: np.ndarray, fraction: float = 0.05,
         return end + (start - end) * np.exp(-t / lam)
 
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), np.errstate(over="ignore"):  # a trial lam < 0 overflows exp on the way
             warnings.simplefilter("ignore", OptimizeWarning)  # an exact fit has no covariance
             coef, cov = curve_fit(curve, s, x, p0=(tail, x[0], 0.1 * s[-1]), maxfev=5000)
     except (RuntimeError, ValueError):

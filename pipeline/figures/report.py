@@ -1,7 +1,7 @@
 """report.md from ``metrics.json`` and ``fit.json``: our parameters beside Table 2, the model-vs-DEM
-errors per run, the overshoot and the memory of the old direction after each change of direction, the backstress
-share, Phi, the second law, the relaxation strains, the stepwise route's sensitivity. It formats numbers; it
-computes none."""
+errors per run and their range over seeds, the overshoot and the memory of the old direction after each change of
+direction, the backstress share, Phi, the second law, the relaxation strains, the stepwise route's sensitivity. It
+formats numbers; it computes none."""
 
 from __future__ import annotations
 
@@ -205,6 +205,20 @@ def memory_lines(rows: list[dict], labels: list[str]) -> list[str]:
     return lines
 
 
+def seed_spread_lines(spread: list[dict], components: list[str]) -> list[str]:
+    """The errors of the runs measured at several seeds: their mean over the seeds and their range."""
+    lines = ["### Over seeds", "",
+             "Runs measured at several seeds: each error's mean over the seeds, and in brackets the least and the "
+             "largest. A difference between the parameter sets within this range is not resolved by the seeds.", "",
+             "| run | seeds | parameters | " + " | ".join(components) + " |",
+             "|---|---|---|" + "---|" * len(components)]
+    for r in spread:
+        cells = [f"{r[k]['mean']:.2f} ({r[k]['least']:.2f}-{r[k]['largest']:.2f})" for k in components]
+        lines.append(f"| {r['run']} | {', '.join(map(str, r['seeds']))} | {r['parameters']} | " + " | ".join(cells)
+                     + " |")
+    return lines
+
+
 def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int, fit_from: list | None = None) -> Path:
     """Write report.md from the comparison's ``metrics``, the calibration's ``fit_json`` and, where ``make fit-from``
     has run, its rows."""
@@ -219,6 +233,8 @@ def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int, fit_from
               "| run | parameters | " + " | ".join(components) + " |", "|---|---|" + "---|" * len(components)]
     for e in metrics["errors"]:
         lines.append(f"| {e['run']} | {e['parameters']} | " + " | ".join(f"{e[k]:.2f}" for k in components) + " |")
+    if metrics.get("seed_spread"):
+        lines += ["", *seed_spread_lines(metrics["seed_spread"], components)]
     if metrics.get("overshoot"):
         lines += ["", *overshoot_lines(metrics["overshoot"], list(sets))]
     if metrics.get("memory"):

@@ -25,9 +25,11 @@ def compared(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("compare")
     rev = synthetic_run(tmp, name="theta180", n_cycles=2, noise=0.005, seed=1)
     other = synthetic_run(tmp, theta=60.0, name="theta060", n_cycles=2, noise=0.005, seed=2)
+    (tmp / "seed3").mkdir()
+    rev3 = synthetic_run(tmp / "seed3", name="theta180", n_cycles=2, noise=0.005, seed=3)
     fit([rev], tmp / "fit", cross_runs=[other])
     sets = {"Table 2": model.Params(), "our fit": read_params(tmp / "fit" / "params.json")}
-    metrics = compare([rev, other], sets, tmp / "fit" / "fit.h5", tmp / "compare", "synthetic")
+    metrics = compare([rev, other], sets, tmp / "fit" / "fit.h5", tmp / "compare", "synthetic", other_seeds=(rev3,))
     return tmp, metrics
 
 
@@ -51,6 +53,20 @@ def test_comparison_writes_predictions_and_metrics(compared):
     assert max(row[k] for k in ("A12", "A32", "tau12", "tau32")) < 0.15
     # model data made with c1 = -C and Phi below Phi_c + c3 satisfy Eq. 19
     assert metrics["second_law"]["holds"]
+
+
+def test_the_errors_of_a_run_at_several_seeds_are_given_over_its_seeds(compared):
+    """A protocol run at two seeds: each parameter set's error has its mean, least and largest over the seeds;
+    the first seed's own row is one end of the range; a protocol at one seed has no spread."""
+    _, metrics = compared
+    spread = {(r["run"], r["parameters"]): r for r in metrics["seed_spread"]}
+    assert set(spread) == {("theta180", "Table 2"), ("theta180", "our fit")}
+    for (run, label), r in spread.items():
+        assert r["seeds"] == [1, 3]
+        first = next(e for e in metrics["errors"] if e["run"] == run and e["parameters"] == label)
+        for k in ("A12", "A32", "tau12", "tau32"):
+            v = r[k]
+            assert v["least"] < v["mean"] < v["largest"] and first[k] in (v["least"], v["largest"]), (label, k)
 
 
 def test_the_overshoot_of_model_made_runs_is_the_models_and_the_model_arrives_from_below(compared):
@@ -110,6 +126,7 @@ def test_figures_and_report_only_read_the_files(compared, tmp_path):
     assert "## Overshoot after a change of direction" in report
     assert "## Memory of the old direction after a change" in report and "| theta060 (" in report
     assert "| theta060 (2 cycles) | after the turn back |" in report
+    assert "### Over seeds" in report and "| theta180 | 1, 3 | Table 2 |" in report
 
 
 @pytest.mark.slow  # draws every figure again (test_figures_and_report_only_read_the_files draws them fast)
