@@ -46,6 +46,10 @@ def fabric_law(fit_h5: Path, params, paper, out: Path) -> Path:
     return save(fig, out)
 
 
+#: the angles' colours in Fig. 4: matplotlib's cycle without C1, which is our fit's in every figure
+ANGLE_COLORS = tuple(f"C{k}" for k in range(10) if k != 1)
+
+
 def flow_rule(fit_h5: Path, params, paper, out: Path) -> Path:
     """Fig. 4: C (left) and Y (right) against S, from the 12 and 32 components at every angle."""
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
@@ -56,7 +60,7 @@ def flow_rule(fit_h5: Path, params, paper, out: Path) -> Path:
             g = f["cross_check"][key]
             theta = g.attrs["theta_deg"]
             label = None if theta in colors else f"θ = {theta:g}°"
-            color = colors.setdefault(theta, f"C{len(colors)}")
+            color = colors.setdefault(theta, ANGLE_COLORS[len(colors) % len(ANGLE_COLORS)])
             axes[0].plot(g["S"][()], g["C"][()], ".", ms=3, color=color, label=label)
             axes[1].plot(g["S"][()], g["Y"][()], ".", ms=3, color=color, label=label)
         for n, key in enumerate(f["reversal"]):

@@ -283,6 +283,8 @@ def test_the_flow_rule_figure_gives_each_angle_one_colour_and_one_legend_entry_h
     assert labels.count("reversal (Eq. 16)") == 1
     seed1, seed2, other = (line.get_color() for line in left.lines[:3])
     assert seed1 == seed2 != other
+    ours = next(line.get_color() for line in left.lines if line.get_label() == "our fit")
+    assert ours not in (seed1, other)  # our fit's colour is no angle's
 
 
 def test_the_fabric_law_figure_draws_every_reversal_seed_into_one_inset_per_panel(tmp_path, monkeypatch):
