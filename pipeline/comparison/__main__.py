@@ -4,10 +4,10 @@
 every run's cycle with Table 2 and with the fitted parameters (``fit/params.json``), reading the runs in the
 definitions of strain, Phi and p that the parameters were fitted in (their file's metadata), and writes, atomically:
 ``compare.h5`` (per run: the DEM's cycle mean and standard error, and each parameter set's model
-cycle at the same samples, in the fit's strain measure; the reversal split into backstress and isotropic part) and
-``metrics.json`` (the normalised errors per run and parameter set, the backstress share, the
-packing fraction, the second-law check and the relaxation strains after the reversal). The figures
-and the report read these files; they compute nothing.
+cycle at the same samples, in the fit's strain measure; the DEM's cycle mean at the protocol's other seeds; the
+reversal split into backstress and isotropic part) and ``metrics.json`` (the normalised errors per run and parameter
+set and their range over seeds, the backstress share, the packing fraction, the second-law check and the relaxation
+strains after the reversal). The figures and the report read these files; they compute nothing.
 """
 
 from __future__ import annotations
@@ -34,13 +34,22 @@ from . import metrics
 SCHEMA = "granular-backstress/compare"
 
 
+def write_dem_cycle(g: h5py.Group, run, ratio: float, keys: tuple[str, ...]) -> None:
+    """A run's cycle mean (``keys`` of it) into ``g``, against strain in the fit's measure (``ratio`` times the
+    nominal strain)."""
+    g.create_dataset("strain_bulk", data=run.cycle["strain"] * ratio)
+    for key in keys:
+        g.create_dataset(key, data=run.cycle[key])
+
+
 def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, preset: str,
-                     reversal_parts: list, memory_curves: list) -> None:
+                     reversal_parts: list, memory_curves: list, other_seeds: tuple = (), others: list = ()) -> None:
     """compare.h5: per run, the DEM cycle and every parameter set's model cycle, against strain in the fit's
-    measure (``strain_measure``: the datasets keep the name ``strain_bulk``); per reversal run of the fit, the
-    smoothed tau12/p split into backstress C A12 and isotropic part; per change of direction with a memory
-    (``metrics.memory_curves``), the memory of the old direction against the strain after the change (the DEM's
-    mean over cycles and its standard error, each parameter set's)."""
+    measure (``strain_measure``: the datasets keep the name ``strain_bulk``), and the DEM cycle of each of
+    ``other_seeds`` of its protocol (``others``: their predictions, for their strain measure); per reversal run of
+    the fit, the smoothed tau12/p split into backstress C A12 and isotropic part; per change of direction with a
+    memory (``metrics.memory_curves``), the memory of the old direction against the strain after the change (the
+    DEM's mean over cycles and its standard error, each parameter set's)."""
     with h5py.File(path, "w") as f:
         f.attrs.update(schema=SCHEMA, schema_version=1, preset=preset, strain_measure=runs[0].definitions.strain,
                        param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
@@ -53,11 +62,13 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
             ratio = next(iter(predictions[k].values()))[0].bulk_over_nominal
             g.attrs["bulk_over_nominal"] = ratio
             dem = g.create_group("dem")
-            dem.create_dataset("strain_bulk", data=c["strain"] * ratio)
-            for key in ("A", "A_sem", "tau_over_p", "tau_over_p_sem", "packing_fraction"):
-                dem.create_dataset(key, data=c[key])
+            write_dem_cycle(dem, run, ratio, ("A", "A_sem", "tau_over_p", "tau_over_p_sem", "packing_fraction"))
             for key in ("w_shear", "w_vol"):  # per unit strain of the fit's measure
                 dem.create_dataset(key, data=c[key] / ratio)
+            for other, preds in zip(other_seeds, others, strict=True):
+                if protocol_and_seed(other)[:2] == protocol_and_seed(run)[:2]:
+                    write_dem_cycle(g.create_group(f"other_seeds/{other.spec['seed']}"), other,
+                                    next(iter(preds.values()))[0].bulk_over_nominal, ("A", "tau_over_p"))
             for label, (data, pred) in predictions[k].items():
                 m = g.create_group(f"model/{label}")
                 for key, value in (("strain_bulk", data.strain * ratio), ("A", pred.A), ("tau_over_p", pred.tau),
@@ -83,16 +94,16 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
 def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str, label: str = "",
             other_seeds: tuple = ()) -> dict:
     """Predict, measure and write ``compare.h5`` and ``metrics.json`` into ``out_dir``; ``other_seeds`` (the same
-    protocols at other seeds) enter only the errors' spread over seeds."""
+    protocols at other seeds) enter only the errors' spread over seeds and, as DEM cycles, the figures."""
     io.check_writable_dir(out_dir)
     predictions = [metrics.model_for(run, sets) for run in runs]
     ours = sets["our fit"]
+    others = [metrics.model_for(run, sets) for run in other_seeds]
     rows = metrics.error_rows(runs, predictions)
     result = {"preset": preset, "data_set": label or preset, "definitions": dataclasses.asdict(runs[0].definitions),
               "param_sets": {label: p.to_dict() for label, p in sets.items()},
               "components": list(metrics.COMPONENTS), "errors": rows,
-              "seed_spread": metrics.seed_spread(
-                  rows + metrics.error_rows(other_seeds, [metrics.model_for(r, sets) for r in other_seeds]))}
+              "seed_spread": metrics.seed_spread(rows + metrics.error_rows(other_seeds, others))}
     result["overshoot"] = [row for run, preds in zip(runs, predictions, strict=True)
                            for row in metrics.overshoots(run, preds)]
     curves = [c for run, preds in zip(runs, predictions, strict=True) for c in metrics.memory_curves(run, preds)]
@@ -119,7 +130,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
             "model": {label: dict(zip(("isotropic", "backstress"), metrics.model_relaxation(p, rotate_at),
                                       strict=True)) for label, p in sets.items()}}
     with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
-        write_compare_h5(h5, runs, predictions, sets, preset, parts, curves)
+        write_compare_h5(h5, runs, predictions, sets, preset, parts, curves, other_seeds, others)
         js.write_text(io.json_text(result))
     return result
 

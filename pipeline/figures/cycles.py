@@ -1,5 +1,6 @@
 """Figs. 5-7 from ``compare.h5``: A12, A32, tau12/p, tau32/p over the cycle, DEM (mean and
-standard-error band) against the model with each parameter set, one row per run."""
+standard-error band, and the cycle means of the protocol's other seeds) against the model with each parameter set,
+one row per run."""
 
 from __future__ import annotations
 
@@ -26,15 +27,24 @@ def plot(groups: list, out: Path, title: str) -> Path:
                 ax.plot(m["strain_bulk"][()], m[field][:, i, j], styles[label], lw=1.2, label=f"model, {label}")
         dem = g["dem"]
         x = dem["strain_bulk"][()]
+        others = [g["other_seeds"][seed] for seed in g.get("other_seeds", {})]
         for ax, (name, (field, i, j)) in zip(row, COMPONENTS.items(), strict=True):
+            for n, other in enumerate(others):
+                ax.plot(other["strain_bulk"][()], other[field][:, i, j], "-", color="C9", lw=0.8, alpha=0.8,
+                        label=None if n else "DEM, other seeds")
             mean, sem = dem[field][:, i, j], np.nan_to_num(dem[field + "_sem"][:, i, j])
             ax.fill_between(x, mean - sem, mean + sem, color="C0", alpha=0.3, lw=0)
             ax.plot(x, mean, "C0.", ms=2, label="DEM")
             ax.set_ylabel(LABELS[name])
-        row[0].set_title(f"θ = {g.attrs['theta_deg']:g}°, rotation at {g.attrs['rotate_at_strain']:g}", loc="left",
-                         fontsize=9)
+        seeds = f", {1 + len(others)} seeds" if others else ""
+        row[0].set_title(f"θ = {g.attrs['theta_deg']:g}°, rotation at {g.attrs['rotate_at_strain']:g}{seeds}",
+                         loc="left", fontsize=9)
     for ax in axes[-1]:
         ax.set_xlabel(strain_label(groups[0]))
-    axes[0, -1].legend(fontsize=7, loc="best")
+    entries = {}  # every row's, once each: a row with other seeds need not be the first
+    for ax in axes[:, -1]:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            entries.setdefault(label, handle)
+    axes[0, -1].legend(entries.values(), entries.keys(), fontsize=7, loc="best")
     fig.suptitle(title, fontsize=10)
     return save(fig, out)

@@ -69,6 +69,28 @@ def test_the_errors_of_a_run_at_several_seeds_are_given_over_its_seeds(compared)
             assert v["least"] < v["mean"] < v["largest"] and first[k] in (v["least"], v["largest"]), (label, k)
 
 
+def test_the_cycle_figure_draws_a_protocols_other_seeds_beside_its_first(compared, monkeypatch):
+    """compare.h5 keeps the other seed's cycle mean of the reversal (none for theta060, run at one seed); Figs. 5-7
+    draw it in each of that row's panels, say the seeds in its title, and name it in the legend even when the row
+    is not the first."""
+    from pipeline.figures import cycles
+
+    tmp, _ = compared
+    drawn = []
+    monkeypatch.setattr(cycles, "save", lambda fig, out: drawn.append(fig) or out)
+    with h5py.File(tmp / "compare" / "compare.h5") as f:
+        rev, other = f["runs/00"], f["runs/01"]
+        assert list(rev["other_seeds"]) == ["3"] and "other_seeds" not in other
+        assert rev["other_seeds/3/A"].shape == rev["dem/A"].shape
+        cycles.plot([other, rev], tmp / "cycles.png", "test")
+    axes = drawn[0].axes
+    for k, ax in enumerate(axes):
+        others = [line for line in ax.lines if line.get_color() == "C9"]
+        assert len(others) == (1 if k >= 4 else 0), k  # the second row's four panels
+    assert axes[4].get_title(loc="left").endswith("2 seeds") and "seeds" not in axes[0].get_title(loc="left")
+    assert "DEM, other seeds" in [t.get_text() for t in axes[3].get_legend().get_texts()]
+
+
 def test_the_overshoot_of_model_made_runs_is_the_models_and_the_model_arrives_from_below(compared):
     """Runs made by the model with Table 2's parameters: the DEM's overshoot measure (the component along the
     new direction, early minus steady, from the cycles) is the model's own by the same measure on its cycle,
