@@ -122,6 +122,16 @@ def same_weighting(rows: list[dict], fit_json: dict | None) -> bool:
     return all(weight(r) == weight(fit_json or {}) for r in rows)
 
 
+def fit_runs_sentence(fit_json: dict | None) -> str:
+    """How many runs the global fit took (``fit.json`` → ``global_runs``) and how it weighed them."""
+    runs = (fit_json or {}).get("global_runs")
+    if not runs:
+        return ""
+    return (f" The fit took {len(runs)} run(s), every seed of the reversal and of each angle rotated at half the "
+            "period, " + ("each angle counted once (WEIGHT=angles)." if fit_json.get("weight") == "angles"
+                          else "each run counted once."))
+
+
 def next_runs_lines(fit_json: dict) -> list[str]:
     """The best new runs per CPU-hour (``fit.json`` → ``next_runs``), each joined to the fit's runs with its
     weighting."""
@@ -226,7 +236,10 @@ def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int, fit_from
     paper, ours = sets["Table 2"], sets["our fit"]
     components = metrics["components"]
     lines = [f"# Model against our DEM: `{metrics.get('data_set', metrics['preset'])}`", "",
-             f"{n_runs} DEM run(s); the model runs in the fit's strain measure for each run's protocol.", "",
+             f"{n_runs} DEM run(s) compared, one per protocol"
+             + (" (their other seeds: \"Over seeds\")" if metrics.get("seed_spread") else "")
+             + f"; the model runs in the fit's strain measure for each run's protocol.{fit_runs_sentence(fit_json)}",
+             "",
              "## Parameters", "", *parameter_lines(ours, paper, fit_json)]
     lines += ["", "## Model against DEM", "",
               "RMSE over the cycle divided by the steady |A12| or |tau12/p|.", "",

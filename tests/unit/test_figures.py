@@ -149,6 +149,8 @@ def test_figures_and_report_only_read_the_files(compared, tmp_path):
     assert "## Memory of the old direction after a change" in report and "| theta060 (" in report
     assert "| theta060 (2 cycles) | after the turn back |" in report
     assert "### Over seeds" in report and "| theta180 | 1, 3 | Table 2 |" in report
+    assert "2 DEM run(s) compared, one per protocol (their other seeds" in report
+    assert "The fit took 2 run(s)" in report and "each run counted once." in report
 
 
 @pytest.mark.slow  # draws every figure again (test_figures_and_report_only_read_the_files draws them fast)
