@@ -26,7 +26,7 @@ from .. import io
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
-from ..dataset.lookup import every_seed, preset_runs, protocol_and_seed, runs_at_seed
+from ..dataset.lookup import other_seeds_of, preset_runs, protocol_and_seed, runs_at_seed
 from ..errors import DemFileError, PipelineError
 from ..paths import preset_output
 from . import metrics
@@ -178,8 +178,7 @@ def main(argv=None) -> int:
     if not runs:
         raise DemFileError(f"no DEM run of {chosen.label}: run `make dem PRESET={chosen.preset}` first")
     runs = [r.with_definitions(definitions) for r in runs]
-    compared = {protocol_and_seed(r) for r in runs}
-    others = tuple(r.with_definitions(definitions) for r in every_seed(chosen) if protocol_and_seed(r) not in compared)
+    others = tuple(r.with_definitions(definitions) for r in other_seeds_of(chosen, runs))
     out = args.out or preset_output(chosen.folder, "compare" if args.seed is None else f"compare-seed{args.seed}")
     fit_h5 = smoothed_reversals(params_file, chosen.folder, definitions)
     label = chosen.label if args.seed is None else f"{chosen.label}, seed {args.seed}"

@@ -53,6 +53,13 @@ def every_seed(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[De
     return sorted(_of_data_set(chosen, roots), key=protocol_and_seed)
 
 
+def other_seeds_of(chosen: DataSet, runs: list[DemRun], roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
+    """The data set's runs at every seed but those in ``runs`` (by protocol and seed): what the comparison of one
+    seed's runs sets beside them."""
+    taken = {protocol_and_seed(r) for r in runs}
+    return [r for r in every_seed(chosen, roots) if protocol_and_seed(r) not in taken]
+
+
 def runs_at_seed(chosen: DataSet, seed: int, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
     """The data set's runs of one ``seed``, every angle and rotation; none there is a one-line error naming the
     seeds that are."""

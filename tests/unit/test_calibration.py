@@ -120,6 +120,9 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
     # one seed's runs, for `python -m pipeline.comparison --seed N`; a seed with no run names the seeds there are
     assert [r.path for r in lookup.runs_at_seed(DataSet("p"), 2, roots)] == [reference / "p-1a2b/dem/theta090.h5",
                                                                           reference / "p-1a2b/dem/theta180.h5"]
+    # what the comparison of one seed's runs sets beside them: the other seeds' runs of the data set
+    assert [r.path for r in lookup.other_seeds_of(DataSet("p"), lookup.preset_runs(DataSet("p"), roots), roots)] == [
+        reference / "p-1a2b/dem/theta090.h5", reference / "p-1a2b/dem/theta180.h5"]
     with pytest.raises(PipelineError, match=r"seed=5: p \(yade\) has runs of seeds 1, 2 only"):
         lookup.runs_at_seed(DataSet("p"), 5, roots)
     # a writer's hidden temporary is not a run
