@@ -24,14 +24,15 @@ def plot(groups: list, out: Path, title: str) -> Path:
         for label in labels:
             m = g["model"][label]
             for ax, (field, i, j) in zip(row, COMPONENTS.values(), strict=True):
-                ax.plot(m["strain_bulk"][()], m[field][:, i, j], styles[label], lw=1.2, label=f"model, {label}")
+                ax.plot(m["strain_bulk"][()], m[field][:, i, j], styles[label], lw=1.2, label=f"model, {label}",
+                        zorder=3)
         dem = g["dem"]
         x = dem["strain_bulk"][()]
         others = [g["other_seeds"][seed] for seed in g.get("other_seeds", {})]
         for ax, (name, (field, i, j)) in zip(row, COMPONENTS.items(), strict=True):
-            for n, other in enumerate(others):
-                ax.plot(other["strain_bulk"][()], other[field][:, i, j], "-", color="C9", lw=0.8, alpha=0.8,
-                        label=None if n else "DEM, other seeds")
+            for n, other in enumerate(others):  # beneath the rest, fainter the more there are
+                ax.plot(other["strain_bulk"][()], other[field][:, i, j], "-", color="C9", lw=0.7, zorder=1,
+                        alpha=min(0.8, 1.6 / len(others)), label=None if n else "DEM, other seeds")
             mean, sem = dem[field][:, i, j], np.nan_to_num(dem[field + "_sem"][:, i, j])
             ax.fill_between(x, mean - sem, mean + sem, color="C0", alpha=0.3, lw=0)
             ax.plot(x, mean, "C0.", ms=2, label="DEM")
