@@ -95,6 +95,10 @@ $(call check,A,$(NAME_CHARS) / = ;,a data set (preset/engine/key=value) or LAMMP
 $(call check,B,$(NAME_CHARS) / = ;,a data set (preset/engine/key=value) or LAMMPS commands separated by ;)
 $(call check,RUN_DIR,$(NAME_CHARS) /,a run folder (letters, digits, _ . - /))
 endif
+ifneq ($(filter compare-seed,$(MAKECMDGOALS)),)
+$(if $(strip $(SEED)),,$(error SEED is empty: give the seed whose runs to compare, e.g. SEED=2))
+$(call check,SEED,$(DIGITS),a whole number)
+endif
 ifneq ($(origin PRESET),undefined)
 $(call check,PRESET,$(NAME_CHARS),a preset name (letters, digits, _ . -))
 endif
@@ -129,7 +133,7 @@ DATASET_CODE := $(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py config
 
 FORCE:
 .PHONY: FORCE help demo test test-unit test-yade test-cluster lint bench venv system system-venv system-lammps system-slurm model-cycles \
-	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-angles fit-definitions fit-from fit-profile fidelity fidelity-table engines versus data-card cells jump stability profile-dem bench-dem bench-lammps-settings compare figures demo-dem clean
+	dem runs sweep sweep-status sweep-collect fit fit-bootstrap fit-jackknife fit-angles fit-definitions fit-from fit-profile fidelity fidelity-table engines versus data-card cells jump stability profile-dem bench-dem bench-lammps-settings compare compare-seed figures demo-dem clean
 
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
@@ -306,6 +310,10 @@ compare: $(COMPARE_DIR)/metrics.json ## the model against the preset's runs -> r
 $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 &: $(FIT_DIR)/params.json $(FIT_DIR)/fit.h5 \
 		$(call RUN_FILES,$(DATA_PRESET)) $(DATASET_CODE) $(wildcard pipeline/comparison/*.py)
 	$(PY) -m pipeline.comparison $(DATA_ARGS)
+
+compare-seed: $(FIT_DIR)/params.json ## another seed's runs against the model, drawn: SEED=N -> results/<data set>/compare-seed<N>/ (figures, report.md)
+	$(PY) -m pipeline.comparison $(DATA_ARGS) --seed $(SEED)
+	$(PY) -m pipeline.figures $(DATA_ARGS) --compare results/$(DATA_SET)/compare-seed$(SEED)
 
 figures: results/$(DATA_SET)/report.md ## Figs. 3-9 and report.md -> results/<data set>/figures/, report.md
 

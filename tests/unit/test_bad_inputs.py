@@ -103,7 +103,8 @@ COMPARE_CASES = [
 MAKE_TARGETS = [("dem", a, f) for a, f in MAKE_CASES] + [(t, *MAKE_CASES[k]) for k, t in
                                                         ((0, "fit"), (1, "figures"), (5, "fit-bootstrap"))] + [
     ("bench-lammps-settings", *COMPARE_CASES[0]), ("bench-lammps-settings", *COMPARE_CASES[1]),
-    ("versus", *COMPARE_CASES[0])]
+    ("versus", *COMPARE_CASES[0]),
+    ("compare-seed", "SEED=2$$(touch INJECTED)", "SEED='2$$(touch INJECTED)' is not a whole number")]
 
 
 @pytest.mark.slow

@@ -144,6 +144,21 @@ def test_make_fit_angles_and_jackknife_pass_their_options_and_refuse_no_angles()
     assert proc.returncode != 0 and "ANGLES is empty" in proc.stderr and "pipeline.calibration" not in proc.stdout
 
 
+def test_make_compare_seed_compares_and_draws_one_seed_and_refuses_no_seed():
+    """``make compare-seed SEED=N`` compares that seed's runs and draws them into their own folder (``make -n``:
+    nothing runs); without SEED, or with one that is no whole number, one line on stderr and nothing runs."""
+    commands = dry_run("compare-seed", "PRESET=paper", "SEED=2").splitlines()
+    compare = next(x for x in commands if "-m pipeline.comparison" in x)
+    draw = next(x for x in commands if "-m pipeline.figures" in x)
+    assert compare.split()[-2:] == ["--seed", "2"]
+    folder = run_spec.run_folder("paper", "lammps", {"inertial_number": 0.001})
+    assert draw.split()[-2:] == ["--compare", f"results/{folder}/compare-seed2"]
+    for bad, message in ((), "SEED is empty"), (("SEED=two",), "SEED='two' is not a whole number"):
+        proc = subprocess.run(["make", "-n", "compare-seed", "PRESET=paper", *bad], cwd=ROOT, capture_output=True,
+                              text=True)
+        assert proc.returncode != 0 and message in proc.stderr and "pipeline." not in proc.stdout
+
+
 def test_the_fits_beside_make_fit_take_its_weighting():
     """``make fit-definitions``, ``fit-from`` and ``fit-profile`` with ``WEIGHT=angles`` give their stage
     ``--weight angles`` (``make -n``: nothing runs), and nothing without it."""
