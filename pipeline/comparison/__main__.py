@@ -94,7 +94,8 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
 def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str, label: str = "",
             other_seeds: tuple = ()) -> dict:
     """Predict, measure and write ``compare.h5`` and ``metrics.json`` into ``out_dir``; ``other_seeds`` (the same
-    protocols at other seeds) enter only the errors' spread over seeds and, as DEM cycles, the figures."""
+    protocols at other seeds) enter the errors' spread over seeds, the overshoot and memory tables (a row per
+    seed) and, as DEM cycles, the figures."""
     io.check_writable_dir(out_dir)
     predictions = [metrics.model_for(run, sets) for run in runs]
     ours = sets["our fit"]
@@ -104,10 +105,14 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
               "param_sets": {label: p.to_dict() for label, p in sets.items()},
               "components": list(metrics.COMPONENTS), "errors": rows,
               "seed_spread": metrics.seed_spread(rows + metrics.error_rows(other_seeds, others))}
-    result["overshoot"] = [row for run, preds in zip(runs, predictions, strict=True)
-                           for row in metrics.overshoots(run, preds)]
-    curves = [c for run, preds in zip(runs, predictions, strict=True) for c in metrics.memory_curves(run, preds)]
-    result["memory"] = metrics.memories(curves)
+    def each(measure, some, their_predictions):
+        return [row for run, preds in zip(some, their_predictions, strict=True) for row in measure(run, preds)]
+
+    result["overshoot"] = metrics.beside_first(each(metrics.overshoots, runs, predictions),
+                                               each(metrics.overshoots, other_seeds, others))
+    curves = each(metrics.memory_curves, runs, predictions)  # compare.h5 and memory.png: the compared seed's
+    result["memory"] = metrics.beside_first(metrics.memories(curves),
+                                            metrics.memories(each(metrics.memory_curves, other_seeds, others)))
     reversals = [r for r in runs if r.is_reversal]
     if reversals:
         paper_phi = model.predict(180, params=model.Params()).packing_fraction

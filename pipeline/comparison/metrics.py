@@ -66,6 +66,13 @@ def seed_spread(rows: list[dict]) -> list[dict]:
             for (run, label), group in groups.items() if len(group) > 1]
 
 
+def beside_first(first: list[dict], more: list[dict]) -> list[dict]:
+    """``first``'s rows (one seed's, per run and change of direction), each followed by ``more``'s rows of the same
+    run and change (other seeds')."""
+    return [row for r in first
+            for row in (r, *(m for m in more if (m["run"], m["segment"]) == (r["run"], r["segment"])))]
+
+
 def backstress_share(run, C: float) -> float:
     """Share of the backstress C A12 in the steady shear stress tau12/p (paper: 88 %)."""
     c = run.cycle
@@ -176,7 +183,8 @@ def memory_curves(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dic
                 or abs(np.sin(np.radians(new - old))) < 0.25):
             continue
         strain, dem = old_direction_curve(run.series["A"][idx], grid, change)
-        out.append({"run": run.path.stem, "segment": label, "from_deg": old, "direction_deg": new,
+        out.append({"run": run.path.stem, "seed": run.spec["seed"], "segment": label, "from_deg": old,
+                    "direction_deg": new,
                     "strain_after": strain, "dem": dem,
                     "model": {name: old_direction_curve(pred.A, data.strain, change)
                               for name, (data, pred) in preds.items()}})
@@ -193,7 +201,7 @@ def memories(curves: list[dict]) -> list[dict]:
     for c in curves:
         per_cycle = means(c["strain_after"], c["dem"])
         mean, se = cycle_mean_and_error(per_cycle)
-        out.append({"run": c["run"], "segment": c["segment"], "from_deg": c["from_deg"],
+        out.append({"run": c["run"], "seed": c["seed"], "segment": c["segment"], "from_deg": c["from_deg"],
                     "direction_deg": c["direction_deg"], "cycles": len(per_cycle),
                     "windows": [list(w) for w in MEMORY_WINDOWS], "dem": mean.tolist(),
                     "dem_se": None if se is None else se.tolist(),
@@ -214,7 +222,8 @@ def overshoots(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
     for label, start, end, phi, *_ in changes(spec):
         if end - start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE or spec["theta_deg"] == 0:
             continue
-        row = {"run": run.path.stem, "segment": label, "direction_deg": phi, "cycles": len(idx)}
+        row = {"run": run.path.stem, "seed": spec["seed"], "segment": label, "direction_deg": phi,
+               "cycles": len(idx)}
         early, late = segment_windows(grid, start, end)
         model_windows = {name: segment_windows(data.strain, start, end) for name, (data, _) in preds.items()}
         for field, key in (("A", "A"), ("tau", "tau_over_p")):

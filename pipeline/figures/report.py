@@ -175,6 +175,12 @@ def jump_lines(rows: list[dict], paper: dict) -> list[str]:
     return lines
 
 
+def run_label(row: dict, rows: list[dict]) -> str:
+    """A table row's run, with its seed where the table has the run at several seeds, and its cycles."""
+    seeds = {r.get("seed") for r in rows if r["run"] == row["run"]}
+    return row["run"] + (f", seed {row['seed']}" if len(seeds) > 1 else "") + f" ({row['cycles']} cycles)"
+
+
 def overshoot_lines(rows: list[dict], labels: list[str]) -> list[str]:
     """The overshoot table: DEM (± its standard error over cycles) and each parameter set, per change."""
     head = " | ".join(f"{field} {who}" for field in ("A", "tau/p") for who in ("DEM", *labels))
@@ -182,7 +188,7 @@ def overshoot_lines(rows: list[dict], labels: list[str]) -> list[str]:
              "The component along the new shear direction (A and tau/p, s_i X_i2), signed so that its steady value "
              "(its mean over the segment's last 0.2 strain) is positive: its mean 0.15-0.30 strain after the change "
              "minus the steady value. Positive: it overshoots; negative: it has not yet arrived. DEM: mean over "
-             "the run's cycles ± standard error (a rough one from two or three cycles).", "",
+             "the run's cycles ± standard error (a rough one from two or three cycles); a row per seed.", "",
              f"| run | change | {head} |", "|---|---|" + "---|" * (2 + 2 * len(labels))]
     for r in rows:
         cells = []
@@ -190,7 +196,7 @@ def overshoot_lines(rows: list[dict], labels: list[str]) -> list[str]:
             v = r[field]
             cells.append(f"{v['dem']:+.4f}" + ("" if v["dem_se"] is None else f" ± {v['dem_se']:.4f}"))
             cells += [f"{v['model'][label]:+.4f}" for label in labels]
-        lines.append(f"| {r['run']} ({r['cycles']} cycles) | {r['segment']} | " + " | ".join(cells) + " |")
+        lines.append(f"| {run_label(r, rows)} | {r['segment']} | " + " | ".join(cells) + " |")
     return lines
 
 
@@ -204,14 +210,14 @@ def memory_lines(rows: list[dict], labels: list[str]) -> list[str]:
              "(the part the new shear does not make), as a fraction of what the old direction's steady fabric "
              "puts there: 1 at the change, 0 once the old direction is forgotten; its mean over each window of "
              "strain after the change. DEM: mean over the run's cycles ± standard error (a rough one from two or "
-             "three cycles).", "",
+             "three cycles); a row per seed.", "",
              f"| run | change | {head} |", "|---|---|" + "---|" * (len(windows) * (1 + len(labels)))]
     for r in rows:
         cells = []
         for k in range(len(windows)):
             cells.append(f"{r['dem'][k]:+.2f}" + ("" if r["dem_se"] is None else f" ± {r['dem_se'][k]:.2f}"))
             cells += [f"{r['model'][label][k]:+.2f}" for label in labels]
-        lines.append(f"| {r['run']} ({r['cycles']} cycles) | {r['segment']} | " + " | ".join(cells) + " |")
+        lines.append(f"| {run_label(r, rows)} | {r['segment']} | " + " | ".join(cells) + " |")
     return lines
 
 

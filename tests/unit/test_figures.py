@@ -55,9 +55,10 @@ def test_comparison_writes_predictions_and_metrics(compared):
     assert metrics["second_law"]["holds"]
 
 
-def test_the_errors_of_a_run_at_several_seeds_are_given_over_its_seeds(compared):
+def test_a_protocol_at_several_seeds_has_its_errors_over_the_seeds_and_an_overshoot_row_per_seed(compared):
     """A protocol run at two seeds: each parameter set's error has its mean, least and largest over the seeds;
-    the first seed's own row is one end of the range; a protocol at one seed has no spread."""
+    the first seed's own row is one end of the range; a protocol at one seed has no spread. The overshoot has a row
+    per seed, the other seed's right after the first's."""
     _, metrics = compared
     spread = {(r["run"], r["parameters"]): r for r in metrics["seed_spread"]}
     assert set(spread) == {("theta180", "Table 2"), ("theta180", "our fit")}
@@ -67,6 +68,12 @@ def test_the_errors_of_a_run_at_several_seeds_are_given_over_its_seeds(compared)
         for k in ("A12", "A32", "tau12", "tau32"):
             v = r[k]
             assert v["least"] < v["mean"] < v["largest"] and first[k] in (v["least"], v["largest"]), (label, k)
+    # the overshoot: a row per seed, each seed's beside the first's, each its own measure
+    order = [(r["run"], r["seed"], r["segment"]) for r in metrics["overshoot"]]
+    assert order == [("theta180", 1, "after the turn to theta"), ("theta180", 3, "after the turn to theta"),
+                     ("theta180", 1, "after the turn back"), ("theta180", 3, "after the turn back"),
+                     ("theta060", 2, "after the turn to theta"), ("theta060", 2, "after the turn back")]
+    assert metrics["overshoot"][0]["A"]["dem"] != metrics["overshoot"][1]["A"]["dem"]
 
 
 def test_the_cycle_figure_draws_a_protocols_other_seeds_beside_its_first(compared, monkeypatch):
@@ -149,6 +156,9 @@ def test_figures_and_report_only_read_the_files(compared, tmp_path):
     assert "## Memory of the old direction after a change" in report and "| theta060 (" in report
     assert "| theta060 (2 cycles) | after the turn back |" in report
     assert "### Over seeds" in report and "| theta180 | 1, 3 | Table 2 |" in report
+    # the overshoot has a row per seed, each named by its seed where the run has several
+    assert "| theta180, seed 1 (2 cycles) | after the turn to theta |" in report
+    assert "| theta180, seed 3 (2 cycles) | after the turn to theta |" in report
     assert "2 DEM run(s) compared, one per protocol (their other seeds" in report
     assert "The fit took 2 run(s)" in report and "each run counted once." in report
 
