@@ -48,8 +48,8 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
     measure (``strain_measure``: the datasets keep the name ``strain_bulk``), and the DEM cycle of each of
     ``other_seeds`` of its protocol (``others``: their predictions, for their strain measure); per reversal run of
     the fit, the smoothed tau12/p split into backstress C A12 and isotropic part; per change of direction with a
-    memory (``metrics.memory_curves``), the memory of the old direction against the strain after the change (the
-    DEM's mean over cycles and its standard error, each parameter set's)."""
+    memory (``metrics.memory_curves``, the compared runs' first, then other seeds'), the memory of the old direction
+    against the strain after the change (the DEM's mean over cycles and its standard error, each parameter set's)."""
     with h5py.File(path, "w") as f:
         f.attrs.update(schema=SCHEMA, schema_version=1, preset=preset, strain_measure=runs[0].definitions.strain,
                        param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
@@ -80,7 +80,7 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
                 g.create_dataset(key, data=value)
         for k, c in enumerate(memory_curves):
             g = f.create_group(f"memory/{k:02d}")
-            g.attrs.update(run=c["run"], segment=c["segment"], from_deg=c["from_deg"],
+            g.attrs.update(run=c["run"], seed=c["seed"], segment=c["segment"], from_deg=c["from_deg"],
                            direction_deg=c["direction_deg"], cycles=len(c["dem"]))
             mean, se = metrics.cycle_mean_and_error(c["dem"])
             g.create_dataset("strain_after", data=c["strain_after"])
@@ -110,9 +110,10 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
 
     result["overshoot"] = metrics.beside_first(each(metrics.overshoots, runs, predictions),
                                                each(metrics.overshoots, other_seeds, others))
-    curves = each(metrics.memory_curves, runs, predictions)  # compare.h5 and memory.png: the compared seed's
-    result["memory"] = metrics.beside_first(metrics.memories(curves),
-                                            metrics.memories(each(metrics.memory_curves, other_seeds, others)))
+    curves = each(metrics.memory_curves, runs, predictions)
+    more = [c for c in each(metrics.memory_curves, other_seeds, others)
+            if any((c["run"], c["segment"]) == (d["run"], d["segment"]) for d in curves)]
+    result["memory"] = metrics.beside_first(metrics.memories(curves), metrics.memories(more))
     reversals = [r for r in runs if r.is_reversal]
     if reversals:
         paper_phi = model.predict(180, params=model.Params()).packing_fraction
@@ -135,7 +136,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
             "model": {label: dict(zip(("isotropic", "backstress"), metrics.model_relaxation(p, rotate_at),
                                       strict=True)) for label, p in sets.items()}}
     with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
-        write_compare_h5(h5, runs, predictions, sets, preset, parts, curves, other_seeds, others)
+        write_compare_h5(h5, runs, predictions, sets, preset, parts, curves + more, other_seeds, others)
         js.write_text(io.json_text(result))
     return result
 

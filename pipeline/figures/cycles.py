@@ -9,7 +9,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .output import save, strain_label
+from .output import legend_of_all, save, strain_label
 
 COMPONENTS = {"A12": ("A", 0, 1), "A32": ("A", 2, 1), "tau12": ("tau_over_p", 0, 1), "tau32": ("tau_over_p", 2, 1)}
 LABELS = {"A12": "$A_{12}$", "A32": "$A_{32}$", "tau12": r"$\tau_{12}/p$", "tau32": r"$\tau_{32}/p$"}
@@ -42,10 +42,6 @@ def plot(groups: list, out: Path, title: str) -> Path:
                          loc="left", fontsize=9)
     for ax in axes[-1]:
         ax.set_xlabel(strain_label(groups[0]))
-    entries = {}  # every row's, once each: a row with other seeds need not be the first
-    for ax in axes[:, -1]:
-        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
-            entries.setdefault(label, handle)
-    axes[0, -1].legend(entries.values(), entries.keys(), fontsize=7, loc="best")
+    legend_of_all(axes[0, -1], axes[:, -1], fontsize=7, loc="best")  # a row with other seeds need not be the first
     fig.suptitle(title, fontsize=10)
     return save(fig, out)

@@ -98,6 +98,32 @@ def test_the_cycle_figure_draws_a_protocols_other_seeds_beside_its_first(compare
     assert "DEM, other seeds" in [t.get_text() for t in axes[3].get_legend().get_texts()]
 
 
+def test_the_memory_of_a_turn_at_two_seeds_has_a_row_and_a_curve_per_seed(tmp_path, monkeypatch):
+    """A turn run at two seeds: the memory table has the other seed's rows right after the first's; compare.h5
+    keeps both seeds' curves, and memory.png draws the other seed's as thin lines in the run's panel, whose title
+    counts the seeds and whose legend names them."""
+    from pipeline.figures import memory
+
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    first = synthetic_run(tmp_path / "a", theta=60.0, name="theta060", n_cycles=2, noise=0.005, seed=1)
+    second = synthetic_run(tmp_path / "b", theta=60.0, name="theta060", n_cycles=2, noise=0.005, seed=2)
+    sets = {"Table 2": model.Params(), "our fit": model.Params()}
+    metrics = compare([first], sets, None, tmp_path / "compare", "synthetic", other_seeds=(second,))
+    assert [(r["seed"], r["segment"]) for r in metrics["memory"]] == [
+        (1, "after the turn to theta"), (2, "after the turn to theta"), (1, "after the turn back"),
+        (2, "after the turn back")]
+    drawn = []
+    monkeypatch.setattr(memory, "save", lambda fig, out: drawn.append(fig) or out)
+    with h5py.File(tmp_path / "compare" / "compare.h5") as f:
+        groups = [f["memory"][k] for k in f["memory"]]
+        assert [g.attrs["seed"] for g in groups] == [1, 1, 2, 2]
+        memory.plot(groups, list(sets), tmp_path / "memory.png", "test")
+    ax = drawn[0].axes[0]
+    assert sum(line.get_label() == "DEM, other seeds" for line in ax.lines) == 2  # both turns of seed 2
+    assert ax.get_title().endswith("2 seeds")
+    assert "DEM, other seeds" in [t.get_text() for t in ax.get_legend().get_texts()]
+
+
 def test_the_overshoot_of_model_made_runs_is_the_models_and_the_model_arrives_from_below(compared):
     """Runs made by the model with Table 2's parameters: the DEM's overshoot measure (the component along the
     new direction, early minus steady, from the cycles) is the model's own by the same measure on its cycle,
