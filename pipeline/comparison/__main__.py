@@ -105,13 +105,11 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
               "param_sets": {label: p.to_dict() for label, p in sets.items()},
               "components": list(metrics.COMPONENTS), "errors": rows,
               "seed_spread": metrics.seed_spread(rows + metrics.error_rows(other_seeds, others))}
-    def each(measure, some, their_predictions):
-        return [row for run, preds in zip(some, their_predictions, strict=True) for row in measure(run, preds)]
-
-    result["overshoot"] = metrics.beside_first(each(metrics.overshoots, runs, predictions),
-                                               each(metrics.overshoots, other_seeds, others))
-    curves = each(metrics.memory_curves, runs, predictions)
-    more = [c for c in each(metrics.memory_curves, other_seeds, others)
+    per_run = metrics.per_run
+    result["overshoot"] = metrics.beside_first(per_run(metrics.overshoots, runs, predictions),
+                                               per_run(metrics.overshoots, other_seeds, others))
+    curves = per_run(metrics.memory_curves, runs, predictions)
+    more = [c for c in per_run(metrics.memory_curves, other_seeds, others)
             if any((c["run"], c["segment"]) == (d["run"], d["segment"]) for d in curves)]
     result["memory"] = metrics.beside_first(metrics.memories(curves), metrics.memories(more))
     reversals = [r for r in runs if r.is_reversal]

@@ -66,6 +66,11 @@ def seed_spread(rows: list[dict]) -> list[dict]:
             for (run, label), group in groups.items() if len(group) > 1]
 
 
+def per_run(measure, runs: list, predictions: list) -> list[dict]:
+    """The rows of ``measure(run, preds)`` (``overshoots``, ``memory_curves``) of every run, in order."""
+    return [row for run, preds in zip(runs, predictions, strict=True) for row in measure(run, preds)]
+
+
 def beside_first(first: list[dict], more: list[dict]) -> list[dict]:
     """``first``'s rows (one seed's, per run and change of direction), each followed by ``more``'s rows of the same
     run and change (other seeds')."""
