@@ -322,4 +322,4 @@ results/$(DATA_SET)/report.md: $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compar
 	$(PY) -m pipeline.figures $(DATA_ARGS)
 
 clean: ## remove generated results (keeps the venv and the DEM runs under results/<preset>/dem/)
-	rm -rf results/model results/bench results/fidelity results/jump results/*/fit results/*/fit-* results/*/compare results/*/compare-* results/*/figures results/*/report.md
+	rm -rf results/model results/bench results/fidelity results/jump results/engines results/versus results/cells results/*/fit results/*/fit-* results/*/compare results/*/compare-* results/*/figures results/*/report.md
