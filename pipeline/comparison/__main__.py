@@ -59,7 +59,7 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
                            rotate_at_strain=run.spec["rotate_at_strain"], is_reversal=run.is_reversal,
                            default_rotation=run.default_rotation)
             c = run.cycle
-            ratio = next(iter(predictions[k].values()))[0].bulk_over_nominal
+            ratio = metrics.bulk_over_nominal(predictions[k])
             g.attrs["bulk_over_nominal"] = ratio
             dem = g.create_group("dem")
             write_dem_cycle(dem, run, ratio, ("A", "A_sem", "tau_over_p", "tau_over_p_sem", "packing_fraction"))
@@ -68,7 +68,7 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
             for other, preds in zip(other_seeds, others, strict=True):
                 if protocol_and_seed(other)[:2] == protocol_and_seed(run)[:2]:
                     write_dem_cycle(g.create_group(f"other_seeds/{other.spec['seed']}"), other,
-                                    next(iter(preds.values()))[0].bulk_over_nominal, ("A", "tau_over_p"))
+                                    metrics.bulk_over_nominal(preds), ("A", "tau_over_p"))
             for label, (data, pred) in predictions[k].items():
                 m = g.create_group(f"model/{label}")
                 for key, value in (("strain_bulk", data.strain * ratio), ("A", pred.A), ("tau_over_p", pred.tau),

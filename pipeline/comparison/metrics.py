@@ -35,6 +35,11 @@ def model_for(run, sets: dict) -> dict[str, tuple[Cycle, model.Result]]:
     return {label: (data, data.prediction(params)) for label, params in sets.items()}
 
 
+def bulk_over_nominal(preds: dict[str, tuple[Cycle, model.Result]]) -> float:
+    """The fit's strain per nominal strain of the run ``model_for`` predicted (its cycle's, one for every set)."""
+    return next(iter(preds.values()))[0].bulk_over_nominal
+
+
 def errors(data: Cycle, pred: model.Result) -> dict[str, float]:
     """RMSE over the cycle of A12, A32, tau12/p, tau32/p, normalised by the steady |A12| or |tau12/p|."""
     steady = {"A": np.max(np.abs(data.A[:, 0, 1])), "tau": np.max(np.abs(data.tau[:, 0, 1]))}

@@ -35,11 +35,12 @@ def preset_runs(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[D
     return [r for r in runs if chosen.matches(r.engine, r.overrides)]
 
 
-def _of_data_set(chosen: DataSet, roots: tuple[Path, ...], name: str | None = None) -> list[DemRun]:
-    """The data set's runs at every seed (those named ``name`` only, if given): its own folder's and every
-    ``<preset>[-<engine>]-<hash>`` variant's whose overrides are the data set's besides the seed."""
+def _of_data_set(chosen: DataSet, roots: tuple[Path, ...], read=lambda path: True) -> list[DemRun]:
+    """The data set's runs at every seed (of the files ``read(path)`` keeps, decided before loading): its own
+    folder's and every ``<preset>[-<engine>]-<hash>`` variant's whose overrides are the data set's besides the
+    seed."""
     runs = [load_of_preset(p, chosen.preset) for p in preset_files(engine_folder(chosen.preset, chosen.engine), roots)
-            if name is None or p.name == name]
+            if read(p)]
     return [r for r in runs if chosen.matches(r.engine, r.overrides)]
 
 
@@ -54,10 +55,11 @@ def every_seed(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[De
 
 
 def other_seeds_of(chosen: DataSet, runs: list[DemRun], roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
-    """The data set's runs at every seed but those in ``runs`` (by protocol and seed): what the comparison of one
-    seed's runs sets beside them."""
-    taken = {protocol_and_seed(r) for r in runs}
-    return [r for r in every_seed(chosen, roots) if protocol_and_seed(r) not in taken]
+    """The data set's runs at every seed but those in ``runs`` (by protocol and seed), without loading ``runs``'
+    files again: what the comparison of one seed's runs sets beside them."""
+    loaded, taken = {r.path for r in runs}, {protocol_and_seed(r) for r in runs}
+    return sorted((r for r in _of_data_set(chosen, roots, lambda p: p not in loaded)
+                   if protocol_and_seed(r) not in taken), key=protocol_and_seed)
 
 
 def runs_at_seed(chosen: DataSet, seed: int, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
@@ -74,7 +76,8 @@ def runs_at_seed(chosen: DataSet, seed: int, roots: tuple[Path, ...] = DATA_ROOT
 def seed_runs(chosen: DataSet, theta_deg: float, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
     """The data set's runs at ``theta_deg`` and the default rotation, every seed."""
     name = f"theta{int(round(theta_deg)):03d}.h5"
-    return [r for r in _of_data_set(chosen, roots, name) if r.default_rotation and r.spec["theta_deg"] == theta_deg]
+    return [r for r in _of_data_set(chosen, roots, lambda p: p.name == name)
+            if r.default_rotation and r.spec["theta_deg"] == theta_deg]
 
 
 def reversal_seeds(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
