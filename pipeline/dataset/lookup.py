@@ -49,17 +49,16 @@ def protocol_and_seed(run: DemRun) -> tuple[float, float, int]:
     return run.spec["theta_deg"], run.spec["rotate_at_strain"], run.spec["seed"]
 
 
-def every_seed(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
-    """The data set's runs at every seed, sorted by angle, rotation and seed."""
-    return sorted(_of_data_set(chosen, roots), key=protocol_and_seed)
+def every_seed(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS, read=lambda path: True) -> list[DemRun]:
+    """The data set's runs at every seed (of the files ``read(path)`` keeps), sorted by angle, rotation and seed."""
+    return sorted(_of_data_set(chosen, roots, read), key=protocol_and_seed)
 
 
 def other_seeds_of(chosen: DataSet, runs: list[DemRun], roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
     """The data set's runs at every seed but those in ``runs`` (by protocol and seed), without loading ``runs``'
     files again: what the comparison of one seed's runs sets beside them."""
     loaded, taken = {r.path for r in runs}, {protocol_and_seed(r) for r in runs}
-    return sorted((r for r in _of_data_set(chosen, roots, lambda p: p not in loaded)
-                   if protocol_and_seed(r) not in taken), key=protocol_and_seed)
+    return [r for r in every_seed(chosen, roots, lambda p: p not in loaded) if protocol_and_seed(r) not in taken]
 
 
 def runs_at_seed(chosen: DataSet, seed: int, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
