@@ -7,15 +7,13 @@ paper cell's is LAMMPS's at I = 1e-3). ``--engine`` and ``--set`` choose another
 ``results/<folder>/`` with ``<folder>`` the folder of its runs (``<preset>[-<engine>][-<hash of the overrides>]``),
 so a fit is never mixed with another data set's.
 
-Standard library only: Make asks ``python3 -m pipeline.dataset.selection [--preset P] [--engine E] [--set k=v]``
-before any virtualenv exists, and gets ``PRESET FOLDER ENGINE [k=v ...]`` on one line.
+Standard library only: ``pipeline.targets`` asks it, in Debian's python3, before any virtualenv exists.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 import tomllib
 from pathlib import Path
 
@@ -59,10 +57,6 @@ class DataSet:
         """Whether a run of ``engine`` with ``overrides`` belongs to this data set (any seed)."""
         rest = {k: float(v) for k, v in overrides.items() if k not in SEED_KEYS}
         return engine == self.engine and rest == dict(self.overrides)
-
-    def make_words(self) -> str:
-        """``PRESET FOLDER ENGINE [k=v ...]``: what Make reads."""
-        return " ".join([self.preset, self.folder, self.engine, *self.settings])
 
 
 def data_set(preset: str, engine: str | None = None, overrides: dict | None = None,
@@ -134,20 +128,3 @@ def from_arguments(args: argparse.Namespace) -> DataSet:
         preset = most_faithful_preset()
         print(f"preset: {preset} (the most faithful one with a reversal run; --preset / PRESET= to choose)")
     return data_set(preset, args.engine, run_spec.parse_overrides(args.set))
-
-
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python3 -m pipeline.dataset.selection", description=__doc__.splitlines()[0])
-    add_arguments(parser)
-    args = parser.parse_args(argv)
-    try:
-        chosen = data_set(args.preset or most_faithful_preset(), args.engine, run_spec.parse_overrides(args.set))
-    except PipelineError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    print(chosen.make_words())
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

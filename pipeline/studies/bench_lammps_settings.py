@@ -22,14 +22,7 @@ from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs import yade
 from ..runs.state import read_json
-
-
-def commands(text: str, name: str) -> list[str]:
-    """The LAMMPS commands of one setting (``;``-separated); none is a one-line error."""
-    found = [c.strip() for c in text.split(";") if c.strip()]
-    if not found:
-        raise PipelineError(f"--{name} {text!r}: no LAMMPS command")
-    return found
+from ..targets import lammps_settings
 
 
 def checked_run_dir(run_dir: Path) -> Path:
@@ -76,7 +69,7 @@ def main(argv=None) -> int:
         raise PipelineError(f"--steps {args.steps} must be at least 100")
     if args.rounds < 1:
         raise PipelineError(f"--rounds {args.rounds} must be at least 1")
-    settings = {"a": commands(args.a, "a"), "b": commands(args.b, "b")}
+    settings = {"a": lammps_settings(args.a, "--a"), "b": lammps_settings(args.b, "--b")}
     run_dir = checked_run_dir(args.run_dir)
     try:
         yade.require_lammps()

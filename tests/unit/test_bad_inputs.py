@@ -85,46 +85,51 @@ def test_make_dem_refuses(tmp_path, args, fragment):
 # ---------------------------------------------------------------- the Makefile's variables never reach a shell
 MAKE_CASES = [
     ("THETA=180; touch INJECTED", "THETA='180; touch INJECTED' is not a number"),
-    ("PRESET=quick; touch INJECTED", "PRESET='quick; touch INJECTED' is not a preset name"),
+    ("PRESET=quick; touch INJECTED", "PRESET='quick; touch INJECTED' is not a name"),
+    ("PRESET=tiny\ntouch INJECTED\ntrue", "PRESET='tiny\\ntouch INJECTED\\ntrue' is not a name"),
     ("SET=seed=2 $$(touch INJECTED)", "SET='seed=2 $$(touch INJECTED)' is not a list of key=value"),
     ("THETA=$(shell touch INJECTED)", "THETA='$(shell touch INJECTED)' is not a number"),
     ("THREADS=1 && touch INJECTED", "THREADS='1 && touch INJECTED' is not a whole number"),
     ("ROTATE_AT=`touch INJECTED`", "ROTATE_AT='`touch INJECTED`' is not a number"),
-    ("BOOT=0|touch INJECTED", "BOOT='0|touch INJECTED' is not a whole number"),
+    ("RANKS=1\n2", "RANKS='1\\n2' is not a whole number"),
     ("ENGINE=lammps;touch INJECTED", "ENGINE='lammps;touch INJECTED' is not yade or lammps"),
 ]
-#: checked only for the targets that read them (A and B are short names a shell may hold for other uses)
-COMPARE_CASES = [
-    ('A=sort 0" $$(touch INJECTED)', "A='sort 0\" $$(touch INJECTED)' is not a data set"),
-    ("RUN_DIR=results/x.run&&touch INJECTED", "RUN_DIR='results/x.run&&touch INJECTED' is not a run folder"),
+OTHER_CASES = [
+    ("fit", "WEIGHT=angles;touch INJECTED;true", "WEIGHT='angles;touch INJECTED;true' is not runs or angles"),
+    ("figures", "PRESET=$(shell touch INJECTED)", "PRESET='$(shell touch INJECTED)' is not a name"),
+    ("fit-bootstrap", "BOOT=0|touch INJECTED", "BOOT='0|touch INJECTED' is not a whole number"),
+    ("bench-lammps-settings", 'A=sort 0" $$(touch INJECTED)', "is not LAMMPS settings"),
+    ("bench-lammps-settings", "RUN_DIR=results/x.run&&touch INJECTED", "is not a run folder"),
+    ("versus", "A=reduced;touch INJECTED;true", "A='reduced;touch INJECTED;true' is not a data set"),
+    ("compare-seed", "SEED=2$$(touch INJECTED)", "SEED='2$$(touch INJECTED)' is not a whole number"),
+    ("sweep-status", "SWEEP=x\ntouch INJECTED", "is not a name"),
 ]
+MAKE_TARGETS = [("dem", a, f) for a, f in MAKE_CASES] + OTHER_CASES
 
 
-MAKE_TARGETS = [("dem", a, f) for a, f in MAKE_CASES] + [(t, *MAKE_CASES[k]) for k, t in
-                                                        ((0, "fit"), (1, "figures"), (5, "fit-bootstrap"))] + [
-    ("bench-lammps-settings", *COMPARE_CASES[0]), ("bench-lammps-settings", *COMPARE_CASES[1]),
-    ("versus", *COMPARE_CASES[0]),
-    ("compare-seed", "SEED=2$$(touch INJECTED)", "SEED='2$$(touch INJECTED)' is not a whole number")]
+def make(tmp_path, *args, env=None):
+    """The project's Makefile run in an empty folder (its Python from the project): whatever it runs, runs there."""
+    return subprocess.run(["make", "--no-print-directory", "-f", str(ROOT / "Makefile"), *args], capture_output=True,
+                          text=True, cwd=tmp_path, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(ROOT), **(env or {})})
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("target, assignment, fragment", MAKE_TARGETS, ids=[f"{t} {a}" for t, a, _ in MAKE_TARGETS])
 def test_make_variables_are_checked_before_any_command(tmp_path, target, assignment, fragment):
-    makefile = tmp_path / "Makefile"
-    shutil.copy(ROOT / "Makefile", makefile)
-    proc = run(["make", "-f", str(makefile), target, assignment], cwd=tmp_path)
+    name, _, value = assignment.partition("=")
+    proc = make(tmp_path, target, f"{name}={value.replace(chr(92) + 'n', chr(10))}")
     assert_refused(proc, fragment)
-    assert listing(tmp_path) == [makefile.relative_to(tmp_path)]
+    assert [str(p) for p in listing(tmp_path)] == ["results", "results/.make", "results/.make/goals.mk"]
 
 
 @pytest.mark.slow
-def test_a_short_variable_of_the_shell_does_not_stop_targets_that_do_not_read_it(tmp_path):
-    """A and B (make versus, make bench-lammps-settings) may hold anything in a user's shell: other targets run."""
-    makefile = tmp_path / "Makefile"
-    shutil.copy(ROOT / "Makefile", makefile)
-    proc = subprocess.run(["make", "-f", str(makefile), "help"], capture_output=True, text=True, cwd=tmp_path,
-                          env={**os.environ, "A": 'a "quoted" $value', "B": "x|y"}, timeout=120)
+def test_a_value_that_would_run_while_make_reads_itself_stays_text(tmp_path):
+    """``make help WEIGHT='$(shell ...)'``: every target, even one that reads no variable, takes it as text; and A
+    and B, short names a shell may hold for other uses, do not stop a target that does not read them."""
+    proc = make(tmp_path, "help", "WEIGHT=$(shell touch INJECTED)", env={"A": 'a "quoted" $value', "B": "x|y"})
     assert proc.returncode == 0 and "make versus" in proc.stdout, proc.stderr
+    assert listing(tmp_path) == []
 
 
 # ---------------------------------------------------------------- make fit / fit-bootstrap / compare / figures
@@ -298,7 +303,8 @@ def test_an_engine_that_is_not_installed_is_one_line_naming_its_packages():
 @pytest.mark.parametrize("folder, extra, fragment", [
     ("empty", [], "no checkpoint there"),
     ("yade", [], "a yade run, not a LAMMPS one"),
-    ("lammps", ["--a", " ; "], "--a ' ; ': no LAMMPS command"),
+    ("lammps", ["--a", " ; "], "--a=' ; ' is not LAMMPS settings"),
+    ("lammps", ["--a", "shell touch x"], "--a='shell touch x' is not LAMMPS settings"),
     ("lammps", ["--steps", "10"], "--steps 10 must be at least 100"),
     ("lammps", ["--rounds", "0"], "--rounds 0 must be at least 1"),
 ])

@@ -1,15 +1,11 @@
 """Which runs fit, compare and figures read: the data set of a preset, its folder, and Make's view of it."""
 
-import subprocess
-import sys
-
 import pytest
 
 from pipeline.calibration.__main__ import folder_name
 from pipeline.dataset import lookup, selection
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import PipelineError
-from pipeline.paths import ROOT
 from pipeline.runs import spec as run_spec
 from tests.helpers import synthetic_file
 
@@ -31,7 +27,7 @@ def test_a_data_set_lives_in_the_folder_its_first_seeds_runs_go_to():
     spec = run_spec.resolve(180, "paper", overrides={"inertial_number": 0.001}, engine="lammps")
     chosen = selection.data_set("paper", "lammps", {"inertial_number": 0.001, "seed": 3})
     assert chosen.folder == spec.folder and chosen.overrides == (("inertial_number", 0.001),)
-    assert chosen.make_words() == f"paper {spec.folder} lammps inertial_number=0.001"
+    assert (chosen.folder, chosen.settings) == (spec.folder, ["inertial_number=0.001"])
     assert selection.data_set("reduced", "lammps").folder == "reduced-lammps"
     assert chosen.label == "paper (lammps, inertial_number=0.001)"
 
@@ -82,41 +78,6 @@ def test_a_bad_declaration_is_one_line(tmp_path, text, message):
         selection.data_set("reduced", roots=(tmp_path,), datasets_file=declared(tmp_path, text))
 
 
-def test_make_reads_one_line_and_a_bad_choice_is_one_line_on_stderr():
-    """Make runs this with the system's python3 before any virtualenv: standard library only (``-S``)."""
-    def ask(*args):
-        return subprocess.run([sys.executable, "-S", "-m", "pipeline.dataset.selection", *args], cwd=ROOT,
-                              capture_output=True, text=True)
-
-    ok = ask("--preset", "paper", "--engine", "lammps", "--set", "inertial_number=1e-3")
-    assert ok.returncode == 0 and ok.stdout.split() == ["paper", run_spec.run_folder(
-        "paper", "lammps", {"inertial_number": 0.001}), "lammps", "inertial_number=0.001"]
-    bad = ask("--preset", "paper", "--set", "nosuch=1")
-    assert bad.returncode == 2 and bad.stdout == "" and bad.stderr.strip() == \
-        "error: unknown override key(s) nosuch (see dem.toml)"
-
-
-def dry_run(target: str, *variables: str) -> str:
-    """The commands ``make -n target variables...`` would run (nothing runs)."""
-    return subprocess.run(["make", "-n", target, *variables], cwd=ROOT, capture_output=True, text=True).stdout
-
-
-@pytest.mark.parametrize("variables, words", [
-    (["PRESET=paper", "ENGINE=lammps", "SET=inertial_number=1e-3 seed=2"],
-     "--preset paper --engine lammps --set inertial_number=0.001"),
-    (["PRESET=paper", "ENGINE=yade"], "--preset paper --engine yade"),
-    (["PRESET=reduced", "ENGINE=lammps"], "--preset reduced --engine lammps"),
-])
-def test_make_hands_the_stages_the_data_set_and_its_folder(variables, words):
-    """What ``make fit`` runs, and where it writes: the data set's folder (``make -n``: nothing runs)."""
-    commands = dry_run("fit", *variables)
-    line = next(x for x in commands.splitlines() if "-m pipeline.calibration" in x)
-    assert line.split("pipeline.calibration", 1)[1].split() == words.split()
-    preset, engine, sets = words.split()[1], words.split()[3], words.split()[5::2]
-    folder = run_spec.run_folder(preset, engine, run_spec.parse_overrides(sets))
-    assert f"results/{folder}/fit/options.txt" in commands
-
-
 def test_each_fit_beside_the_main_one_writes_its_own_folder():
     """Jackknives over angles and over seeds, fits on some angles, each over the whole cycle, past the jump and with
     every stress component: each its own folder, so that one does not replace another's files."""
@@ -128,47 +89,6 @@ def test_each_fit_beside_the_main_one_writes_its_own_folder():
     assert folder_name(None, "", 0.005, "all") == "fit"  # make fit's own: its options are in fit/options.txt
     assert folder_name(None, "seeds", 0.0, "shear", "angles") == "fit-jackknife-seeds-per-angle"
     assert folder_name([180.0, 90.0], "", 0.0, "all", "runs") == "fit-angles-180-90-all"
-
-
-def test_make_fit_angles_and_jackknife_pass_their_options_and_refuse_no_angles():
-    """``make fit-angles ANGLES=...`` and ``make fit-jackknife OVER=...`` give the stage their angles or OVER and the
-    fit's options, which name the folder (``make -n``: nothing runs); without ANGLES, one line on stderr and
-    nothing runs."""
-    line = next(x for x in dry_run("fit-angles", "PRESET=reduced", "ANGLES=180 90", "FIT_FROM=0.005").splitlines()
-                if "--angles" in x)
-    assert line.split("pipeline.calibration", 1)[1].split()[-5:] == ["--fit-from", "0.005", "--angles", "180", "90"]
-    line = next(x for x in dry_run("fit-jackknife", "PRESET=reduced", "OVER=seeds", "STRESS=all").splitlines()
-                if "--jackknife" in x)
-    assert line.split("pipeline.calibration", 1)[1].split()[-4:] == ["--stress", "all", "--jackknife", "seeds"]
-    proc = subprocess.run(["make", "-n", "fit-angles", "PRESET=reduced"], cwd=ROOT, capture_output=True, text=True)
-    assert proc.returncode != 0 and "ANGLES is empty" in proc.stderr and "pipeline.calibration" not in proc.stdout
-
-
-def test_make_compare_seed_compares_and_draws_one_seed_and_refuses_no_seed():
-    """``make compare-seed SEED=N`` compares that seed's runs and draws them into their own folder (``make -n``:
-    nothing runs); without SEED, or with one that is no whole number, one line on stderr and nothing runs."""
-    commands = dry_run("compare-seed", "PRESET=paper", "SEED=2").splitlines()
-    compare = next(x for x in commands if "-m pipeline.comparison" in x)
-    draw = next(x for x in commands if "-m pipeline.figures" in x)
-    assert compare.split()[-2:] == ["--seed", "2"]
-    folder = run_spec.run_folder("paper", "lammps", {"inertial_number": 0.001})
-    assert draw.split()[-2:] == ["--compare", f"results/{folder}/compare-seed2"]
-    for bad, message in ((), "SEED is empty"), (("SEED=two",), "SEED='two' is not a whole number"):
-        proc = subprocess.run(["make", "-n", "compare-seed", "PRESET=paper", *bad], cwd=ROOT, capture_output=True,
-                              text=True)
-        assert proc.returncode != 0 and message in proc.stderr and "pipeline." not in proc.stdout
-
-
-def test_the_fits_beside_make_fit_take_its_weighting():
-    """``make fit-definitions``, ``fit-from`` and ``fit-profile`` with ``WEIGHT=angles`` give their stage
-    ``--weight angles`` (``make -n``: nothing runs), and nothing without it."""
-    for target, stage in (("fit-definitions", "pipeline.calibration.definitions"),
-                          ("fit-from", "pipeline.calibration.restart"),
-                          ("fit-profile", "pipeline.calibration.profile")):
-        line = next(x for x in dry_run(target, "PRESET=reduced", "WEIGHT=angles").splitlines() if stage in x)
-        assert line.split()[-2:] == ["--weight", "angles"], line
-        line = next(x for x in dry_run(target, "PRESET=reduced").splitlines() if stage in x)
-        assert "--weight" not in line, line
 
 
 def test_a_data_set_given_its_presets_own_value_is_the_presets_own():

@@ -168,18 +168,17 @@ def test_a_local_sweep_whose_runs_another_process_finished_reports_them_done(tmp
 
 
 def test_sweep_collect_reads_the_data_set_of_the_sweeps_runs(tmp_path):
-    from pipeline.runs.sweep.__main__ import data_set_words
-
     sweep = plan("paper", "90 180", seeds="1 2", overrides=["inertial_number=0.001"], results=tmp_path,
                  engine="lammps")
-    assert data_set_words(sweep) == "paper lammps inertial_number=0.001"
-    assert data_set_words(plan("reduced", "180", seeds="2 3", results=tmp_path)) == "reduced yade"
+    assert sweep.data_set_settings() == ["PRESET=paper", "ENGINE=lammps", "SET=inertial_number=0.001"]
+    assert plan("reduced", "180", seeds="2 3", results=tmp_path).data_set_settings() == [
+        "PRESET=reduced", "ENGINE=yade", "SET="]
     write_plan(sweep)
     plan_json = json.loads((sweep.folder / "plan.json").read_text())
     plan_json["tasks"][0]["overrides"] = ["$(touch INJECTED)=1"]
     (sweep.folder / "plan.json").write_text(json.dumps(plan_json))
     with pytest.raises(SpecError, match="unknown override key"):
-        data_set_words(read_plan(tmp_path))
+        read_plan(tmp_path).data_set_settings()
 
 
 def test_a_local_lammps_sweep_runs_each_run_on_its_ranks_and_refuses_ranks_it_cannot_use(tmp_path, capsys):

@@ -2,26 +2,17 @@
 
 from __future__ import annotations
 
+import subprocess
 import sys
 from pathlib import Path
 
 from ...cli import Parser, one_line_errors
 from ...errors import SpecError
-from ...paths import RESULTS_DIR
+from ...paths import RESULTS_DIR, ROOT
 from .local import run_local
 from .plan import MAX_TASKS, plan, read_plan, write_plan
 from .slurm import apply_overrides, check_slurm, load_cluster_config, submit
 from .status import format_status, status
-
-
-def data_set_words(sweep) -> str:
-    """``PRESET ENGINE [key=value ...]``: the data set of the sweep's runs (their engine and the overrides they
-    share but the seed), for ``make sweep-collect``; checked as ``make dem`` checks them (known keys, numbers)."""
-    task = sweep.tasks[0]
-    task.spec()
-    shared = [o for o in task.overrides if o.partition("=")[0] != "seed"
-              and all(o in t.overrides for t in sweep.tasks)]
-    return " ".join([sweep.preset, task.engine, *shared])
 
 
 @one_line_errors
@@ -46,8 +37,8 @@ def main(argv=None) -> int:
     st = sub.add_parser("status", help="the state of every run of a sweep (default: the latest)")
     st.add_argument("--sweep", help="the sweep's id (results/sweeps/<id>)")
     st.add_argument("--results", type=Path, default=RESULTS_DIR)
-    pr = sub.add_parser("preset", help="print the data set of a sweep (default: the latest): its preset, engine "
-                        "and the overrides its runs share but the seed")
+    pr = sub.add_parser("collect", help="make figures on the data set of a sweep (default: the latest): its preset, "
+                        "engine and the overrides its runs share but the seed")
     pr.add_argument("--sweep")
     pr.add_argument("--results", type=Path, default=RESULTS_DIR)
     args = parser.parse_args(argv)
@@ -55,9 +46,10 @@ def main(argv=None) -> int:
         sweep = read_plan(args.results, args.sweep)
         print(format_status(sweep, status(sweep)))
         return 0
-    if args.command == "preset":
-        print(data_set_words(read_plan(args.results, args.sweep)))
-        return 0
+    if args.command == "collect":
+        settings = read_plan(args.results, args.sweep).data_set_settings()
+        print("make figures " + " ".join(settings), flush=True)
+        return subprocess.call(["make", "--no-print-directory", "-C", str(ROOT), "figures", *settings])
     config = load_cluster_config()
     slurm = apply_overrides(config["slurm"], args.slurm, "slurm")
     ranks = slurm["ranks_per_run"] if args.ranks is None else args.ranks

@@ -65,6 +65,15 @@ class Sweep:
     def job_name(self) -> str:
         return f"gb-{self.ident}"
 
+    def data_set_settings(self) -> list[str]:
+        """``PRESET=… ENGINE=… SET=…``: the make variables of the data set of the sweep's runs (their engine and the
+        overrides they all share but the seed), for ``make sweep-collect``; checked as ``make dem`` checks them."""
+        task = self.tasks[0]
+        task.spec()
+        shared = [o for o in task.overrides if o.partition("=")[0] != "seed"
+                  and all(o in t.overrides for t in self.tasks)]
+        return [f"PRESET={self.preset}", f"ENGINE={task.engine}", f"SET={' '.join(shared)}"]
+
 
 def make_sweep(prefix: str, preset: str, tasks: list[Task], results: Path) -> Sweep:
     """A sweep of ``tasks``, its id ``<prefix>-<hash of the tasks>``."""

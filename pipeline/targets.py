@@ -1,0 +1,410 @@
+"""The user's make targets: Make hands their variables over as text, this module checks them, then calls the stages.
+
+The Makefile turns every variable a user may set (``USER_VARIABLES`` there) into plain text that is never expanded
+again, exports it, and never writes it into a recipe. ``python -m pipeline.targets TARGET`` reads those variables
+from the environment, checks each one a target uses (one line naming the value, before any work) and runs the
+target's stages in this process with argument lists, as ``python -m <stage> <arguments>`` would: no shell ever sees
+a user's value. ``--plan`` prints the stages' command lines and runs nothing. ``makefile FILE GOAL...`` writes the
+Makefile's include file of the goals asked for (``goals_makefile``); Debian's ``python3`` runs it before anything is
+installed, so this module imports the standard library only (the stages are imported when they run).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import re
+import runpy
+import shlex
+import sys
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+from .errors import PipelineError
+from .paths import ROOT
+
+#: what a flag variable (FRESH=1) may say
+YES, NO = ("1", "yes", "true"), ("", "0", "no", "false")
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+_WHOLE = re.compile(r"\d{1,9}")
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+_SETTING = re.compile(r"[A-Za-z_][A-Za-z0-9_]*=[A-Za-z0-9_.:+-]+")
+_DATA_SET = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*(/[A-Za-z0-9_.=+-]+)*")
+_PATH = re.compile(r"[A-Za-z0-9_./-]+")
+_LAMMPS_WORD = re.compile(r"[A-Za-z0-9_.+-]+")
+#: the LAMMPS commands a settings benchmark may change: how LAMMPS sorts, communicates and builds neighbour lists
+LAMMPS_SETTINGS = ("atom_modify", "comm_modify", "neighbor", "neigh_modify", "balance", "newton")
+
+
+@dataclasses.dataclass(frozen=True)
+class Call:
+    """One stage: ``python -m <module> <argv...>``."""
+
+    module: str
+    argv: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        return shlex.join(["python", "-m", self.module, *self.argv])
+
+
+class Variables:
+    """The user's make variables (an environment), each read with the check of its kind; an empty one is not given."""
+
+    def __init__(self, environ: Mapping[str, str]):
+        self._environ = environ
+
+    def text(self, name: str) -> str | None:
+        value = self._environ.get(name, "")
+        return value if value.strip() else None
+
+    def _one(self, name: str, pattern: re.Pattern, what: str, default: str | None) -> str | None:
+        value = self.text(name)
+        if value is None:
+            return default
+        if not pattern.fullmatch(value.strip()):
+            raise PipelineError(f"{name}={value!r} is not {what}")
+        return value.strip()
+
+    def _many(self, name: str, pattern: re.Pattern, what: str, sep: str | None = None) -> list[str]:
+        value = self.text(name)
+        if value is None:
+            return []
+        words = [w.strip() for w in value.split(sep)] if sep else value.split()
+        if not all(pattern.fullmatch(w) for w in words):
+            raise PipelineError(f"{name}={value!r} is not {what}")
+        return words
+
+    def number(self, name: str, default: str | None = None) -> str | None:
+        return self._one(name, _NUMBER, "a number", default)
+
+    def whole(self, name: str, default: str | None = None) -> str | None:
+        return self._one(name, _WHOLE, "a whole number", default)
+
+    def name(self, name: str, default: str | None = None) -> str | None:
+        return self._one(name, _NAME, "a name (letters, digits, _ . -)", default)
+
+    def choice(self, name: str, choices: tuple[str, ...], default: str | None = None) -> str | None:
+        value = self.text(name)
+        if value is None:
+            return default
+        if value.strip() not in choices:
+            raise PipelineError(f"{name}={value!r} is not {' or '.join(choices)}")
+        return value.strip()
+
+    def flag(self, name: str) -> bool:
+        value = (self.text(name) or "").strip().lower()
+        if value not in YES + NO:
+            raise PipelineError(f"{name}={self.text(name)!r} is not 1 or empty")
+        return value in YES
+
+    def numbers(self, name: str) -> list[str]:
+        return self._many(name, _NUMBER, "a list of numbers")
+
+    def wholes(self, name: str) -> list[str]:
+        return self._many(name, _WHOLE, "a list of whole numbers")
+
+    def settings(self, name: str) -> list[str]:
+        return self._many(name, _SETTING, "a list of key=value")
+
+    def names(self, name: str, choices: tuple[str, ...] | None = None) -> list[str]:
+        words = self._many(name, _NAME, "a comma-separated list of names", sep=",")
+        if choices and not set(words) <= set(choices):
+            raise PipelineError(f"{name}={self.text(name)!r} is not a comma-separated list of {', '.join(choices)}")
+        return words
+
+    def data_set(self, name: str) -> str | None:
+        return self._one(name, _DATA_SET, "a data set (preset[/engine][/key=value...])", None)
+
+    def path(self, name: str) -> str | None:
+        return self._one(name, _PATH, "a run folder (letters, digits, _ . - /)", None)
+
+    def lammps_settings(self, name: str, default: str) -> str:
+        """LAMMPS commands separated by ``;``, each one that sets how LAMMPS runs (``LAMMPS_SETTINGS``), never one
+        that runs a program or reads a file."""
+        value = self.text(name)
+        if value is None:
+            return default
+        lammps_settings(value, name)
+        return value
+
+
+ENGINES = ("yade", "lammps")
+
+
+def lammps_settings(text: str, name: str) -> list[str]:
+    """The LAMMPS commands of a setting (``;``-separated), each one of ``LAMMPS_SETTINGS``; else a one-line error."""
+    commands = [c.strip() for c in text.split(";") if c.strip()]
+    if not commands or not all(c.split()[0] in LAMMPS_SETTINGS and all(_LAMMPS_WORD.fullmatch(w) for w in c.split())
+                               for c in commands):
+        raise PipelineError(f"{name}={text!r} is not LAMMPS settings (commands separated by ';', each one of "
+                            f"{', '.join(LAMMPS_SETTINGS)})")
+    return commands
+
+
+def data_args(v: Variables) -> list[str]:
+    """The data set of a stage: ``--preset``, ``--engine``, ``--set`` as given (the stage picks the default)."""
+    preset, engine = v.name("PRESET"), v.choice("ENGINE", ENGINES)
+    return ([*(["--preset", preset] if preset else []), *(["--engine", engine] if engine else [])]
+            + [a for s in v.settings("SET") for a in ("--set", s)])
+
+
+def fit_options(v: Variables) -> list[str]:
+    """``make fit``'s options: FIT_FROM, STRESS, WEIGHT (the stage checks their values against its choices)."""
+    fit_from, stress = v.number("FIT_FROM"), v.choice("STRESS", ("shear", "all"))
+    weight = v.choice("WEIGHT", ("runs", "angles"))
+    return ([*(["--fit-from", fit_from] if fit_from else []), *(["--stress", stress] if stress else []),
+             *(["--weight", weight] if weight else [])])
+
+
+def weight_option(v: Variables) -> list[str]:
+    weight = v.choice("WEIGHT", ("runs", "angles"))
+    return ["--weight", weight] if weight else []
+
+
+def dem(v: Variables) -> list[Call]:
+    argv = ["run", "--theta", v.number("THETA", "180"), "--preset", v.name("PRESET", "quick"),
+            "--engine", v.choice("ENGINE", ENGINES, "yade"), "--threads", v.whole("THREADS", "1")]
+    rotate_at, ranks = v.number("ROTATE_AT"), v.whole("RANKS", "1")
+    argv += ["--rotate-at", rotate_at] if rotate_at else []
+    argv += [a for s in v.settings("SET") for a in ("--set", s)]
+    argv += ["--fresh"] if v.flag("FRESH") else []
+    argv += ["--allow-inertial"] if v.flag("ALLOW_INERTIAL") else []
+    argv += ["--ranks", ranks] if ranks != "1" else []
+    from .runs import spec as run_spec
+
+    run_spec.resolve(argv[2], argv[4], rotate_at, run_spec.parse_overrides(v.settings("SET")),
+                     allow_inertial=v.flag("ALLOW_INERTIAL"), engine=argv[6])
+    return [Call("pipeline.runs", tuple(argv))]
+
+
+def sweep(v: Variables) -> list[Call]:
+    thetas = v.numbers("THETAS")
+    if not thetas:
+        raise PipelineError('THETAS is empty: give the angles of the sweep, e.g. THETAS="30 60 90"')
+    argv = ["run", "--preset", v.name("PRESET", "quick"), "--thetas", " ".join(thetas)]
+    rotate_ats, seeds = v.numbers("ROTATE_ATS"), v.wholes("SEEDS")
+    argv += ["--rotate-ats", " ".join(rotate_ats)] if rotate_ats else []
+    argv += ["--seeds", " ".join(seeds)] if seeds else []
+    argv += [a for s in v.settings("SET") for a in ("--set", s)]
+    argv += ["--launch", v.choice("LAUNCH", ("local", "slurm"), "local")]
+    argv += [a for s in v.settings("SLURM") for a in ("--slurm", s)]
+    jobs, ranks = v.whole("JOBS"), v.whole("RANKS", "1")
+    argv += ["--jobs", jobs] if jobs else []
+    argv += ["--ranks", ranks] if ranks != "1" else []
+    argv += ["--allow-many"] if v.flag("MANY") else []
+    argv += ["--engine", v.choice("ENGINE", ENGINES, "yade")]
+    from .runs.sweep.plan import plan
+
+    plan(argv[2], argv[4], " ".join(rotate_ats), " ".join(seeds), v.settings("SET"), allow_many=v.flag("MANY"),
+         engine=argv[-1])
+    return [Call("pipeline.runs.sweep", tuple(argv))]
+
+
+def sweep_id(v: Variables) -> list[str]:
+    ident = v.name("SWEEP")
+    return ["--sweep", ident] if ident else []
+
+
+def needs(v: Variables, name: str, example: str, check: Callable[[str], str | None]) -> str:
+    """A variable the target cannot do without: checked, or a one-line error that shows an example."""
+    value = check(name)
+    if value is None:
+        raise PipelineError(f"{name} is empty: give it, e.g. {example}")
+    return value
+
+
+def bench_dem(v: Variables) -> list[Call]:
+    presets = v.names("PRESETS") or ["quick", "reduced", "paper"]
+    engines = v.names("ENGINES", ENGINES) or ["yade"]
+    return [Call("pipeline.studies.bench_dem", ("--presets", ",".join(presets), "--engines", ",".join(engines),
+                                                "--out", "results/bench"))]
+
+
+def bench_lammps_settings(v: Variables) -> list[Call]:
+    a = v.lammps_settings("A", "atom_modify sort 0 0.0")
+    b = v.lammps_settings("B", "atom_modify sort 1000 0.0")
+    run_dir = needs(v, "RUN_DIR", "RUN_DIR=results/<data set>/dem/<run>.run (a LAMMPS run with a checkpoint)", v.path)
+    return [Call("pipeline.studies.bench_lammps_settings", ("--run-dir", run_dir, "--a", a, "--b", b,
+                                                            "--out", "results/bench"))]
+
+
+def fidelity(v: Variables, run: bool) -> list[Call]:
+    engine = v.choice("ENGINE", ENGINES, "yade")
+    table = "results/fidelity" + ("" if engine == "yade" else f"-{engine}") + "/table.json"
+    study = ("--run", "--jobs", v.whole("JOBS", "2")) if run else ()
+    return [Call("pipeline.studies.fidelity", (*study, "--engine", engine)),
+            Call("pipeline.figures.fidelity", ("--table", table))]
+
+
+def versus(v: Variables) -> list[Call]:
+    example = "A=paper/yade/inertial_number=0.001/n_cycles=2 B=paper/lammps/inertial_number=0.001"
+    a, b = (needs(v, name, example, v.data_set) for name in ("A", "B"))
+    return [Call("pipeline.studies.versus", ("--a", a, "--b", b, "--out", "results/versus"))]
+
+
+def compare_seed(v: Variables) -> list[Call]:
+    seed = needs(v, "SEED", "SEED=2 (the seed whose runs to compare)", v.whole)
+    chosen = data_set_of(v)
+    return [Call("pipeline.comparison", (*data_args(v), "--seed", seed)),
+            Call("pipeline.figures", (*data_args(v), "--compare", f"results/{chosen.folder}/compare-seed{seed}"))]
+
+
+def fit_angles(v: Variables) -> list[Call]:
+    angles = v.numbers("ANGLES")
+    if not angles:
+        raise PipelineError('ANGLES is empty: give the angles to fit, e.g. ANGLES="180 90 60 30"')
+    return [Call("pipeline.calibration", (*data_args(v), *fit_options(v), "--angles", *angles))]
+
+
+def sweep_collect(v: Variables) -> list[Call]:
+    """make figures on the latest sweep's data set: a sub-make with the sweep's own (checked) values."""
+    return [Call("pipeline.runs.sweep", ("collect", *sweep_id(v)))]
+
+
+#: target -> the stages it runs, from the user's variables
+TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
+    "dem": dem,
+    "sweep": sweep,
+    "sweep-status": lambda v: [Call("pipeline.runs.sweep", ("status", *sweep_id(v)))],
+    "sweep-collect": sweep_collect,
+    "runs": lambda v: [Call("pipeline.runs.listing")],
+    "fit": lambda v: [Call("pipeline.calibration", (*data_args(v), *fit_options(v)))],
+    "fit-bootstrap": lambda v: [Call("pipeline.calibration", (
+        *data_args(v), "--bootstrap", v.whole("BOOT", "100"), "--out", f"results/{data_set_of(v).folder}/fit-bootstrap"
+    ))],
+    "fit-jackknife": lambda v: [Call("pipeline.calibration", (
+        *data_args(v), *fit_options(v), "--jackknife", v.choice("OVER", ("seeds", "angles"), "seeds")))],
+    "fit-angles": fit_angles,
+    "fit-definitions": lambda v: [Call("pipeline.calibration.definitions", (*data_args(v), *weight_option(v)))],
+    "fit-from": lambda v: [Call("pipeline.calibration.restart", (*data_args(v), *weight_option(v)))],
+    "fit-profile": lambda v: [Call("pipeline.calibration.profile", (
+        *data_args(v), "--strain", v.choice("STRAIN", ("nominal", "bulk"), "nominal"),
+        "--phi", v.choice("PHI", ("gap", "central"), "gap"), *weight_option(v)))],
+    "compare": lambda v: [Call("pipeline.comparison", tuple(data_args(v)))],
+    "compare-seed": compare_seed,
+    "figures": lambda v: [Call("pipeline.figures", tuple(data_args(v)))],
+    "fidelity": lambda v: fidelity(v, run=True),
+    "fidelity-table": lambda v: fidelity(v, run=False),
+    "profile-dem": lambda v: [Call("pipeline.studies.profile_dem", (
+        "--presets", ",".join(v.names("PRESETS") or ["reduced", "paper"]), "--threads", v.whole("THREADS", "1")))],
+    "bench-dem": bench_dem,
+    "bench-lammps-settings": bench_lammps_settings,
+    "engines": lambda v: [Call("pipeline.studies.versus", (
+        "--a", f"{v.name('PRESET', 'reduced')}/yade", "--b", f"{v.name('PRESET', 'reduced')}/lammps",
+        "--out", "results/engines"))],
+    "versus": versus,
+    "cells": lambda v: [Call("pipeline.studies.versus", ("--a", "reduced", "--b", "paper", "--out", "results/cells"))],
+    "data-card": lambda v: [Call("pipeline.dataset.card")],
+    "jump": lambda v: [Call("pipeline.studies.jump")],
+    "stability": lambda v: [Call("pipeline.studies.stability")],
+}
+
+
+def data_set_of(v: Variables):
+    """The data set that PRESET, ENGINE and SET name (``pipeline.dataset.selection``), checked."""
+    from .dataset import selection
+    from .runs import spec as run_spec
+
+    preset = v.name("PRESET")
+    return selection.data_set(preset or selection.most_faithful_preset(), v.choice("ENGINE", ENGINES),
+                              run_spec.parse_overrides(v.settings("SET")))
+
+
+DATA_GOALS = ("fit", "compare", "compare-seed", "figures")
+
+
+def goals_makefile(v: Variables, goals: list[str]) -> str:
+    """``results/.make/goals.mk``: CHECK_ERROR, the first bad value among the goals' variables (the Makefile's
+    ``check`` stops on it, in one line, before anything runs); else, for fit, compare and figures, the data set's
+    folder (DATA_SET) and every run file that may belong to it (DATA_RUNS), which their file rules need."""
+    from .paths import preset_files
+
+    lines = [f"# the goals {' '.join(goals)}, their variables checked (python -m pipeline.targets makefile)"]
+    try:
+        for goal in goals:
+            if goal not in DATA_GOALS:
+                TARGETS[goal](v)
+        if set(goals) & set(DATA_GOALS):
+            fit_options(v)
+            if "compare-seed" in goals:
+                compare_seed(v)
+            chosen = data_set_of(v)
+            runs = [str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(p) for p in preset_files(chosen.preset)]
+            lines += [f"DATA_SET := {chosen.folder}", f"DATA_RUNS := {' '.join(runs)}"]
+    except PipelineError as exc:
+        text = " ".join(str(exc).split()).replace("$", "$$").replace("#", "\\#").rstrip("\\")
+        lines.append(f"CHECK_ERROR := {text}")
+    return "\n".join(lines) + "\n"
+
+
+def fit_options_text(v: Variables) -> str:
+    """The options of ``make fit`` as one line (``results/<data set>/fit/options.txt``): a fit with other options
+    is a new fit."""
+    return " ".join(fit_options(v)) + "\n"
+
+
+def write_if_changed(path: Path, text: str) -> None:
+    """Rewrite ``path`` (atomically) only when its text changes, so that Make sees it changed only then."""
+    if path.is_file() and path.read_text() == text:
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def say_data_set(v: Variables) -> None:
+    chosen = data_set_of(v)
+    how = "" if v.name("PRESET") else ", the most faithful one with a reversal run; PRESET=... to choose"
+    print(f"data set {chosen.folder} (preset {chosen.preset}{how})", flush=True)
+
+
+#: the targets that name the data set they read before they start
+SAYS_DATA_SET = {"fit", "fit-bootstrap", "fit-jackknife", "fit-angles", "fit-definitions", "fit-from", "fit-profile"}
+
+
+def run(calls: list[Call]) -> int:
+    """Each stage as ``python -m <module> <argv>`` would run it, in this process; the first failure stops."""
+    for call in calls:
+        sys.argv = [call.module, *call.argv]
+        try:
+            runpy.run_module(call.module, run_name="__main__", alter_sys=True)
+        except SystemExit as stop:
+            code = stop.code if isinstance(stop.code, int) or stop.code is None else 1
+            if stop.code not in (None, 0):
+                if not isinstance(stop.code, int):
+                    print(stop.code, file=sys.stderr)
+                return code
+    return 0
+
+
+def main(argv: list[str] | None = None, environ: Mapping[str, str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    v = Variables(os.environ if environ is None else environ)
+    if argv[:1] == ["makefile"] and len(argv) >= 2 and all(g in TARGETS or g in DATA_GOALS for g in argv[2:]):
+        write_if_changed(Path(argv[1]), goals_makefile(v, argv[2:]))
+        return 0
+    plan = argv[:1] == ["--plan"]
+    rest = argv[1:] if plan else argv
+    if rest[:1] == ["fit-options"] and len(rest) == 2:
+        write_if_changed(Path(rest[1]), fit_options_text(v))
+        return 0
+    if len(rest) != 1 or rest[0] not in TARGETS:
+        print(f"usage: python -m pipeline.targets [--plan] TARGET (one of {', '.join(TARGETS)}), or makefile FILE "
+              "[GOAL ...]", file=sys.stderr)
+        return 2
+    try:
+        calls = TARGETS[rest[0]](v)
+        if plan:
+            print("\n".join(map(str, calls)))
+            return 0
+        if rest[0] in SAYS_DATA_SET:
+            say_data_set(v)
+    except PipelineError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    return run(calls)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

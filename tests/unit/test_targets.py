@@ -1,0 +1,110 @@
+"""The user's make targets (``pipeline.targets``): which stages each runs with which arguments, the include file the
+Makefile reads, and the one-line refusal of a bad value. Nothing here runs a stage."""
+
+import subprocess
+import sys
+
+import pytest
+
+from pipeline import targets
+from pipeline.paths import ROOT
+from pipeline.runs import spec as run_spec
+
+
+def plan(target: str, **variables: str) -> list[str]:
+    """The command lines ``make <target> <variables>`` runs (``python -m pipeline.targets --plan``)."""
+    return [str(c) for c in targets.TARGETS[target](targets.Variables(variables))]
+
+
+def refusal(target: str, **variables: str) -> str:
+    with pytest.raises(targets.PipelineError) as err:
+        targets.TARGETS[target](targets.Variables(variables))
+    assert "\n" not in str(err.value)
+    return str(err.value)
+
+
+@pytest.mark.parametrize("variables, words", [
+    ({"PRESET": "paper", "ENGINE": "lammps", "SET": "inertial_number=1e-3 seed=2"},
+     "--preset paper --engine lammps --set inertial_number=1e-3 --set seed=2"),
+    ({"PRESET": "paper", "ENGINE": "yade"}, "--preset paper --engine yade"),
+    ({"PRESET": "reduced", "FIT_FROM": "0.005", "WEIGHT": "angles"},
+     "--preset reduced --fit-from 0.005 --weight angles"),
+])
+def test_make_fit_hands_the_stage_the_data_set_and_the_fits_options(variables, words):
+    assert plan("fit", **variables) == [f"python -m pipeline.calibration {words}"]
+
+
+def test_the_include_file_names_the_data_sets_folder_and_its_runs(tmp_path):
+    text = targets.goals_makefile(targets.Variables({"PRESET": "paper", "ENGINE": "lammps",
+                                                     "SET": "inertial_number=0.001 seed=3"}), ["fit", "figures"])
+    folder = run_spec.run_folder("paper", "lammps", {"inertial_number": 0.001})
+    assert f"DATA_SET := {folder}\n" in text and "CHECK_ERROR" not in text
+    runs = next(line for line in text.splitlines() if line.startswith("DATA_RUNS := ")).split()[2:]
+    assert f"data/reference/{folder}/dem/theta180.h5" in runs and all((ROOT / r).is_file() for r in runs)
+    path = tmp_path / "goals.mk"
+    targets.write_if_changed(path, text)
+    before = path.stat().st_mtime_ns
+    targets.write_if_changed(path, text)
+    assert path.stat().st_mtime_ns == before  # unchanged: Make does not read it again
+
+
+@pytest.mark.parametrize("goals, variables, message", [
+    (["dem"], {"THETA": "$(shell touch x) # y"}, "THETA='$$(shell touch x) \\# y' is not a number"),
+    (["fit"], {"WEIGHT": "angles;touch x"}, "WEIGHT='angles;touch x' is not runs or angles"),
+    (["dem"], {"RANKS": "1\n2"}, "RANKS='1\\n2' is not a whole number"),
+    (["dem"], {"PRESET": "giant"}, "unknown preset 'giant'"),
+    (["compare-seed"], {"PRESET": "paper"}, "SEED is empty"),
+    (["runs", "versus"], {"A": "reduced yade", "B": "paper"}, "A='reduced yade' is not a data set"),
+])
+def test_a_bad_value_becomes_one_make_line_that_expands_to_the_text_given(goals, variables, message):
+    """CHECK_ERROR holds the message with ``$`` and ``#`` escaped, so that Make prints the value as given."""
+    text = targets.goals_makefile(targets.Variables(variables), goals)
+    error = next(line for line in text.splitlines() if line.startswith("CHECK_ERROR := "))
+    assert message in error and "DATA_SET" not in text
+
+
+@pytest.mark.parametrize("target, variables, fragment", [
+    ("dem", {"THETA": "180; touch x"}, "THETA='180; touch x' is not a number"),
+    ("dem", {"ENGINE": "lammps;touch x"}, "ENGINE='lammps;touch x' is not yade or lammps"),
+    ("dem", {"SET": "seed=2 $(touch x)"}, "SET='seed=2 $(touch x)' is not a list of key=value"),
+    ("dem", {"FRESH": "maybe"}, "FRESH='maybe' is not 1 or empty"),
+    ("dem", {"SET": "colour=3"}, "unknown override key(s) colour"),
+    ("sweep", {}, "THETAS is empty"),
+    ("sweep", {"THETAS": "30 60", "SEEDS": "1 two"}, "SEEDS='1 two' is not a list of whole numbers"),
+    ("fit-angles", {"PRESET": "reduced"}, "ANGLES is empty"),
+    ("fit-jackknife", {"OVER": "runs"}, "OVER='runs' is not seeds or angles"),
+    ("compare-seed", {"PRESET": "paper", "SEED": "two"}, "SEED='two' is not a whole number"),
+    ("bench-dem", {"ENGINES": "yade,gromacs"}, "ENGINES='yade,gromacs' is not a comma-separated list of yade"),
+    ("bench-lammps-settings", {"RUN_DIR": "r.run", "A": "shell touch x"}, "A='shell touch x' is not LAMMPS settings"),
+    ("bench-lammps-settings", {"RUN_DIR": "r.run&&x"}, "RUN_DIR='r.run&&x' is not a run folder"),
+    ("versus", {"A": "reduced"}, "B is empty"),
+])
+def test_a_target_refuses_a_bad_value_in_one_line_naming_it(target, variables, fragment):
+    assert fragment in refusal(target, **variables)
+
+
+def test_the_targets_pass_their_options_and_folders():
+    folder = run_spec.run_folder("paper", "lammps", {"inertial_number": 0.001})
+    assert plan("compare-seed", PRESET="paper", SEED="2") == [
+        "python -m pipeline.comparison --preset paper --seed 2",
+        f"python -m pipeline.figures --preset paper --compare results/{folder}/compare-seed2"]
+    assert plan("fit-angles", PRESET="reduced", ANGLES="180 90", FIT_FROM="0.005")[0].endswith(
+        "--preset reduced --fit-from 0.005 --angles 180 90")
+    assert plan("fit-jackknife", PRESET="reduced", STRESS="all")[0].endswith("--stress all --jackknife seeds")
+    for target in ("fit-definitions", "fit-from", "fit-profile"):
+        assert "--weight angles" in plan(target, PRESET="reduced", WEIGHT="angles")[0]
+        assert "--weight" not in plan(target, PRESET="reduced")[0]
+    assert plan("dem", THETA="90", ENGINE="lammps", RANKS="2", FRESH="1") == [
+        "python -m pipeline.runs run --theta 90 --preset quick --engine lammps --threads 1 --fresh --ranks 2"]
+    assert plan("bench-lammps-settings", RUN_DIR="r.run", B="atom_modify sort 0 0.0; neigh_modify every 5")[0] \
+        .endswith("--a 'atom_modify sort 0 0.0' --b 'atom_modify sort 0 0.0; neigh_modify every 5' --out results/bench")
+    assert plan("fidelity-table", ENGINE="lammps")[1].endswith("--table results/fidelity-lammps/table.json")
+
+
+def test_the_include_file_is_written_by_the_standard_library_alone(tmp_path):
+    """Debian's python3 writes it before anything is installed (``-S``: no site packages)."""
+    path = tmp_path / "goals.mk"
+    proc = subprocess.run([sys.executable, "-S", "-m", "pipeline.targets", "makefile", str(path), "dem", "fit"],
+                          cwd=ROOT, capture_output=True, text=True, env={"PRESET": "reduced", "THETA": "90"})
+    assert proc.returncode == 0, proc.stderr
+    assert "DATA_SET := reduced\n" in path.read_text() and "CHECK_ERROR" not in path.read_text()
