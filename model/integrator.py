@@ -177,16 +177,21 @@ def _shrunk(h, err):
 
 
 @jit
+def _stage(tableau, s, y, h, Dh, Wn, rate, p, lam_ref, K, ytmp):
+    """Stage s >= 1 of an explicit Runge-Kutta step of size h from y: K[s] = f(y + h sum_j a_sj K[j])."""
+    for i in range(y.shape[0]):
+        acc = 0.0
+        for j in range(s):
+            acc += tableau[s, j] * K[j, i]
+        ytmp[i] = y[i] + h * acc
+    _rhs_s(ytmp, Dh, Wn, rate, p, lam_ref, K[s])
+
+
+@jit
 def _stages(y, h, first, last, Dh, Wn, rate, p, lam_ref, K, ytmp):
-    """Runge-Kutta stages first..last-1: K[s] = f(y + h sum_j A[s, j] K[j])."""
-    n = y.shape[0]
+    """DOP853 stages first..last-1 (``RK_A``)."""
     for s in range(first, last):
-        for i in range(n):
-            acc = 0.0
-            for j in range(s):
-                acc += RK_A[s, j] * K[j, i]
-            ytmp[i] = y[i] + h * acc
-        _rhs_s(ytmp, Dh, Wn, rate, p, lam_ref, K[s])
+        _stage(RK_A, s, y, h, Dh, Wn, rate, p, lam_ref, K, ytmp)
 
 
 @jit
@@ -270,6 +275,15 @@ def _initial_step(y, f0, Dh, Wn, rate, p, lam_ref, rtol, atol, span, ytmp, ftmp)
 
 
 @jit
+def _begin(y0, t_out):
+    """An integrator's start: the state (a copy of y0), the outputs (NaN until reached) with those at y0's time
+    filled, and the index of the next output."""
+    y = y0.copy()
+    y_out = np.full((t_out.shape[0], y0.shape[0]), np.nan)
+    return y, y_out, _emit_state(y, t_out, 0, y_out)
+
+
+@jit
 def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref, max_steps):
     """Integrate the packed state through consecutive constant-L segments.
 
@@ -280,8 +294,7 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
     Returns (y_out (len(t_out), 8), y_end (8,), stats (nfev, accepted, rejected, status)).
     """
     n = y0.shape[0]
-    n_out = t_out.shape[0]
-    y = y0.copy()
+    y, y_out, iout = _begin(y0, t_out)
     y_new = np.empty(n)
     ytmp = np.empty(n)
     ftmp = np.empty(n)
@@ -289,17 +302,12 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
     f0 = np.empty(n)
     K = np.empty((RK_A.shape[0], n))
     F = np.empty((7, n))
-    y_out = np.full((n_out, n), np.nan)
     nfev = 0
     accepted = 0
     rejected = 0
     status = SUCCESS
-    iout = _emit_state(y, t_out, 0, y_out)
     for iseg in range(seg_end.shape[0]):
-        Dh = seg_Dh[iseg]
-        Wn = seg_Wn[iseg]
-        rate = seg_rate[iseg]
-        t_end = seg_end[iseg]
+        Dh, Wn, rate, t_end = seg_Dh[iseg], seg_Wn[iseg], seg_rate[iseg], seg_end[iseg]
         if y[T_INDEX] >= t_end:
             continue
         _rhs_s(y, Dh, Wn, rate, p, lam_ref, f0)
@@ -353,7 +361,7 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
             # outputs inside the step come from DOP853's 7th-order dense output; an output at the
             # step's end takes the step's own state
             limit = y_new[T_INDEX] - ROUNDOFF * max(1.0, abs(y_new[T_INDEX]))
-            if iout < n_out and t_out[iout] < limit:
+            if iout < t_out.shape[0] and t_out[iout] < limit:
                 if not dense_ready:
                     _dense_coefficients(y, y_new, h, Dh, Wn, rate, p, lam_ref, K, F, ytmp)
                     nfev += 3
@@ -386,16 +394,12 @@ def dop853(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, rtol, atol, lam_ref,
 def explicit_euler(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, strain_step, shear_rate):
     """The paper's explicit Euler (Sec. 4) with a fixed strain step; outputs interpolated linearly."""
     n = y0.shape[0]
-    y = y0.copy()
+    y, y_out, iout = _begin(y0, t_out)
     y_prev = y0.copy()
-    y_out = np.full((t_out.shape[0], n), np.nan)
     nfev = 0
     status = SUCCESS
-    iout = _emit_state(y, t_out, 0, y_out)
     for iseg in range(seg_end.shape[0]):
-        Dh = seg_Dh[iseg]
-        Wn = seg_Wn[iseg]
-        rate = seg_rate[iseg]
+        Dh, Wn, rate = seg_Dh[iseg], seg_Wn[iseg], seg_rate[iseg]
         t_start = y[T_INDEX]
         duration = seg_end[iseg] - t_start
         if duration <= 0.0:

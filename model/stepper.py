@@ -25,7 +25,7 @@ import numpy as np
 from scipy.integrate._ivp.rk import RK45
 
 from .equations import hardening_variable, jit, persistence
-from .integrator import N_STATE, NOT_FINITE, STEP_UNDERFLOW, SUCCESS, T_INDEX, TOO_MANY_STEPS, _rhs_s
+from .integrator import N_STATE, NOT_FINITE, STEP_UNDERFLOW, SUCCESS, T_INDEX, TOO_MANY_STEPS, _rhs_s, _stage
 
 OVERSHOOT = 1.02  # a step aims this far past the end in t; most updates then take one step
 NEAR_END = 0.9  # an end this close to the step's end is taken from the interpolant without a defect check
@@ -50,17 +50,6 @@ CK_A = np.array([
 CK_B = np.array([37 / 378, 0, 250 / 621, 125 / 594, 0, 512 / 1771])
 CK_E = CK_B - np.array([2825 / 27648, 0, 18575 / 48384, 13525 / 55296, 277 / 14336, 1 / 4])
 ERROR_EXPONENT = -1.0 / 5.0
-
-
-@jit
-def _stage(tableau, s, y, h, Dh, Wn, rate, p, lam_ref, K, ytmp):
-    """Stage s >= 1 of an explicit Runge-Kutta step of size h from y: K[s] = f(y + h sum_j a_sj K[j])."""
-    for i in range(N_STATE):
-        acc = 0.0
-        for j in range(s):
-            acc += tableau[s, j] * K[j, i]
-        ytmp[i] = y[i] + h * acc
-    _rhs_s(ytmp, Dh, Wn, rate, p, lam_ref, K[s])
 
 
 @jit

@@ -16,12 +16,12 @@ from pathlib import Path
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.dem_file import load
-from ..dataset.lookup import every_seed, other_angles, reversals_of
 from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
 from . import global_fit
 from .calibrate import JACKKNIFE_OVER, Settings, fit, parse_hold
+from .inputs import folder_name, runs_of
 from .options import add_weight_argument
 from .text import print_report
 
@@ -67,51 +67,13 @@ def main(argv=None) -> int:
     else:
         chosen = selection.from_arguments(args)
         print(f"runs: {chosen.label}")
-        every = every_seed(chosen)
-        reversals, cross = reversals_of(every), tuple(other_angles(every))
-        if args.angles:
-            cross = only_angles(args.angles, reversals, cross)
+        reversals, cross, left_out = runs_of(chosen, args.angles)
         out = args.out or preset_output(chosen.folder, folder_name(args.angles, args.jackknife, args.fit_from,
                                                                    args.stress, args.weight))
-        if not reversals:
-            given = f' SET="{" ".join(chosen.settings)}"' if chosen.settings else ""
-            raise CalibrationError(f"no reversal run of {chosen.label}: run `make dem THETA=180 "
-                                   f"PRESET={chosen.preset} ENGINE={chosen.engine}{given}` first")
-        left_out = tuple(r for r in every if not r.default_rotation)
     print(f"definitions: {settings.definitions.label()}")
     report = fit(reversals, out, cross, left_out, **vars(settings))
     print_report(report, out)
     return 0
-
-
-def folder_name(angles: list[float] | None, jackknife: str, fit_from: float, stress: str,
-                weight: str = global_fit.WEIGHT_DEFAULT) -> str:
-    """The fit's folder in the data set's results: ``fit`` (``make fit`` keeps its options in ``fit/options.txt``),
-    or beside it ``fit-angles-<thetas>`` or ``fit-jackknife-<over>``, with ``-from<FIT_FROM>``, ``-<STRESS>`` and
-    ``-per-angle`` (``WEIGHT=angles``) when not the defaults, so that no fit replaces another's files."""
-    if angles:
-        name = "fit-angles-" + "-".join(f"{theta:g}" for theta in angles)
-    elif jackknife:
-        name = f"fit-jackknife-{jackknife}"
-    else:
-        return "fit"
-    return name + (f"-from{fit_from:g}" if fit_from else "") + (
-        f"-{stress}" if stress != global_fit.STRESS_DEFAULT else "") + (
-        f"-per-{weight.removesuffix('s')}" if weight != global_fit.WEIGHT_DEFAULT else "")
-
-
-def only_angles(angles: list[float], reversals: list, cross: tuple) -> tuple:
-    """The runs of ``cross`` at ``angles`` (degrees), after checking that each angle has a run and that the
-    reversal (180) is among them: the global fit needs it."""
-    present = {180.0} if reversals else set()
-    present |= {r.theta_deg for r in cross}
-    for theta in angles:
-        if theta not in present:
-            raise CalibrationError(f"angles: no run at theta = {theta:g} (the data set has "
-                                   f"{', '.join(f'{t:g}' for t in sorted(present))})")
-    if 180.0 not in angles:
-        raise CalibrationError(f"angles={' '.join(f'{t:g}' for t in angles)}: the fit needs the reversal, 180")
-    return tuple(r for r in cross if r.theta_deg in angles)
 
 
 if __name__ == "__main__":

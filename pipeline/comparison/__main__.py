@@ -12,155 +12,18 @@ strains after the reversal). The figures and the report read these files; they c
 
 from __future__ import annotations
 
-import dataclasses
-import json
 import sys
 from pathlib import Path
-
-import h5py
-import numpy as np
 
 import model
 
 from .. import io
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
-from ..dataset.derived import PAPER_DEFINITIONS, Definitions
-from ..dataset.lookup import other_seeds_of, preset_runs, protocol_and_seed, runs_at_seed
-from ..errors import DemFileError, PipelineError
+from ..dataset.lookup import other_seeds_of, preset_runs, runs_at_seed
+from ..errors import DemFileError
 from ..paths import preset_output
-from . import metrics
-
-SCHEMA = "granular-backstress/compare"
-
-
-def write_dem_cycle(g: h5py.Group, run, ratio: float, keys: tuple[str, ...]) -> None:
-    """A run's cycle mean (``keys`` of it) into ``g``, against strain in the fit's measure (``ratio`` times the
-    nominal strain)."""
-    g.create_dataset("strain_bulk", data=run.cycle["strain"] * ratio)
-    for key in keys:
-        g.create_dataset(key, data=run.cycle[key])
-
-
-def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, preset: str,
-                     reversal_parts: list, memory_curves: list, other_seeds: tuple = (), others: list = ()) -> None:
-    """compare.h5: per run, the DEM cycle and every parameter set's model cycle, against strain in the fit's
-    measure (``strain_measure``: the datasets keep the name ``strain_bulk``), and the DEM cycle of each of
-    ``other_seeds`` of its protocol (``others``: their predictions, for their strain measure); per reversal run of
-    the fit, the smoothed tau12/p split into backstress C A12 and isotropic part; per change of direction with a
-    memory (``metrics.memory_curves``, the compared runs' first, then other seeds'), the memory of the old direction
-    against the strain after the change (the DEM's mean over cycles and its standard error, each parameter set's)."""
-    with h5py.File(path, "w") as f:
-        f.attrs.update(schema=SCHEMA, schema_version=1, preset=preset, strain_measure=runs[0].definitions.strain,
-                       param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
-        for k, run in enumerate(runs):
-            g = f.create_group(f"runs/{k:02d}")
-            g.attrs.update(path=str(run.path), name=Path(run.path).stem, theta_deg=run.spec["theta_deg"],
-                           rotate_at_strain=run.spec["rotate_at_strain"], is_reversal=run.is_reversal,
-                           default_rotation=run.default_rotation)
-            c = run.cycle
-            ratio = metrics.bulk_over_nominal(predictions[k])
-            g.attrs["bulk_over_nominal"] = ratio
-            dem = g.create_group("dem")
-            write_dem_cycle(dem, run, ratio, ("A", "A_sem", "tau_over_p", "tau_over_p_sem", "packing_fraction"))
-            for key in ("w_shear", "w_vol"):  # per unit strain of the fit's measure
-                dem.create_dataset(key, data=c[key] / ratio)
-            for other, preds in zip(other_seeds, others, strict=True):
-                if protocol_and_seed(other)[:2] == protocol_and_seed(run)[:2]:
-                    write_dem_cycle(g.create_group(f"other_seeds/{other.spec['seed']}"), other,
-                                    metrics.bulk_over_nominal(preds), ("A", "tau_over_p"))
-            for label, (data, pred) in predictions[k].items():
-                m = g.create_group(f"model/{label}")
-                for key, value in (("strain_bulk", data.strain * ratio), ("A", pred.A), ("tau_over_p", pred.tau),
-                                   ("packing_fraction", pred.packing_fraction)):
-                    m.create_dataset(key, data=value)
-        for k, part in enumerate(reversal_parts):
-            g = f.create_group(f"reversal/{k:02d}")
-            for key, value in part.items():
-                g.create_dataset(key, data=value)
-        for k, c in enumerate(memory_curves):
-            g = f.create_group(f"memory/{k:02d}")
-            g.attrs.update(run=c["run"], seed=c["seed"], segment=c["segment"], from_deg=c["from_deg"],
-                           direction_deg=c["direction_deg"], cycles=len(c["dem"]))
-            mean, se = metrics.cycle_mean_and_error(c["dem"])
-            g.create_dataset("strain_after", data=c["strain_after"])
-            g.create_dataset("dem", data=mean)
-            g.create_dataset("dem_sem", data=np.full(mean.shape, np.nan) if se is None else se)
-            for label, (strain, fraction) in c["model"].items():
-                g.create_dataset(f"model/{label}/strain_after", data=strain)
-                g.create_dataset(f"model/{label}/fraction", data=fraction)
-
-
-def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str, label: str = "",
-            other_seeds: tuple = ()) -> dict:
-    """Predict, measure and write ``compare.h5`` and ``metrics.json`` into ``out_dir``; ``other_seeds`` (the same
-    protocols at other seeds) enter the errors' spread over seeds, the overshoot and memory tables (a row per
-    seed) and, as DEM cycles, the figures."""
-    io.check_writable_dir(out_dir)
-    predictions = [metrics.model_for(run, sets) for run in runs]
-    ours = sets["our fit"]
-    others = [metrics.model_for(run, sets) for run in other_seeds]
-    rows = metrics.error_rows(runs, predictions)
-    result = {"preset": preset, "data_set": label or preset, "definitions": dataclasses.asdict(runs[0].definitions),
-              "param_sets": {label: p.to_dict() for label, p in sets.items()},
-              "components": list(metrics.COMPONENTS), "errors": rows,
-              "seed_spread": metrics.seed_spread(rows + metrics.error_rows(other_seeds, others))}
-    per_run = metrics.per_run
-    result["overshoot"] = metrics.beside_first(per_run(metrics.overshoots, runs, predictions),
-                                               per_run(metrics.overshoots, other_seeds, others))
-    curves = per_run(metrics.memory_curves, runs, predictions)
-    more = [c for c in per_run(metrics.memory_curves, other_seeds, others)
-            if any((c["run"], c["segment"]) == (d["run"], d["segment"]) for d in curves)]
-    result["memory"] = metrics.beside_first(metrics.memories(curves), metrics.memories(more))
-    reversals = [r for r in runs if r.is_reversal]
-    if reversals:
-        paper_phi = model.predict(180, params=model.Params()).packing_fraction
-        result["reversal"] = {
-            "backstress_share": float(np.mean([metrics.backstress_share(r, ours.C) for r in reversals])),
-            "mean_packing_fraction": float(np.mean([r.cycle["packing_fraction"].mean() for r in reversals])),
-            "table2_packing_fraction_range": [float(paper_phi.min()), float(paper_phi.max())],
-        }
-        result["second_law"] = metrics.second_law(runs, ours)
-    parts = []
-    if fit_h5 is not None:
-        with h5py.File(fit_h5, "r") as f:
-            groups = [f["reversal"][k] for k in f["reversal"]]
-            rotate_at = reversals[0].spec["rotate_at_strain"] if reversals else model.ROTATE_AT_STRAIN
-            parts = [metrics.reversal_parts(g["strain"][()], g["tau12"][()], g["A12"][()], ours.C, rotate_at)
-                     for g in groups]
-        iso, back = metrics.relaxation_strains(parts)
-        result["relaxation"] = {
-            "reversal_runs": len(parts), "dem": {"isotropic": iso, "backstress": back},
-            "model": {label: dict(zip(("isotropic", "backstress"), metrics.model_relaxation(p, rotate_at),
-                                      strict=True)) for label, p in sets.items()}}
-    with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
-        write_compare_h5(h5, runs, predictions, sets, preset, parts, curves + more, other_seeds, others)
-        js.write_text(io.json_text(result))
-    return result
-
-
-def fitted_in(params_file: Path) -> Definitions:
-    """The definitions of strain, Phi and p that the parameters in ``params_file`` were fitted in: its metadata's
-    (``make fit`` and ``make fit-from`` write them), else the paper's (Table 2's; a file of one's own)."""
-    metadata = json.loads(params_file.read_text()).get("metadata")
-    given = metadata.get("definitions") if isinstance(metadata, dict) else None
-    if given is None:
-        return PAPER_DEFINITIONS
-    try:
-        return Definitions(**given)
-    except (TypeError, ValueError) as exc:  # not a mapping, an unknown name, an unknown choice
-        raise PipelineError(f"{params_file}: metadata.definitions {given} are not definitions ({exc})") from None
-
-
-def smoothed_reversals(params_file: Path, folder: str, definitions: Definitions) -> Path | None:
-    """The ``fit.h5`` holding the DEM's smoothed reversals read in ``definitions`` (the relaxation strains' data):
-    the one beside the parameters, else the data set's own fit's (for a row of ``make fit-from``); none if
-    neither was fitted in those definitions."""
-    for fit_h5 in dict.fromkeys((params_file.with_name("fit.h5"), preset_output(folder, "fit", "fit.h5"))):
-        its_params = fit_h5.with_name("params.json")
-        if fit_h5.exists() and its_params.exists() and fitted_in(its_params) == definitions:
-            return fit_h5
-    return None
+from .compare import compare, fitted_in, smoothed_reversals
 
 
 @one_line_errors

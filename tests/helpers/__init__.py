@@ -3,7 +3,9 @@ in-process as if from a shell, and a fabric law whose own reversal runs away."""
 
 import contextlib
 import io
+import runpy
 import subprocess
+import sys
 
 import model
 from dem.rawfile import write_raw
@@ -41,6 +43,25 @@ def run_main(main, argv) -> subprocess.CompletedProcess:
                 err.write(exc.code + "\n")
             code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     return subprocess.CompletedProcess(list(argv), code, out.getvalue(), err.getvalue())
+
+
+def module_main(module: str):
+    """The command line ``python -m <module>`` as a function of its arguments, run in this process (a fresh run of
+    the module's ``__main__`` each time): its exit status."""
+    def main(argv) -> int:
+        saved = sys.argv
+        sys.argv = [module, *argv]
+        try:
+            runpy.run_module(module, run_name="__main__", alter_sys=True)
+        except SystemExit as exc:
+            if isinstance(exc.code, str):
+                raise SystemExit(exc.code) from None
+            return exc.code or 0
+        finally:
+            sys.argv = saved
+        return 0
+
+    return main
 
 
 def assert_contact_law(out: dict, spec: dict) -> None:

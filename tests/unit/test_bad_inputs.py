@@ -15,12 +15,11 @@ import pytest
 import model
 from model.cli import main as model_main
 from model.cli import save_params
-from pipeline.calibration.__main__ import main as fit_main
-from pipeline.comparison.__main__ import main as compare_main
-from pipeline.figures.__main__ import main as figures_main
 from pipeline.paths import ROOT
 from pipeline.runs.launch import main as launch_main
-from tests.helpers import run_main, synthetic_file
+from tests.helpers import module_main, run_main, synthetic_file
+
+fit_main, compare_main, figures_main = (module_main(f"pipeline.{m}") for m in ("calibration", "comparison", "figures"))
 
 
 def run(args, cwd=ROOT):

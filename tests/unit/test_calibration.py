@@ -8,7 +8,6 @@ import pytest
 
 import model
 from pipeline.calibration import global_fit
-from pipeline.calibration.__main__ import main as fit_main
 from pipeline.calibration.calibrate import fit
 from pipeline.calibration.stepwise import dilatancy_estimate
 from pipeline.dataset import lookup
@@ -17,7 +16,9 @@ from pipeline.dataset.derived import Definitions, cycle_D_dev
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import CalibrationError, PipelineError
 from pipeline.io import read_params
-from tests.helpers import RUNS_AWAY, synthetic_file, synthetic_run
+from tests.helpers import RUNS_AWAY, module_main, synthetic_file, synthetic_run
+
+fit_main = module_main("pipeline.calibration")
 
 TRUE = model.Params()
 
@@ -143,7 +144,7 @@ def test_own_reversal_runs_table_2_and_names_why_a_law_that_runs_away_fails():
 
 @pytest.mark.slow  # reads the committed reduced data set's every run
 def test_the_angles_option_keeps_every_run_at_those_angles_and_no_other():
-    from pipeline.calibration.__main__ import only_angles
+    from pipeline.calibration.inputs import only_angles
 
     chosen = DataSet("reduced")
     reversals, cross = lookup.reversal_seeds(chosen), tuple(lookup.other_angles(lookup.preset_runs(chosen)))

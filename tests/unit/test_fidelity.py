@@ -223,7 +223,7 @@ def test_the_combinations_a_reversal_fixes_are_found_and_compared_with_table_2()
 def test_an_older_summary_is_redone_where_its_run_is_at_hand_and_kept_where_it_is_not(tmp_path):
     import shutil
 
-    from pipeline.studies.fidelity.__main__ import summaries
+    from pipeline.studies.fidelity.gather import summaries
     from pipeline.studies.fidelity.summary import VERSION
     from tests.helpers import synthetic_file
 

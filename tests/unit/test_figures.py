@@ -10,14 +10,16 @@ import pytest
 
 import model
 from pipeline.calibration.calibrate import fit
-from pipeline.comparison.__main__ import compare, fitted_in
+from pipeline.comparison.compare import compare, fitted_in
 from pipeline.comparison.metrics import along as metrics_along
 from pipeline.comparison.metrics import memory_curves
 from pipeline.dataset.derived import PAPER_DEFINITIONS, Definitions
 from pipeline.dataset.smoothing import relaxation_strain
-from pipeline.figures.__main__ import draw, main
+from pipeline.figures.draw import draw
 from pipeline.io import read_params, write_params
-from tests.helpers import synthetic_run
+from tests.helpers import module_main, synthetic_run
+
+main = module_main("pipeline.figures")
 
 
 @pytest.fixture(scope="module")
@@ -219,7 +221,7 @@ def test_parameters_are_compared_in_the_definitions_they_were_fitted_in(compared
 
 def test_a_row_alone_takes_the_smoothed_reversals_of_its_data_sets_fit_in_the_same_definitions(compared, tmp_path,
                                                                                                  monkeypatch):
-    from pipeline.comparison import __main__ as comparison
+    from pipeline.comparison import compare as comparison
 
     tmp, _ = compared
     monkeypatch.setattr(comparison, "preset_output", lambda folder, *parts: tmp.joinpath(*parts))

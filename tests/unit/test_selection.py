@@ -2,7 +2,7 @@
 
 import pytest
 
-from pipeline.calibration.__main__ import folder_name
+from pipeline.calibration.inputs import folder_name
 from pipeline.dataset import lookup, selection
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import PipelineError

@@ -9,6 +9,7 @@ from pipeline.runs.spec import output_path
 from pipeline.runs.sweep import local, slurm
 from pipeline.runs.sweep.plan import plan, read_plan, write_plan
 from pipeline.runs.sweep.status import status
+from tests.helpers import module_main
 
 
 def test_a_plan_is_every_combination_once_and_reads_back_as_written(tmp_path):
@@ -101,7 +102,7 @@ def test_a_plan_with_runs_outside_results_or_too_many_runs_is_refused(tmp_path):
 
 
 def test_jobs_zero_is_refused_not_taken_as_the_default(tmp_path):
-    from pipeline.runs.sweep.__main__ import main
+    main = module_main("pipeline.runs.sweep")
     from tests.helpers import run_main
 
     proc = run_main(main, ["run", "--preset", "tiny", "--thetas", "90", "--jobs", "0", "--results", str(tmp_path)])
@@ -185,7 +186,7 @@ def test_a_local_lammps_sweep_runs_each_run_on_its_ranks_and_refuses_ranks_it_ca
     """``make sweep ENGINE=lammps RANKS=2``: every rule of the sweep's makefile launches its run on two MPI ranks
     (one run at a time on two cores by default); ranks for Yade, ranks that contradict SLURM=ranks_per_run, and
     no ranks are one-line errors before anything runs."""
-    from pipeline.runs.sweep.__main__ import main
+    main = module_main("pipeline.runs.sweep")
 
     sweep = plan("tiny", "90 180", results=tmp_path, engine="lammps")
     for task in sweep.tasks:  # as if done: Make has nothing to run
