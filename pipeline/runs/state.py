@@ -8,7 +8,7 @@ import json
 from pathlib import Path
 
 FAILED = "failed.json"  # in the run folder: why the last attempt stopped for good (exit 2 or 3)
-STATUS = "status.json"  # in the run folder: the scene's progress (dem/couette.py)
+STATUS = "status.json"  # in the run folder: the scene's progress (dem/yade/scene.py)
 CHECKPOINTS = ("checkpoint.yade.gz", "checkpoint.json")  # Yade's scene, LAMMPS's
 
 

@@ -2,7 +2,7 @@
 of our control and measurement.
 
 ``python -m pipeline.studies.bench_dem [--presets quick,reduced,paper] [--repeats 3] [--out results/bench]`` runs
-``dem/bench.py`` under Yade's python, one thread, for each preset from a compacted, briefly sheared state
+``dem/tools/yade_bench.py`` under Yade's python, one thread, for each preset from a compacted, briefly sheared state
 cached in ``<out>/cache/<preset>.yade.gz`` (made on first use: the paper cell's compaction takes the better
 part of an hour once). The timings interleave bare and full runs of the same steps from the same
 state, best of the repeats. Writes ``dem_throughput.json`` (one record per preset: grains, wall spheres,
@@ -10,7 +10,7 @@ steps/s and particle-steps/s of the bare and the full loop, Yade's engine timers
 Python in the production loop) and ``dem_throughput.md``.
 
 With ``--engines yade,lammps`` (``make bench-dem ENGINES=yade,lammps``) each preset is also run by LAMMPS's scene
-(``dem/lammps_bench.py``: the same spec, the same driver, from its own compaction) right after Yade's, and
+(``dem/tools/lammps_bench.py``: the same spec, the same driver, from its own compaction) right after Yade's, and
 ``dem_engines.md`` and ``dem_engines.json`` give both engines' steps/s and their ratio, measured in this one
 invocation.
 """
@@ -25,8 +25,8 @@ from ..cli import Parser, one_line_errors
 from ..config import check_presets
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
+from ..runs import scripts
 from ..runs import spec as run_spec
-from ..runs import yade
 
 #: steps per timed run: a few seconds of each preset here, several sampling intervals of the small ones
 STEPS = {"tiny": 3000, "quick": 31000, "reduced": 45000, "paper": 1500}
@@ -37,13 +37,13 @@ def bench(preset: str, repeats: int, cache: Path) -> dict:
     spec = run_spec.resolve(180, preset)
     cache = cache.resolve()  # the scene runs in a scratch folder
     cache.parent.mkdir(parents=True, exist_ok=True)
-    return yade.run_script("bench", spec, (STEPS.get(preset, 30000), repeats, yade.OUT, cache),
+    return scripts.run_script("dem.tools.yade_bench", spec, (STEPS.get(preset, 30000), repeats, scripts.OUT, cache),
                            what=f"benchmark of preset {preset}")
 
 
 def bench_lammps(preset: str, repeats: int) -> dict:
     spec = run_spec.resolve(180, preset, engine="lammps")
-    return yade.run_script("lammps_bench", spec, (STEPS.get(preset, 30000), repeats, yade.OUT),
+    return scripts.run_script("dem.tools.lammps_bench", spec, (STEPS.get(preset, 30000), repeats, scripts.OUT),
                            what=f"LAMMPS benchmark of preset {preset}")
 
 
@@ -126,10 +126,9 @@ def main(argv=None) -> int:
     if engines not in (["yade"], ["yade", "lammps"]):
         raise PipelineError(f"--engines {args.engines!r}: yade, or yade,lammps")
     try:
-        yade.yade_python()  # a one-line error now if Yade (or LAMMPS, when asked for) is missing
-        if "lammps" in engines:
-            yade.require_lammps()
-    except yade.YadeMissing as exc:
+        for engine in engines:  # a one-line error now if an engine asked for is missing
+            scripts.require(engine)
+    except scripts.EngineMissing as exc:
         raise PipelineError(str(exc)) from None
     out = io.check_writable_dir(args.out)
     rows, pairs = [], []

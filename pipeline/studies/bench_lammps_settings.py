@@ -3,11 +3,10 @@ checkpoint under two sets of engine commands, one process per setting and round,
 
 ``python -m pipeline.studies.bench_lammps_settings --run-dir results/<folder>/dem/<run>.run --a "atom_modify sort 0
 0.0" --b "atom_modify sort 1000 0.0" [--steps 3000] [--rounds 4] [--out results/bench]`` (several commands in one
-setting: separated by ``;``). Each process resumes a copy of the checkpoint, issues its setting's commands, shears
-200 steps, then times ``--steps`` (``dem/lammps_settings_bench.py``). A and B swap places every round, so a drift of
+setting: separated by ``;``). Each process resumes a copy of the checkpoint, issues its setting's commands, shears 200
+steps, then times ``--steps`` (``dem/tools/lammps_settings_bench.py``). A and B swap places every round, so a drift of
 the machine's load falls on both; the ratio B / A is taken within each round. Writes ``lammps_settings.json`` and
-``lammps_settings.md``.
-"""
+``lammps_settings.md``. """
 
 from __future__ import annotations
 
@@ -20,7 +19,7 @@ from .. import io
 from ..cli import Parser, one_line_errors
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
-from ..runs import yade
+from ..runs import scripts
 from ..runs.state import read_json
 from ..targets import lammps_settings
 
@@ -38,8 +37,8 @@ def checked_run_dir(run_dir: Path) -> Path:
 
 def timed(run_dir: Path, steps: int, setting: list[str]) -> float:
     """Steps/s of ``steps`` production steps from ``run_dir``'s checkpoint under ``setting``."""
-    result = yade.run_script("lammps_settings_bench", None, (steps, yade.OUT, *setting), run_dir=run_dir,
-                             what=f"LAMMPS from {run_dir} with {'; '.join(setting)}")
+    result = scripts.run_script("dem.tools.lammps_settings_bench", None, (steps, scripts.OUT, *setting),
+                                run_dir=run_dir, what=f"LAMMPS from {run_dir} with {'; '.join(setting)}")
     return result["steps_per_second"]
 
 
@@ -72,8 +71,8 @@ def main(argv=None) -> int:
     settings = {"a": lammps_settings(args.a, "--a"), "b": lammps_settings(args.b, "--b")}
     run_dir = checked_run_dir(args.run_dir)
     try:
-        yade.require_lammps()
-    except yade.YadeMissing as exc:
+        scripts.require("lammps")
+    except scripts.EngineMissing as exc:
         raise PipelineError(str(exc)) from None
     out = io.check_writable_dir(args.out)
     rates = {"a": [], "b": []}

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 import model
-from dem.protocol import direction_changes
+from dem.core.protocol import direction_changes
 
 from .. import io
 from ..cli import Parser, one_line_errors

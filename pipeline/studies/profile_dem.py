@@ -1,7 +1,7 @@
 """Profile of the DEM scene by engine (``make profile-dem``): where Yade's time goes, per preset and threads.
 
 ``python -m pipeline.studies.profile_dem [--presets reduced,paper] [--threads 1,2] [--steps N]`` runs
-``dem/profile.py`` under Yade's python for each preset and thread count, from a compacted state cached
+``dem/tools/yade_profile.py`` under Yade's python for each preset and thread count, from a compacted state cached
 in ``results/bench/cache/<preset>.yade.gz`` (made on first use), and writes ``results/bench/dem_profile.json``
 and ``dem_profile.md``: steps/s and particle-steps/s, each engine's share, collider sorts, potential and
 real interactions per grain, and the cost of a checkpoint save and reload.
@@ -17,8 +17,8 @@ from ..cli import Parser, one_line_errors
 from ..config import check_presets
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
+from ..runs import scripts
 from ..runs import spec as run_spec
-from ..runs import yade
 
 OUT_DIR = RESULTS_DIR / "bench"
 STEPS = {"tiny": 2000, "quick": 20000, "reduced": 20000, "paper": 3000}
@@ -28,17 +28,19 @@ def profile(preset: str, threads: int, steps: int, cache: Path) -> dict:
     spec = run_spec.resolve(180, preset)
     cache = cache.resolve()  # the scene runs in a scratch folder
     cache.parent.mkdir(parents=True, exist_ok=True)
-    return yade.run_script("profile", spec, (steps, yade.OUT, cache), threads, what=f"profile of {preset}")
+    return scripts.run_script("dem.tools.yade_profile", spec, (steps, scripts.OUT, cache), threads,
+                              what=f"profile of {preset}")
 
 
 def order_experiment(preset: str, steps: int, repeats: int, cache: Path) -> dict:
-    """Steps/s with the grains in creation order against sorted along a Z-order curve (``dem/order.py``),
+    """Steps/s with the grains in creation order against sorted along a Z-order curve (``dem/tools/yade_order.py``),
     from the cached compaction (made by ``profile`` first)."""
     cache = cache.resolve()  # the scene runs in a scratch folder
     if not cache.exists():
         raise PipelineError(f"no cached compaction {cache}: profile {preset} first")
     spec = run_spec.resolve(180, preset)
-    return yade.run_script("order", spec, (steps, repeats, yade.OUT, cache), what=f"order experiment on {preset}")
+    return scripts.run_script("dem.tools.yade_order", spec, (steps, repeats, scripts.OUT, cache),
+                              what=f"order experiment on {preset}")
 
 
 def markdown(rows: list[dict], orders: list[dict] = ()) -> str:

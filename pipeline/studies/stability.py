@@ -8,11 +8,11 @@ the scene's diagnostic and a non-zero exit; none may give NaN or silent nonsense
 the scene then stops cleanly; the spec itself refuses them. Checks on a finished run: every sample
 finite; the wall stress held (the largest error of a sample's mean, after the first 0.05 strain); the
 steady tau12/p along the shear; at theta = 0 the fabric at its steady value throughout (A12 drift); and
-an energy balance over 0.1 strain of the same scene (``dem/energy.py``: the walls' work against the
+an energy balance over 0.1 strain of the same scene (``dem/tools/yade_energy.py``: the walls' work against the
 contacts' dissipation plus the change of kinetic and elastic energy) closing within ``ENERGY_TOLERANCE``
 of the energy passing through.
 The scene itself stops a run whose measurements or grains are not finite, a grain that escapes the
-walls, a gap that runs away and a wall stress off target (``dem/checks.py``), with exit status 3.
+walls, a gap that runs away and a wall stress off target (``dem/core/checks.py``), with exit status 3.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import load
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
-from ..runs import launch, yade
+from ..runs import launch, scripts
 from ..runs import spec as run_spec
 from ..runs.state import FAILED
 
@@ -95,9 +95,10 @@ def checks(path: Path) -> dict:
 
 
 def energy_balance(spec: run_spec.DemSpec, strain: float = ENERGY_STRAIN) -> dict:
-    """``dem/energy.py`` on ``spec`` in a scratch folder: every term of the balance, or the scene's diagnostic."""
+    """``dem/tools/yade_energy.py`` on ``spec`` in a scratch folder: every term of the balance, or the scene's
+    diagnostic."""
     try:
-        return yade.run_script("energy", spec, (strain, yade.OUT))
+        return scripts.run_script("dem.tools.yade_energy", spec, (strain, scripts.OUT))
     except PipelineError as exc:
         return {"error": str(exc)}
 

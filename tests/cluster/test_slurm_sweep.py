@@ -170,7 +170,7 @@ def progressed(plan, task, percent):
 
 
 def scene_pids(run_dir: Path) -> list[int]:
-    out = subprocess.run(["pgrep", "-f", f"dem.couette {run_dir}"], capture_output=True, text=True).stdout
+    out = subprocess.run(["pgrep", "-f", f"dem.yade.scene {run_dir}"], capture_output=True, text=True).stdout
     return [int(p) for p in out.split()]
 
 

@@ -8,7 +8,7 @@ import subprocess
 import sys
 
 import model
-from dem.rawfile import write_raw
+from dem.core.rawfile import write_raw
 from pipeline.dataset.dem_file import load, write_h5
 
 from .synthetic import synthetic_raw
@@ -65,13 +65,13 @@ def module_main(module: str):
 
 
 def assert_contact_law(out: dict, spec: dict) -> None:
-    """The collision checks (``dem.collision``, ``dem.lammps_collision``) against the contact law of
-    ``dem/contact.py``: restitution of each pair from its reduced mass (0.5 for the mean pair), k_t/k_n,
+    """The collision checks (``dem.tools.yade_collision``, ``dem.tools.lammps_collision``) against the contact law of
+    ``dem/core/contact.py``: restitution of each pair from its reduced mass (0.5 for the mean pair), k_t/k_n,
     k_n as designed, sliding at tan of the friction angle."""
     import numpy as np
     import pytest
 
-    from dem.contact import contact_constants, pair_reduced_mass, restitution
+    from dem.core.contact import contact_constants, pair_reduced_mass, restitution
 
     kn, _, cn, _ = contact_constants(spec)
     assert out["mean"]["restitution"] == pytest.approx(spec["restitution"], abs=0.02)

@@ -1,7 +1,7 @@
 """Synthetic DEM runs made by the model: raw samples in the scene's format, with a known truth.
 
 ``synthetic_raw(theta_deg, params, n_cycles, noise, seed)`` returns ``(raw, meta)`` as
-``dem/couette.py`` would write them to ``raw.npz``, for the Fig. 1 protocol (the preceding half
+``dem/yade/scene.py`` would write them to ``raw.npz``, for the Fig. 1 protocol (the preceding half
 period at theta, then ``n_cycles`` periods), sampled every 0.005 strain, in DEM units (p = 1).
 The fabric, stress and packing fraction are the model's converged periodic cycle plus Gaussian
 noise of standard deviation ``noise`` (fabric and tau/p) and ``noise / 10`` (packing fraction); with
@@ -19,7 +19,7 @@ from types import SimpleNamespace
 import numpy as np
 
 import model
-from dem.schema import check_row
+from dem.core.schema import check_row
 from pipeline.config import protocol_defaults
 
 PERIOD, PRE, STEP = (protocol_defaults()[k] for k in ("period_strain", "pre_strain", "sample_strain"))

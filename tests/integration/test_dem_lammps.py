@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dem import driver
+from dem.core import driver
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
+from pipeline.runs import scripts
 from pipeline.runs import spec as run_spec
-from pipeline.runs import yade as yade_command
 from tests.helpers import assert_contact_law
 
 pytestmark = pytest.mark.lammps
@@ -29,9 +29,9 @@ def test_lammps_collisions_match_the_contact_law_as_yade_does(tmp_path):
     restitution of the smallest, mean and largest pairs, k_t/k_n, k_n, and sliding at tan 24 degrees."""
     spec = run_spec.resolve(90, "paper").to_dict()
     (tmp_path / "spec.json").write_text(json.dumps(spec))
-    proc = subprocess.run(["/usr/bin/python3", "-m", "dem.lammps_collision", tmp_path / "spec.json",
+    proc = subprocess.run(["/usr/bin/python3", "-m", "dem.tools.lammps_collision", tmp_path / "spec.json",
                            tmp_path / "out.json"], capture_output=True, text=True, cwd=tmp_path,
-                          env=yade_command.environment())
+                          env=scripts.environment())
     assert proc.returncode == 0, "LAMMPS is missing? `make system-lammps` installs it\n" + proc.stderr
     assert_contact_law(json.loads((tmp_path / "out.json").read_text()), spec)
 
@@ -113,6 +113,25 @@ def test_both_engines_run_one_spec_into_files_the_pipeline_reads_alike(both_engi
         # the Love-Weber pressure of the central region against the wall's p = 1 (a 4d cell: loose agreement)
         p = -np.trace(run.raw["stress_contact"], axis1=1, axis2=2) / 3
         assert 0.5 < np.median(p) < 1.5
+
+
+def test_a_lammps_run_needs_no_yade(both_engines, tmp_path):
+    """With Yade's Python modules hidden (a ``yade`` package that fails to import, first on the path) and no
+    ``yade`` launcher on PATH, the tiny LAMMPS run builds the same grains (the numpy cloud) and gives the same file
+    as with Yade present, bit for bit."""
+    _, runs = both_engines
+    hidden = tmp_path / "hidden"
+    (hidden / "yade").mkdir(parents=True)
+    (hidden / "yade" / "__init__.py").write_text("raise ImportError('Yade is hidden')\n")
+    path = ":".join(p for p in os.environ["PATH"].split(":") if not (Path(p) / "yade").exists())
+    env = {**os.environ, "PYTHONPATH": str(hidden), "PATH": path}
+    proc = subprocess.run(launcher(*TINY, "--engine", "lammps", results=tmp_path / "results"), cwd=ROOT, env=env,
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    alone = load(run_spec.output_path(tiny_spec("lammps"), tmp_path / "results"))
+    np.testing.assert_array_equal(alone.grain_diameter, runs["lammps"].grain_diameter)
+    for key, value in runs["lammps"].raw_all.items():
+        np.testing.assert_array_equal(alone.raw_all[key], value, err_msg=key)
 
 
 def test_an_interrupted_lammps_run_resumes_bit_identical_to_an_uninterrupted_one(both_engines, tmp_path):
@@ -229,7 +248,8 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
 #: controller at the first sample (an exception the other rank does not share)
 RANK_0_ALONE = """
 import errno, os, signal, sys
-from dem import driver, lammps_scene
+from dem.core import driver
+from dem.lammps import scene as lammps_scene
 
 mark = os.path.join(sys.argv[1], "faulted")
 save, save_npz = lammps_scene.Scene.save, driver.save_npz
@@ -273,9 +293,9 @@ lammps_scene.main(sys.argv[1])
 
 def two_ranks(run_dir, *args):
     """The tiny run's scene in ``run_dir`` on two ranks (``mpirun``), as the launcher starts it; a hang fails."""
-    command = ["mpirun", "-np", "2", "--allow-run-as-root", "--oversubscribe", yade_command.yade_python(), *args]
+    command = ["mpirun", "-np", "2", "--allow-run-as-root", "--oversubscribe", scripts.engine_python(), *args]
     try:
-        return subprocess.run(command, capture_output=True, text=True, cwd=run_dir, env=yade_command.environment(),
+        return subprocess.run(command, capture_output=True, text=True, cwd=run_dir, env=scripts.environment(),
                               timeout=180)
     except subprocess.TimeoutExpired as exc:
         raise AssertionError(f"the ranks never stopped:\n{exc.stdout}") from None
@@ -298,7 +318,7 @@ def test_a_fault_at_one_rank_during_a_checkpoint_ends_every_rank(tmp_path, fault
     text = stopped.stdout + stopped.stderr
     assert (run_dir / "faulted").exists() and stopped.returncode == status, text
     assert message in text and "Traceback" not in text
-    resumed = two_ranks(run_dir, "-m", "dem.lammps_scene", run_dir)
+    resumed = two_ranks(run_dir, "-m", "dem.lammps.scene", run_dir)
     assert resumed.returncode == 0 and "done:" in resumed.stdout, resumed.stdout + resumed.stderr
 
 
@@ -306,7 +326,7 @@ def test_a_fault_at_one_rank_during_a_checkpoint_ends_every_rank(tmp_path, fault
 #: the compaction's and the shear's progress) disagree, as between the nodes of a cluster or under load
 CLOCKS_APART = """
 import sys, time
-from dem import lammps_scene
+from dem.lammps import scene as lammps_scene
 
 if lammps_scene.RANK == 1:
     real, start = time.time, time.time()
@@ -364,7 +384,7 @@ def while_lammps_runs(under: Path, signals: int, timeout: float = 20.0) -> tuple
 
 def scene_pids(under: Path) -> list[int]:
     """The LAMMPS scene processes running in a folder under ``under``."""
-    out = subprocess.run(["pgrep", "-f", "dem.lammps_scene"], capture_output=True, text=True).stdout
+    out = subprocess.run(["pgrep", "-f", "dem.lammps.scene"], capture_output=True, text=True).stdout
     pids = []
     for pid in map(int, out.split()):
         try:

@@ -282,7 +282,7 @@ def test_a_full_disk_stops_the_run_with_one_line_and_the_run_resumes_when_space_
     """The disk fills during the run (a file takes all but 64 KiB once shearing starts): the scene stops at
     the checkpoint it cannot hold, exit status 4 and one line; the last checkpoint is a whole gzip stream,
     no temporary is left, the run is not marked failed; with the space back the same command resumes it."""
-    from dem.rawfile import complete_gzip, free_bytes
+    from dem.core.rawfile import complete_gzip, free_bytes
 
     args = ("--theta", "180", "--preset", "tiny", "--set", "seed=6")
     run_dir = run_spec.work_dir(run_spec.resolve(*_theta_preset(args)), disk)

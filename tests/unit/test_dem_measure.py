@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dem import measure
+from dem.core import measure
 
 
 def contact_set():

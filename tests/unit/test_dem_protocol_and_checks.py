@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dem import checks, protocol
+from dem.core import checks, protocol
 from pipeline.errors import SpecError
 from pipeline.runs.spec import resolve
 

@@ -207,7 +207,7 @@ def test_leaving_out_each_angle_shifts_the_parameters_by_noise_alone_unless_one_
 def test_each_packing_fraction_definition_recovers_the_truth_of_data_built_with_it(tmp_path):
     """A run whose whole-gap Phi is the model's and whose central band is 0.05 looser: fitted with
     phi = gap, Eq. 18 returns Table 2's Phi_c; with phi = central, Phi_c 0.05 lower."""
-    from dem.rawfile import write_raw
+    from dem.core.rawfile import write_raw
     from pipeline.dataset.dem_file import load, write_h5
     from pipeline.dataset.derived import Definitions
     from tests.helpers.synthetic import synthetic_raw

@@ -8,7 +8,7 @@ import signal
 import h5py
 import pytest
 
-from dem.rawfile import write_raw
+from dem.core.rawfile import write_raw
 from pipeline.errors import SpecError
 from pipeline.runs import launch as dem
 from pipeline.runs import spec as run_spec

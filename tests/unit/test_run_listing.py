@@ -2,7 +2,7 @@
 
 import json
 
-from dem.rawfile import write_status
+from dem.core.rawfile import write_status
 from pipeline.runs import listing
 from pipeline.runs.state import progress, run_state
 from tests.helpers import synthetic_file

@@ -70,7 +70,7 @@ def test_malformed_override():
 
 def test_a_runs_cost_is_known_from_its_spec():
     """Steps of shear = strain / (gamma_dot dt), dt = dt_safety sqrt(m_min / k_n); the samples of the protocol."""
-    from dem.protocol import sample_strains
+    from dem.core.protocol import sample_strains
 
     spec = run_spec.resolve(180, "paper")
     cost = run_spec.cost(spec)

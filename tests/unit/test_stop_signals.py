@@ -9,14 +9,14 @@ import sys
 import threading
 from pathlib import Path
 
-from dem import driver
+from dem.core import driver
 from pipeline.paths import ROOT
 
 #: a process that, told ``block``, blocks the stop signals, is warned (its main thread, the one the block holds), and
 #: execs itself as a reloading scene does: the warning must reach the new process's handlers
 CHILD = """
 import os, signal, sys, threading
-from dem import driver
+from dem.core import driver
 if sys.argv[1] in ("block", "no-block"):
     signal.signal(signal.SIGUSR1, signal.SIG_DFL)  # as a scene starts (whatever its parent ignored)
     if sys.argv[1] == "block":
@@ -50,7 +50,7 @@ def test_without_the_block_the_same_warning_ends_the_process(tmp_path):
 def test_a_signal_while_the_run_is_being_built_names_the_first_checkpoint(tmp_path):
     code = """
 import os, signal
-from dem import driver
+from dem.core import driver
 
 class Building:
     run = None

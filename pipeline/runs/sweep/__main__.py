@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from ... import engines
 from ...cli import Parser, one_line_errors
 from ...errors import SpecError
 from ...paths import RESULTS_DIR, ROOT
@@ -32,7 +33,7 @@ def main(argv=None) -> int:
     run.add_argument("--ranks", type=int, help="MPI ranks of each LAMMPS run, here or per SLURM task (default: "
                      "[slurm] ranks_per_run, 1)")
     run.add_argument("--allow-many", action="store_true", help=f"allow more than {MAX_TASKS} runs in one sweep")
-    run.add_argument("--engine", default="yade", help="DEM engine: yade or lammps")
+    run.add_argument("--engine", default=engines.DEFAULT_ENGINE, help=f"DEM engine: {', '.join(engines.ENGINES)}")
     run.add_argument("--results", type=Path, default=RESULTS_DIR)
     st = sub.add_parser("status", help="the state of every run of a sweep (default: the latest)")
     st.add_argument("--sweep", help="the sweep's id (results/sweeps/<id>)")
@@ -66,8 +67,9 @@ def main(argv=None) -> int:
     slurm["ranks_per_run"] = ranks
     if args.launch == "slurm":
         check_slurm(slurm, sweep, config["throughput"])
-    elif ranks > 1 and sweep.tasks[0].engine != "lammps":
-        raise SpecError(f"ranks={ranks}: MPI ranks are for ENGINE=lammps (Yade runs on threads)")
+    elif ranks > 1 and not engines.ENGINES[sweep.tasks[0].engine].mpi:
+        raise SpecError(f"ranks={ranks}: MPI ranks are for ENGINE={engines.MPI_ENGINES} ({sweep.tasks[0].engine} "
+                        "runs on threads)")
     write_plan(sweep)
     print(f"sweep {sweep.ident}: {len(sweep.tasks)} run(s) of preset {sweep.preset} "
           f"({sum(t.output.exists() for t in sweep.tasks)} done)")

@@ -11,7 +11,7 @@ import sys
 import tomllib
 from pathlib import Path
 
-from ... import io
+from ... import engines, io
 from ...errors import PipelineError, SpecError
 from ...paths import CONFIG_DIR, ROOT
 from .plan import Sweep
@@ -68,9 +68,9 @@ def check_slurm(config: dict, sweep: Sweep, throughput: dict) -> None:
         if not 1 <= config[key] <= 256:
             raise SpecError(f"slurm {key}={config[key]} must be between 1 and 256")
     spec = sweep.tasks[0].spec()
-    if config["ranks_per_run"] > 1 and spec.engine != "lammps":
-        raise SpecError(f"slurm ranks_per_run={config['ranks_per_run']}: MPI ranks are for ENGINE=lammps "
-                        "(Yade runs on threads: threads_per_run)")
+    if config["ranks_per_run"] > 1 and not engines.ENGINES[spec.engine].mpi:
+        raise SpecError(f"slurm ranks_per_run={config['ranks_per_run']}: MPI ranks are for "
+                        f"ENGINE={engines.MPI_ENGINES} ({spec.engine} runs on threads: threads_per_run)")
     limit = time_limit_seconds(config["time_limit"])
     lead = config["signal_lead_seconds"]
     rates = throughput[spec.engine]

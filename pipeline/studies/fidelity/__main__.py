@@ -14,7 +14,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ... import io
+from ... import engines, io
 from ...cli import Parser, one_line_errors
 from ...paths import RESULTS_DIR
 from ...runs.sweep.local import run_local
@@ -32,11 +32,12 @@ def main(argv=None) -> int:
     parser.add_argument("--run", action="store_true", help="make the ladder's missing DEM runs first")
     parser.add_argument("--jobs", type=int, default=2, help="runs side by side (default 2)")
     parser.add_argument("--launch", choices=("local", "slurm"), default="local")
-    parser.add_argument("--engine", default="yade", help="the DEM engine of the ladder's runs: yade or lammps")
+    parser.add_argument("--engine", default=engines.DEFAULT_ENGINE,
+                        help=f"the DEM engine of the ladder's runs: {', '.join(engines.ENGINES)}")
     parser.add_argument("--out", type=Path, help="default results/fidelity (results/fidelity-lammps for LAMMPS)")
     args = parser.parse_args(argv)
     if args.out is None:
-        args.out = OUT_DIR if args.engine == "yade" else OUT_DIR.with_name(f"fidelity-{args.engine}")
+        args.out = OUT_DIR if args.engine == engines.DEFAULT_ENGINE else OUT_DIR.with_name(f"fidelity-{args.engine}")
     if args.jobs < 1:
         parser.error(f"--jobs {args.jobs} must be at least 1")
     spec = ladder.load()

@@ -1,6 +1,6 @@
 """Where Yade's time goes in the production scene: per engine, the collider's work, the interactions, checkpoints.
 
-``python3 -m dem.profile RUN_DIR STEPS OUT.json [CACHE.yade.gz]`` (Debian's python3) builds the scene of
+``python3 -m dem.tools.yade_profile RUN_DIR STEPS OUT.json [CACHE.yade.gz]`` (Debian's python3) builds the scene of
 RUN_DIR/spec.json and compacts it (or loads the compacted, briefly sheared state from CACHE, which it
 writes the first time: a paper-size compaction takes the better part of an hour), then runs STEPS
 production steps with Yade's timers on (``O.timingEnabled``) and writes OUT.json: each engine's share
@@ -17,8 +17,8 @@ import os
 import sys
 import time
 
-from dem import couette
-from dem.yade_lib import O
+from dem.yade import scene as yade_scene
+from dem.yade.lib import O
 
 
 def prepare(scene, cache, shear_steps=2000, chunk=20000):
@@ -47,7 +47,7 @@ def timed_steps(steps):
 def main():
     run_dir, steps, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
     cache = sys.argv[4] if len(sys.argv) > 4 else None
-    scene = couette.Scene(run_dir)
+    scene = yade_scene.Scene(run_dir)
     origin = prepare(scene, cache)
     scene.run.state["next_checkpoint"] = 1 << 62
     O.tags["state"] = json.dumps(scene.run.state)

@@ -1,18 +1,18 @@
-"""LAMMPS check of the contact law: the binary collisions and the sliding contact of ``dem.collision``.
+"""LAMMPS check of the contact law: the binary collisions and the sliding contact of ``dem.tools.yade_collision``.
 
-``python3 -m dem.lammps_collision SPEC.json OUT.json`` (Debian's python3 with ``python3-lammps``) measures,
-with ``dem/lammps_contact.py``'s law, for pairs of equal grains of the smallest, mean and largest diameter:
+``python3 -m dem.tools.lammps_collision SPEC.json OUT.json`` (Debian's python3 with ``python3-lammps``) measures,
+with ``dem/lammps/contact.py``'s law, for pairs of equal grains of the smallest, mean and largest diameter:
 the normal restitution of a head-on collision; k_t/k_n from a contact sheared at fixed overlap; and the
 ratio |F_t|/|F_n| once the contact slides (Coulomb: tan of the friction angle). Same output as
-``dem.collision`` (Yade), so one test holds both engines to the same numbers.
+``dem.tools.yade_collision`` (Yade), so one test holds both engines to the same numbers.
 """
 
 import math
 import sys
 
-from dem.contact import collision_report, contact_constants
-from dem.lammps_contact import pair_commands
-from dem.lammps_lib import new_lammps
+from dem.core.contact import collision_report, contact_constants
+from dem.lammps.contact import pair_commands
+from dem.lammps.lib import new_lammps
 
 
 def two_grains(spec, diameter, gap, moving_group=None):

@@ -1,11 +1,11 @@
 """Yade benchmark: steps/s of the bare loop and of the production loop, and the cost of our Python in it.
 
-``python3 -m dem.bench RUN_DIR STEPS REPEATS OUT.json [CACHE.yade.gz]`` (Debian's python3) builds the scene of
-RUN_DIR/spec.json, compacts it and shears it briefly (or loads that state from CACHE, written the first
-time, as ``dem/profile.py`` does), keeps it in memory, then times STEPS steps from that same state in two
-modes, REPEATS times each, interleaved (best time kept): ``bare`` (no Python in the loop, the walls go on
-at their velocity without the vertical part: the gap is held, so the packing's contacts may change) and
-``full`` (the wall controller and the in-situ sampling, as in production).
+``python3 -m dem.tools.yade_bench RUN_DIR STEPS REPEATS OUT.json [CACHE.yade.gz]`` (Debian's python3) builds the scene
+of RUN_DIR/spec.json, compacts it and shears it briefly (or loads that state from CACHE, written the first time, as
+``dem/tools/yade_profile.py`` does), keeps it in memory, then times STEPS steps from that same state in two modes,
+REPEATS times each, interleaved (best time kept): ``bare`` (no Python in the loop, the walls go on at their velocity
+without the vertical part: the gap is held, so the packing's contacts may change) and ``full`` (the wall controller
+and the in-situ sampling, as in production).
 
 One more pass of each with Yade's timers on says where a difference between the two loops comes from:
 each engine's microseconds per step, the collider's sorts and the interactions (real contacts and all,
@@ -17,9 +17,9 @@ import json
 import sys
 import time
 
-from dem import couette
-from dem.profile import prepare
-from dem.yade_lib import O, Vector3
+from dem.tools.yade_profile import prepare
+from dem.yade import scene as yade_scene
+from dem.yade.lib import O, Vector3
 
 MODES = ("bare", "full")
 
@@ -67,7 +67,7 @@ def engine_split(scene, mode, steps):
 def main():
     steps, repeats, out = int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
     cache = sys.argv[5] if len(sys.argv) > 5 else None
-    scene = couette.Scene(sys.argv[1])
+    scene = yade_scene.Scene(sys.argv[1])
     prepare(scene, cache, shear_steps=steps)
     state = scene.run.state
     O.tags["state"] = json.dumps(state)

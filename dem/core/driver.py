@@ -1,10 +1,10 @@
 """The experiment's driver, the same for every engine: the wall controller, compaction, the Fig. 1 protocol,
 sampling, the checks, progress, checkpoints and the run loop (Sec. 2 and Fig. 1 of Rojas & Kamrin 2025).
 
-An engine adapter (``dem/couette.py`` for Yade, ``dem/lammps_scene.py`` for LAMMPS) subclasses :class:`Protocol`
+An engine adapter (``dem/yade/scene.py`` for Yade, ``dem/lammps/scene.py`` for LAMMPS) subclasses :class:`Experiment`
 with the few things only an engine knows (its clock, the walls' force and motion, the contact and grain arrays)
 and gives :func:`run_scene` a scene object that builds, saves, loads and advances it. Every measurement is
-``dem.measure``'s, on the arrays the adapter hands over. Units: d = p = rho = 1 (time in d sqrt(rho/p)); strain
+``dem.core.measure``'s, on the arrays the adapter hands over. Units: d = p = rho = 1 (time in d sqrt(rho/p)); strain
 t*gamma_dot.
 
 Protocol (strain s = t*gamma_dot measured from the start of the first period): compaction under p -> s in
@@ -27,8 +27,8 @@ import time
 
 import numpy as np
 
-from dem import checks, measure, protocol, schema
-from dem.rawfile import DISK_ERRORS, DISK_FULL, DiskError, require_free, save_npz, stack, write_raw, write_status
+from dem.core import checks, contract, measure, protocol, schema
+from dem.core.rawfile import DISK_ERRORS, DISK_FULL, DiskError, require_free, save_npz, stack, write_raw, write_status
 
 STATUS = "status.json"  # the run's progress, read by pipeline.runs.state
 #: files of a run in progress, removed once its raw.npz is written
@@ -45,10 +45,10 @@ def initial_state(spec, **engine_state):
     }
 
 
-class Protocol:
+class Experiment:
     """The running experiment. Everything persistent lives in ``self.state`` (saved with each checkpoint); an
-    engine's subclass provides ``iteration``, ``time``, ``dt``, ``wall_heights``, ``wall_force``, ``move_walls``,
-    ``wall_record``, ``gather`` and ``stop_after_this_step``, and sets ``radius`` and ``mass`` (the grains').
+    engine's subclass provides the members of ``dem.core.contract.EngineRun`` and sets ``radius`` and ``mass``
+    (the grains').
     Where several processes run one scene (MPI ranks), each drives the same protocol on the same gathered data
     and only the ``writer`` writes files."""
 
@@ -155,7 +155,7 @@ class Protocol:
             self.stop_after_this_step()
 
     def check(self, row, grains, y_bottom, y_top):
-        """Stop with a diagnostic when the run goes wrong (``dem/checks.py``). The wall stress is judged from the
+        """Stop with a diagnostic when the run goes wrong (``dem/core/checks.py``). The wall stress is judged from the
         second sample on: the first, where the shear starts, holds a single controller call's error, which still
         rings after compaction (by +54 % in LAMMPS's paper cell, whose compaction's windowed mean had passed)."""
         st = self.state
@@ -338,12 +338,13 @@ def run_scene(scene):
 
     Every run, interrupted or not, continues from each checkpoint as freshly loaded, so resuming is bit-identical
     (one thread). A first SIGINT/SIGTERM stops at the next checkpoint; a second one stops within a few steps (the
-    run then resumes correctly but not bit-identically). ``scene`` provides ``start()`` (build or resume; the
-    Protocol), ``advance(run, stop)`` (to the next checkpoint iteration or until the run stops itself),
-    ``agreed_stop(stop)`` (the stop requests every process of the scene acts on), ``save(run)``,
-    ``checkpoint_bytes()``, ``reload()`` and ``meta()`` (its entries of ``raw.npz``)."""
+    run then resumes correctly but not bit-identically). ``scene`` is a ``dem.core.contract.EngineScene``."""
+    if not isinstance(scene, contract.EngineScene):
+        raise TypeError(f"{type(scene).__name__} does not implement dem.core.contract.EngineScene")
     stop = stop_on_signals(lambda: next_stop(scene))
     run = scene.start()
+    if not (isinstance(run, Experiment) and isinstance(run, contract.EngineRun)):
+        raise TypeError(f"{type(run).__name__} is not an Experiment implementing dem.core.contract.EngineRun")
     run_dir = run.run_dir
     while True:
         tic = time.time()

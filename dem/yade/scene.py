@@ -1,12 +1,12 @@
-"""Yade's adapter of the Couette scene (Rojas & Kamrin 2025, Sec. 2 and Fig. 1): builds the cell of ``dem/cell.py``
-in Yade and gives ``dem/driver.py`` its clock, walls and contact arrays.
+"""Yade's adapter of the Couette scene (Rojas & Kamrin 2025, Sec. 2 and Fig. 1): builds the cell of ``dem/core/cell.py``
+in Yade and gives ``dem/core/driver.py`` its clock, walls and contact arrays.
 
-Run by ``python -m pipeline.runs`` (``make dem``) as ``python3 -m dem.couette RUN_DIR`` (Debian's python3, Yade
-imported as a library by ``dem/yade_lib.py``: no remote console is opened); RUN_DIR holds ``spec.json`` (every
+Run by ``python -m pipeline.runs`` (``make dem``) as ``python3 -m dem.yade.scene RUN_DIR`` (Debian's python3, Yade
+imported as a library by ``dem/yade/lib.py``: no remote console is opened); RUN_DIR holds ``spec.json`` (every
 parameter, resolved and validated by ``pipeline/runs/spec.py``) and receives checkpoints
 (``checkpoint.yade.gz``, the driver's state in ``O.tags``) and ``raw.npz``. Each wall is a rigid, non-dynamic
-clump of its spheres; contacts are ``dem/contact.py``'s (linear visco-elastic, constant k_n, damping set for the
-mean pair). Exit statuses: ``dem/driver.py``.
+clump of its spheres; contacts are ``dem/core/contact.py``'s (linear visco-elastic, constant k_n, damping set for the
+mean pair). Exit statuses: ``dem/core/driver.py``.
 """
 
 import json
@@ -17,16 +17,17 @@ import time
 
 import numpy as np
 
-from dem import active, driver, protocol
-from dem.cell import ROUGH_HEIGHT, WALL_RADIUS, Y_BOTTOM, initial_cloud, wall_centres
-from dem.contact import contact_constants, contact_engines, contact_material
-from dem.rawfile import DiskError, complete_gzip, sync
-from dem.yade_lib import VERSION, O, PyRunner, Vector3, utils
+from dem.core import driver, protocol
+from dem.core.cell import ROUGH_HEIGHT, WALL_RADIUS, Y_BOTTOM, initial_cloud, wall_centres
+from dem.core.contact import contact_constants, contact_engines, contact_material
+from dem.core.rawfile import DiskError, complete_gzip, sync
+from dem.yade import active
+from dem.yade.lib import VERSION, O, PyRunner, Vector3, utils
 
 
 # ---------------------------------------------------------------- scene construction
 def wall_spheres(y_compact, towards, width, material):
-    """A wall (``dem.cell.wall_centres``) as a rigid, non-dynamic clump: its clump id and member ids."""
+    """A wall (``dem.core.cell.wall_centres``) as a rigid, non-dynamic clump: its clump id and member ids."""
     spheres = [utils.sphere(c, WALL_RADIUS, material=material) for c in wall_centres(y_compact, towards, width)]
     clump_id, member_ids = O.bodies.appendClumped(spheres)
     O.bodies[clump_id].dynamic = False
@@ -59,7 +60,7 @@ def build(spec):
 
 
 # ---------------------------------------------------------------- the running scene (state restored from O.tags)
-class Run(driver.Protocol):
+class Run(driver.Experiment):
     """The driver's protocol on Yade's scene ``O``."""
 
     def __init__(self, scene):
@@ -99,7 +100,7 @@ class Run(driver.Protocol):
                 "top_force": list(O.forces.f(top.id)), "bottom_force": list(O.forces.f(bottom.id))}
 
     def gather(self):
-        """Contact and grain arrays for ``dem.measure`` (indexing Vector3s: unpacking them is 5x slower)."""
+        """Contact and grain arrays for ``dem.core.measure`` (indexing Vector3s: unpacking them is 5x slower)."""
         contacts = []
         for i in O.interactions:  # real interactions only
             g, ph = i.geom, i.phys
@@ -132,7 +133,7 @@ class Run(driver.Protocol):
 # ---------------------------------------------------------------- the scene of a run folder
 class Scene:
     """The scene of one run folder: its spec (``spec.json``), its files, and once built or loaded the running
-    state ``run``. Yade's PyRunner reaches it through ``dem.active`` (its command is a string run in ``__main__``,
+    state ``run``. Yade's PyRunner reaches it through ``dem.yade.active`` (its command is a string run in ``__main__``,
     whatever script that is)."""
 
     def __init__(self, run_dir):
@@ -242,5 +243,5 @@ def main(run_dir):
 
 if __name__ == "__main__":
     if len(sys.argv) != 2:
-        sys.exit("usage: python3 -m dem.couette RUN_DIR")
+        sys.exit("usage: python3 -m dem.yade.scene RUN_DIR")
     main(sys.argv[1])

@@ -1,7 +1,7 @@
 """Yade check of the contact law: binary collisions and a sliding contact.
 
-``python3 -m dem.collision SPEC.json OUT.json`` (Debian's python3) measures, with the scene's own material
-(``dem/contact.py``), for pairs of equal grains of the smallest, mean and largest diameter:
+``python3 -m dem.tools.yade_collision SPEC.json OUT.json`` (Debian's python3) measures, with the scene's own material
+(``dem/core/contact.py``), for pairs of equal grains of the smallest, mean and largest diameter:
 the normal restitution of a head-on collision; k_t/k_n from a contact sheared at fixed overlap;
 and the ratio |F_t|/|F_n| once the contact slides (Coulomb: tan of the friction angle).
 """
@@ -9,8 +9,8 @@ and the ratio |F_t|/|F_n| once the contact slides (Coulomb: tan of the friction 
 import math
 import sys
 
-from dem.contact import collision_report, contact_constants, contact_engines, contact_material
-from dem.yade_lib import O, Vector3, utils
+from dem.core.contact import collision_report, contact_constants, contact_engines, contact_material
+from dem.yade.lib import O, Vector3, utils
 
 
 def reset(spec, diameter):

@@ -1,6 +1,6 @@
 """In-situ measurements of the Couette cell from contact and grain arrays (numpy only).
 
-Used inside Yade by ``dem/couette.py`` and tested in the project venv against hand-computed
+Used inside Yade by ``dem/yade/scene.py`` and tested in the project venv against hand-computed
 contact sets. Conventions (README): stress is tension-positive; walls are normal to e2, so every
 region and bin is a slab ``lo <= y < hi`` spanning the periodic cell (area ``W^2``).
 
@@ -72,7 +72,7 @@ def measure(contacts: dict, grains: dict, first_grain_id: int, area: float,
     """One sample: central-region averages and profiles across the gap.
 
     ``region = (lo, hi)`` heights of the central slab; ``edges`` (nb + 1,) bin edges of the
-    profiles. Returns a dict of arrays (see ``dem/couette.py`` for the stored names and units).
+    profiles. Returns a dict of arrays (see ``dem/yade/scene.py`` for the stored names and units).
     """
     id1, id2 = contacts["id1"], contacts["id2"]
     normal, point = contacts["normal"], contacts["point"]

@@ -1,7 +1,7 @@
-"""LAMMPS's adapter of the Couette scene: the cell of ``dem/cell.py`` with the contact law of
-``dem/lammps_contact.py``, driven by ``dem/driver.py`` exactly as Yade's (``dem/couette.py``).
+"""LAMMPS's adapter of the Couette scene: the cell of ``dem/core/cell.py`` with the contact law of
+``dem/lammps/contact.py``, driven by ``dem/core/driver.py`` exactly as Yade's (``dem/yade/scene.py``).
 
-Run by ``python -m pipeline.runs`` (``make dem ENGINE=lammps``) as ``python3 -m dem.lammps_scene RUN_DIR`` (Debian's
+Run by ``python -m pipeline.runs`` (``make dem ENGINE=lammps``) as ``python3 -m dem.lammps.scene RUN_DIR`` (Debian's
 python3 with ``python3-lammps``; LAMMPS's log goes to RUN_DIR/lammps.log). The grains, walls, time step, controller,
 protocol, sampling and measurement are the Yade scene's; what differs is how LAMMPS holds them:
 
@@ -16,7 +16,7 @@ protocol, sampling and measurement are the Yade scene's; what differs is how LAM
 Checkpoints: ``restart_<iteration>.lmp`` (``write_restart``: atoms, velocities, the contacts' tangential history)
 named by ``checkpoint.json`` (the spec, the driver's state, the restart's size and SHA-256), replaced atomically.
 Every run, interrupted or not, continues from each checkpoint as freshly read into a new LAMMPS instance, so a
-resumed run is bit-identical to an uninterrupted one. Exit statuses: ``dem/driver.py``.
+resumed run is bit-identical to an uninterrupted one. Exit statuses: ``dem/core/driver.py``.
 """
 
 import hashlib
@@ -28,12 +28,12 @@ import traceback
 
 import numpy as np
 
-from dem import driver, protocol
-from dem.cell import ROUGH_HEIGHT, WALL_RADIUS, Y_BOTTOM, initial_cloud, wall_centres
-from dem.contact import contact_constants
-from dem.lammps_contact import pair_commands
-from dem.lammps_lib import LMP_STYLE_GLOBAL, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY, LMP_TYPE_VECTOR, new_lammps
-from dem.rawfile import sync
+from dem.core import driver, protocol
+from dem.core.cell import ROUGH_HEIGHT, WALL_RADIUS, Y_BOTTOM, initial_cloud, wall_centres
+from dem.core.contact import contact_constants
+from dem.core.rawfile import sync
+from dem.lammps.contact import pair_commands
+from dem.lammps.lib import LMP_STYLE_GLOBAL, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY, LMP_TYPE_VECTOR, new_lammps
 
 #: MPI ranks of this run (``mpirun -np N``, ``RANKS=N``): each drives the same protocol on data gathered from all
 RANKS = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))
@@ -136,7 +136,7 @@ def atoms(lmp, *names):
     return [tag[order]] + [gathered(lmp.numpy.extract_atom(name))[order] for name in names]
 
 
-class Run(driver.Protocol):
+class Run(driver.Experiment):
     """The driver's protocol on a LAMMPS instance."""
 
     writer = RANK == 0
@@ -180,7 +180,7 @@ class Run(driver.Protocol):
                 for wall in ("top", "bottom")}
 
     def gather(self):
-        """Contact and grain arrays for ``dem.measure``: the overlapping pairs, normal from atom i to atom j, the
+        """Contact and grain arrays for ``dem.core.measure``: the overlapping pairs, normal from atom i to atom j, the
         force on j, the contact point in the middle of the overlap (Yade's ``ScGeom``)."""
         lmp = self.lmp
         pairs = lmp.numpy.extract_compute("pairs", LMP_STYLE_LOCAL, LMP_TYPE_ARRAY)
@@ -332,7 +332,7 @@ class Scene:
         self.lmp.finalize()  # LAMMPS and MPI: its log file and sockets would stay open across ``exec``
         sys.stdout.flush()
         sys.stderr.flush()
-        os.execv(sys.executable, [sys.executable, "-m", "dem.lammps_scene", self.run_dir, CONTINUE])
+        os.execv(sys.executable, [sys.executable, "-m", "dem.lammps.scene", self.run_dir, CONTINUE])
 
     def read_checkpoint(self):
         """A LAMMPS instance from the checkpoint, checked first: its spec, the restart file's size and hash."""
@@ -353,7 +353,7 @@ class Scene:
             driver.damaged(f"the samples of the checkpoint cannot be read ({type(exc).__name__})")
 
     def meta(self):
-        from dem.yade_lib import VERSION as YADE_VERSION  # the grains' cloud is Yade's
+        from dem.yade.lib import VERSION as YADE_VERSION  # the grains' cloud is Yade's
 
         return {"engine": "lammps", "engine_version": self.lmp.version(), "yade_version": YADE_VERSION,
                 "n_wall_spheres": self.run.state["n_wall_spheres"]}
@@ -397,5 +397,5 @@ def end_every_rank(exc):
 
 if __name__ == "__main__":
     if len(sys.argv) not in (2, 3) or sys.argv[2:] not in ([], [CONTINUE]):
-        sys.exit("usage: python3 -m dem.lammps_scene RUN_DIR")
+        sys.exit("usage: python3 -m dem.lammps.scene RUN_DIR")
     main(sys.argv[1], continued=sys.argv[2:] == [CONTINUE])

@@ -1,19 +1,19 @@
 """LAMMPS benchmark: steps/s of the bare and of the production loop of the LAMMPS scene.
 
-``python3 -m dem.lammps_bench RUN_DIR STEPS REPEATS OUT.json`` (Debian's python3 with LAMMPS) builds the scene of
+``python3 -m dem.tools.lammps_bench RUN_DIR STEPS REPEATS OUT.json`` (Debian's python3 with LAMMPS) builds the scene of
 RUN_DIR/spec.json, compacts it and shears it STEPS steps (no checkpoint), then times STEPS steps of shear in two
 modes, REPEATS times each, interleaved (best time kept): ``bare`` (the controller's ``fix python/invoke`` and
 ``fix halt`` removed: LAMMPS alone, the walls at their shear velocity with the gap held) and ``full`` (the controller
-and the in-situ sampling, as in production). Unlike ``dem/bench.py`` the runs follow one another rather than
+and the in-situ sampling, as in production). Unlike ``dem/tools/yade_bench.py`` the runs follow one another rather than
 restart from one kept state (LAMMPS reads a restart file back in one process only once, see
-``dem/lammps_scene.py``): each repeat shears on, in the same steady state.
+``dem/lammps/scene.py``): each repeat shears on, in the same steady state.
 """
 
 import json
 import sys
 import time
 
-from dem import lammps_scene
+from dem.lammps import scene as lammps_scene
 
 
 def main():
@@ -32,7 +32,7 @@ def main():
     times = {"bare": [], "full": []}
     for _ in range(repeats):
         for mode in times:
-            if mode == "bare":  # the walls go on at their shear velocity, the gap held (as dem/bench.py's)
+            if mode == "bare":  # the walls go on at their shear velocity, the gap held (as dem/tools/yade_bench.py's)
                 lmp.command("unfix halt")
                 lmp.command("unfix control")
                 lmp.set_variable("tvy", "0.0")

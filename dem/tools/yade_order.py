@@ -1,7 +1,7 @@
 """Does the order of the grains in memory matter? Steps/s with the grains as created against sorted in space.
 
-``python3 -m dem.order RUN_DIR STEPS REPEATS OUT.json CACHE.yade.gz`` (Debian's python3) loads the compacted
-state that ``dem/profile.py`` cached, then times STEPS production steps REPEATS times in two layouts,
+``python3 -m dem.tools.yade_order RUN_DIR STEPS REPEATS OUT.json CACHE.yade.gz`` (Debian's python3) loads the compacted
+state that ``dem/tools/yade_profile.py`` cached, then times STEPS production steps REPEATS times in two layouts,
 interleaved, each from that same state: ``created`` (the grains as makeCloud placed them: random in
 space) and ``morton`` (the grains' states permuted among their bodies so that body ids follow a Z-order
 curve through the cell on a 1 d grid: neighbours in space are neighbours in memory). Both layouts
@@ -13,9 +13,9 @@ import json
 import sys
 import time
 
-from dem import couette
-from dem.profile import control  # noqa: F401 - the PyRunner's command runs in this namespace
-from dem.yade_lib import O, Vector3
+from dem.tools.yade_profile import control  # noqa: F401 - the PyRunner's command runs in this namespace
+from dem.yade import scene as yade_scene
+from dem.yade.lib import O, Vector3
 
 
 def morton_key(x, y, z, bits=10):
@@ -49,7 +49,7 @@ def layout(scene, order, steps, cache):
 
 def main():
     run_dir, steps, repeats, out, cache = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5]
-    scene = couette.Scene(run_dir)
+    scene = yade_scene.Scene(run_dir)
     times = {"created": [], "morton": []}
     for _ in range(repeats):
         for order in times:

@@ -4,7 +4,8 @@ import functools
 import os
 import tomllib
 
-SCHEMA_FILE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "config", "raw_schema.toml")
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SCHEMA_FILE = os.path.join(ROOT, "config", "raw_schema.toml")
 
 
 @functools.lru_cache(maxsize=1)

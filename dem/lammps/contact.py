@@ -1,4 +1,4 @@
-"""The contact law of ``dem/contact.py`` in LAMMPS (``pair_style granular``, GRANULAR package).
+"""The contact law of ``dem/core/contact.py`` in LAMMPS (``pair_style granular``, GRANULAR package).
 
 Same constants: k_n = p d^2/delta, k_t = ``kt_over_kn`` k_n, constant dashpots c_n, c_t (the mean pair has
 the restitution ``restitution``), Coulomb friction tan(``friction_deg``), no rolling resistance, units
@@ -12,12 +12,12 @@ tangential spring k_t with a dashpot x_gamma_t c_n = c_t. The cut-off is the lar
 sum of radii), given explicitly because this LAMMPS restores the pair style from a restart file with a zero one.
 Where the two engines differ: LAMMPS limits the tangential spring *and* dashpot together to mu F_n, Yade's
 ``ViscElPhys`` the whole tangential force too (its Coulomb test is on the spring force, the dashpot added after);
-``dem.lammps_collision`` measures both.
+``dem.tools.lammps_collision`` measures both.
 """
 
 import math
 
-from dem.contact import contact_constants
+from dem.core.contact import contact_constants
 
 
 def pair_commands(spec):

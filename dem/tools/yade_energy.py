@@ -1,13 +1,13 @@
 """Energy balance of the production scene over a stretch of shear: the walls' work against the dissipated
 energy plus the change of kinetic and elastic energy.
 
-``python3 -m dem.energy RUN_DIR STRAIN OUT.json`` (Debian's python3) builds and compacts the scene of
-RUN_DIR/spec.json (``dem/profile.py``'s ``prepare``), then shears it by STRAIN (or to the end of the protocol),
-one step at a time, and accounts, per step of length dt, for (Yade's energy tracker does not cover
+``python3 -m dem.tools.yade_energy RUN_DIR STRAIN OUT.json`` (Debian's python3) builds and compacts the scene of
+RUN_DIR/spec.json (``dem/tools/yade_profile.py``'s ``prepare``), then shears it by STRAIN (or to the end of the
+protocol), one step at a time, and accounts, per step of length dt, for (Yade's energy tracker does not cover
 ``Law2_ScGeom_ViscElPhys_Basic``, so we do):
 
 - the walls' work on the grains, -F_wall . v_wall dt for each wall (F_wall: the grains' force on its clump);
-- the dissipation of every real contact (``dem/contact.py``'s law, relative velocity v = v1 - v2 at the
+- the dissipation of every real contact (``dem/core/contact.py``'s law, relative velocity v = v1 - v2 at the
   contact point, v_n = v . n; leapfrog: the law's force uses the velocity at the start of the step, v,
   and the step moves the contact with the velocity at its end, v'): the normal dashpot c_n v_n v_n' dt
   while the normal force is positive; the tangential dashpot c_t v_t . v_t' dt while the contact sticks,
@@ -23,9 +23,9 @@ what the integration and this accounting leave unexplained; it is written with e
 import json
 import sys
 
-from dem import couette
-from dem.profile import prepare
-from dem.yade_lib import O, Vector3
+from dem.tools.yade_profile import prepare
+from dem.yade import scene as yade_scene
+from dem.yade.lib import O, Vector3
 
 
 def kinetic(grains):
@@ -95,7 +95,7 @@ def dissipation_rates(before, after, held, now):
 
 def main():
     strain, out = float(sys.argv[2]), sys.argv[3]
-    scene = couette.Scene(sys.argv[1])
+    scene = yade_scene.Scene(sys.argv[1])
     prepare(scene, None, shear_steps=200, chunk=500)  # into the shear, with all of the protocol left
     run = scene.run
     steps = int(strain / (run.gamma_dot * O.dt))

@@ -7,7 +7,7 @@ the scene object, and the only module-level state of a run.
 """
 
 SCENE = None
-COMMAND = "import dem.active; dem.active.SCENE.control()"
+COMMAND = "import dem.yade.active; dem.yade.active.SCENE.control()"
 
 
 def activate(scene):

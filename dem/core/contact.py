@@ -101,9 +101,10 @@ def contact_engines():
 
 
 def collision_report(argv, restitution_of, shear_of):
-    """The command line of an engine's contact check (``dem.collision``, ``dem.lammps_collision``): read the spec
-    ``argv[1]``, measure the smallest, mean and largest pairs with the engine's ``restitution_of(spec, d)`` and
-    ``shear_of(spec, d)`` (k_t/k_n, k_n against the design, sliding ratio), write them as JSON to ``argv[2]``."""
+    """The command line of an engine's contact check (``dem.tools.yade_collision``, ``dem.tools.lammps_collision``):
+    read the spec ``argv[1]``, measure the smallest, mean and largest pairs with the engine's ``restitution_of(spec,
+    d)`` and ``shear_of(spec, d)`` (k_t/k_n, k_n against the design, sliding ratio), write them as JSON to
+    ``argv[2]``."""
     import json
 
     with open(argv[1]) as fh:

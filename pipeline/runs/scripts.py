@@ -1,8 +1,8 @@
-"""How the project starts a scene script: Debian's python3 running ``python3 -m dem.<module>``.
+"""How the project starts a script of ``dem/``: Debian's python3 running ``python3 -m dem.<package>.<module>``.
 
-The scripts import Yade as a library (``dem/yade_lib.py``), so the ``yade`` launcher's remote
-consoles never start. The interpreter is the one Debian's ``yade`` launcher names in its first line; LAMMPS's
-scene runs under it too (Debian's ``python3-lammps``, and Yade's grain cloud).
+The scenes import their engine as a library (``dem/yade/lib.py``, ``dem/lammps/lib.py``), so Yade's launcher and its
+remote consoles never start. The interpreter is the one Debian's ``yade`` launcher names in its first line (the
+python3 that Yade and ``python3-lammps`` are built for), else ``/usr/bin/python3``.
 """
 
 from __future__ import annotations
@@ -14,42 +14,46 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+from ..engines import engine
 from ..errors import PipelineError
 from ..paths import ROOT
 from .state import STATUS
 
 
-class YadeMissing(RuntimeError):
-    """Yade is not installed; the message says how to install it."""
+class EngineMissing(RuntimeError):
+    """An engine is not installed; the message says how to install it."""
 
 
-def yade_python() -> str:
-    """The python3 that Debian's Yade is built for (the ``yade`` launcher's interpreter)."""
+def engine_python() -> str:
+    """Debian's python3 of the engines (the ``yade`` launcher's interpreter where there is one)."""
     launcher = shutil.which("yade")
     if launcher is None:
-        raise YadeMissing("yade not found on PATH: run `make system` (apt-get install yade)")
+        return "/usr/bin/python3"
     with open(launcher, encoding="utf-8", errors="replace") as fh:
         first = fh.readline()
     interpreter = first[2:].strip().split()[0] if first.startswith("#!") else "/usr/bin/python3"
     return interpreter if os.path.exists(interpreter) else "/usr/bin/python3"
 
 
-def require_lammps() -> None:
-    """Raise ``YadeMissing`` with LAMMPS's one-line message where Debian's python3 cannot start LAMMPS."""
-    proc = subprocess.run([yade_python(), "-c", "from dem.lammps_lib import new_lammps; new_lammps().close()"],
-                          capture_output=True, text=True, env=environment())
+def require(name: str) -> None:
+    """Raise ``EngineMissing`` with one line, naming the make target that installs it, where Debian's python3
+    cannot start the engine ``name``."""
+    chosen = engine(name)
+    proc = subprocess.run([engine_python(), "-c", chosen.start_check], capture_output=True, text=True,
+                          env=environment())
     if proc.returncode != 0:
-        raise YadeMissing((proc.stderr.strip().splitlines() or ["LAMMPS cannot start"])[-1].removeprefix(
-            "ImportError: "))
+        last = (proc.stderr.strip().splitlines() or [f"{name} cannot start"])[-1]
+        raise EngineMissing(f"{name} cannot start in {engine_python()} ({last.split(': ', 1)[-1]}): run "
+                            f"`make {chosen.install}`")
 
 
-def command(module: str, *args: str) -> list[str]:
-    """The command line running ``dem.<module>`` with ``args`` under Yade's python."""
-    return [yade_python(), "-m", f"dem.{module}", *map(str, args)]
+def command(module: str, *args) -> list[str]:
+    """The command line running the module ``module`` (``dem.<package>.<module>``) with ``args``."""
+    return [engine_python(), "-m", module, *map(str, args)]
 
 
 def environment(threads: int = 1) -> dict[str, str]:
-    """Environment of a Yade script: the project on the path, ``threads`` OpenMP threads, unbuffered output."""
+    """Environment of a script: the project on the path, ``threads`` OpenMP threads, unbuffered output."""
     path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
     return {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": str(threads), "PYTHONUNBUFFERED": "1"}
 
@@ -59,7 +63,7 @@ OUT = object()
 
 
 def run_script(module: str, spec, args: tuple, threads: int = 1, what: str = "", run_dir: Path | None = None) -> dict:
-    """Run ``dem.<module>`` on ``spec`` (a ``DemSpec``) in a scratch folder (its ``spec.json``) with ``args`` after
+    """Run ``module`` on ``spec`` (a ``DemSpec``) in a scratch folder (its ``spec.json``) with ``args`` after
     the folder, ``OUT`` among them standing for the JSON file the script writes; that file's content, or a one-line
     error with the script's last line on stderr. With ``run_dir`` (and no spec) the scratch folder is a copy of that
     run folder's checkpoint (its files but the logs and status), which the script may change."""

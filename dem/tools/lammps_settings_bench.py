@@ -1,10 +1,10 @@
 """LAMMPS settings benchmark: steps/s of the production loop from a run's checkpoint, with engine commands changed.
 
-``python3 -m dem.lammps_settings_bench RUN_DIR STEPS OUT.json [COMMAND ...]`` (Debian's python3 with LAMMPS) resumes
-the run of RUN_DIR (a copy: it is sheared on and left changed), issues each COMMAND (``neighbor 0.15 bin``,
+``python3 -m dem.tools.lammps_settings_bench RUN_DIR STEPS OUT.json [COMMAND ...]`` (Debian's python3 with LAMMPS)
+resumes the run of RUN_DIR (a copy: it is sheared on and left changed), issues each COMMAND (``neighbor 0.15 bin``,
 ``atom_modify sort 1000 0.0``), shears ``WARMUP`` steps (the settings' set-up, the first neighbour lists), then times
 STEPS steps of the production loop (controller and sampling; no checkpoint). One setting per process: LAMMPS reads a
-restart file back in one process only once (``dem/lammps_scene.py``), so ``pipeline.studies.bench_lammps_settings``
+restart file back in one process only once (``dem/lammps/scene.py``), so ``pipeline.studies.bench_lammps_settings``
 starts one process per setting and round, from the same state.
 """
 
@@ -12,7 +12,7 @@ import json
 import sys
 import time
 
-from dem import lammps_scene
+from dem.lammps import scene as lammps_scene
 
 WARMUP = 200
 

@@ -1,0 +1,1 @@
+"""LAMMPS's adapter of the Couette scene (the fast engine)."""

@@ -1,0 +1,1 @@
+"""Checks and benchmarks that drive an engine's scene: collisions, energy balance, speed, profiles."""

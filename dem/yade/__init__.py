@@ -1,0 +1,1 @@
+"""Yade's adapter of the Couette scene (the reference engine)."""

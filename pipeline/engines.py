@@ -1,0 +1,57 @@
+"""The DEM engines, by name: what the launcher, the spec and the data sets need to know of each one.
+
+An engine is a package under ``dem/`` that implements the adapter contract of ``dem/core/contract.py`` plus one
+entry of ``ENGINES`` here: the module its scene runs as (``python3 -m <scene> RUN_DIR``, Debian's python3), the files
+of its checkpoint, its own log (where it writes the errors it stops on), the make target that installs it and the
+code that fails where it cannot start, whether it runs on MPI ranks, and the starts of the lines it prints that
+are not the scene's. The first entry is the reference, the default everywhere. Standard library
+only: the Makefile's checks read it before anything is installed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from .errors import SpecError
+
+
+@dataclasses.dataclass(frozen=True)
+class Engine:
+    """One DEM engine (see the module's docstring)."""
+
+    name: str
+    scene: str
+    checkpoint_files: tuple[str, ...]
+    install: str
+    start_check: str
+    log: str | None = None
+    mpi: bool = False
+    noise: tuple[str, ...] = ()
+
+    def last_error(self, run_dir: Path) -> str:
+        """The engine's own last error in its log, where it stopped the scene without one of ours; else ''."""
+        log = run_dir / self.log if self.log else None
+        if log is None or not log.exists():
+            return ""
+        errors = [line.strip() for line in log.read_text(errors="replace").splitlines() if line.startswith("ERROR")]
+        return f"error: {self.name}: {errors[-1]}" if errors else ""
+
+
+ENGINES: dict[str, Engine] = {e.name: e for e in (
+    Engine("yade", "dem.yade.scene", ("checkpoint.yade.gz",), "system", "import dem.yade.lib",
+           noise=("Using python version",)),
+    Engine("lammps", "dem.lammps.scene", ("restart_*.lmp",), "system-lammps",
+           "from dem.lammps.lib import new_lammps; new_lammps().close()", log="lammps.log", mpi=True),
+)}
+#: the engines that run on MPI ranks, as a message names them
+MPI_ENGINES = " or ".join(e.name for e in ENGINES.values() if e.mpi)
+#: the reference engine: the default of every run and data set, and the one whose runs' folders carry no suffix
+DEFAULT_ENGINE = next(iter(ENGINES))
+
+
+def engine(name: str) -> Engine:
+    """The engine called ``name``; another name is a one-line error that lists the known ones."""
+    if name not in ENGINES:
+        raise SpecError(f"engine={name!r} is not a DEM engine here (known: {', '.join(ENGINES)})")
+    return ENGINES[name]
