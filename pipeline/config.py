@@ -1,7 +1,7 @@
 """The DEM presets of ``config/dem.toml``, read once for every stage: each preset merged onto ``[defaults]``.
 
 Units as in ``config/dem.toml`` (lengths d, stresses p, densities rho; strain t*gamma_dot). Validation of a
-run's full spec is ``pipeline.runs.spec``'s; this module only reads the table.
+run's full spec is ``pipeline.spec``'s; this module only reads the table.
 """
 
 from __future__ import annotations

@@ -170,7 +170,7 @@ def dem(v: Variables) -> list[Call]:
     argv += ["--fresh"] if v.flag("FRESH") else []
     argv += ["--allow-inertial"] if v.flag("ALLOW_INERTIAL") else []
     argv += ["--ranks", ranks] if ranks != "1" else []
-    from .runs import spec as run_spec
+    from . import spec as run_spec
 
     run_spec.resolve(argv[2], argv[4], rotate_at, run_spec.parse_overrides(v.settings("SET")),
                      allow_inertial=v.flag("ALLOW_INERTIAL"), engine=argv[6])
@@ -302,8 +302,8 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
 
 def data_set_of(v: Variables):
     """The data set that PRESET, ENGINE and SET name (``pipeline.dataset.selection``), checked."""
+    from . import spec as run_spec
     from .dataset import selection
-    from .runs import spec as run_spec
 
     preset = v.name("PRESET")
     return selection.data_set(preset or selection.most_faithful_preset(), v.choice("ENGINE", ENGINES),

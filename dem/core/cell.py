@@ -36,10 +36,10 @@ def initial_cloud(spec, n_grains, width, y_bottom):
     Where a seed's cloud does not fit (random sequential placement stalls, about one seed in seven of the tiny
     cell), the box grows by a quarter and the cloud is drawn again, the random sequence going on; compaction takes
     the extra height out. A seed that fits at once gives the same cloud as ever."""
-    d_min, d_max = spec["diameter_min_d"], spec["diameter_max_d"]
-    loose_gap = spec["gap_d"] * spec["fill_packing_fraction"] / 0.35
+    d_min, d_max = spec.diameter_min_d, spec.diameter_max_d
+    loose_gap = spec.gap_d * spec.fill_packing_fraction / 0.35
     lo = y_bottom + ROUGH_HEIGHT + WALL_RADIUS
-    uniform = canonical_uniforms(int(spec["seed"]) + 1)
+    uniform = canonical_uniforms(int(spec.seed) + 1)
     for _ in range(CLOUD_TRIES):
         y_top = y_bottom + 2 * ROUGH_HEIGHT + loose_gap + d_max
         centres, radii = random_cloud((0.0, lo, 0.0), (width, y_top - ROUGH_HEIGHT - WALL_RADIUS, width),

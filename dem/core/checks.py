@@ -29,13 +29,13 @@ def stress_alarm(error_mean, strain_off, interval, spec):
     before) whose mean wall-stress error exceeds ``stress_alarm``; a problem once they span
     ``stress_alarm_strain``, or at once when one sample's mean is off by more than twice ``stress_alarm``
     (a wall that the grains no longer hold)."""
-    if abs(error_mean) <= spec["stress_alarm"]:
+    if abs(error_mean) <= spec.stress_alarm:
         return 0.0, None
     strain_off += interval
-    if abs(error_mean) > 2 * spec["stress_alarm"]:
+    if abs(error_mean) > 2 * spec.stress_alarm:
         return strain_off, (f"wall normal stress off target by {error_mean:+.0%} over one sample (more than twice "
-                            f"the alarm level, {spec['stress_alarm']:.0%})")
-    if strain_off >= spec["stress_alarm_strain"] - 1e-9:
-        return strain_off, (f"wall normal stress off target by {error_mean:+.0%} for {spec['stress_alarm_strain']} "
+                            f"the alarm level, {spec.stress_alarm:.0%})")
+    if strain_off >= spec.stress_alarm_strain - 1e-9:
+        return strain_off, (f"wall normal stress off target by {error_mean:+.0%} for {spec.stress_alarm_strain} "
                             "strain")
     return strain_off, None

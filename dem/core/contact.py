@@ -48,9 +48,9 @@ def pair_reduced_mass(d1, d2):
 
 def contact_constants(spec):
     """(k_n, k_t, c_n, c_t) of a contact, damping set for the mean pair."""
-    kn = 1.0 / spec["overlap_ratio"]
-    kt = spec["kt_over_kn"] * kn
-    zeta = damping_ratio(spec["restitution"])
+    kn = 1.0 / spec.overlap_ratio
+    kt = spec.kt_over_kn * kn
+    zeta = damping_ratio(spec.restitution)
     m_eff = pair_reduced_mass(1.0, 1.0)
     return kn, kt, 2 * zeta * math.sqrt(kn * m_eff), 2 * zeta * math.sqrt(kt * m_eff)
 
@@ -61,9 +61,9 @@ def tangential_damping_number(spec):
     of rolling spheres (1/m_t = 3.5/m1 + 3.5/m2). A stiff dashpot integrated explicitly diverges when this
     is too large: on the tiny cell the energy balance closes at 2.97 and the run blows up at 3.96."""
     kn, _, _, ct = contact_constants(spec)
-    d = spec["diameter_min_d"]
+    d = spec.diameter_min_d
     m_min = math.pi / 6 * d**3
-    dt = spec["dt_safety"] * math.sqrt(m_min / kn)
+    dt = spec.dt_safety * math.sqrt(m_min / kn)
     return ct * dt / (2 / 7 * pair_reduced_mass(d, d))
 
 
@@ -74,7 +74,7 @@ def contact_material(spec):
     from yade.wrapper import ViscElMat
 
     kn, kt, cn, ct = contact_constants(spec)
-    return ViscElMat(kn=2 * kn, ks=2 * kt, cn=2 * cn, cs=2 * ct, frictionAngle=math.radians(spec["friction_deg"]),
+    return ViscElMat(kn=2 * kn, ks=2 * kt, cn=2 * cn, cs=2 * ct, frictionAngle=math.radians(spec.friction_deg),
                      density=1.0)
 
 
@@ -107,12 +107,13 @@ def collision_report(argv, restitution_of, shear_of):
     ``argv[2]``."""
     import json
 
-    with open(argv[1]) as fh:
-        spec = json.load(fh)
-    d_mean = 0.5 * (spec["diameter_min_d"] + spec["diameter_max_d"])
+    from dem.core.spec import read_spec
+
+    spec = read_spec(argv[1])
+    d_mean = 0.5 * (spec.diameter_min_d + spec.diameter_max_d)
     out = {}
-    for label, diameter in (("smallest", spec["diameter_min_d"]), ("mean", d_mean),
-                            ("largest", spec["diameter_max_d"])):
+    for label, diameter in (("smallest", spec.diameter_min_d), ("mean", d_mean),
+                            ("largest", spec.diameter_max_d)):
         kt_over_kn, kn_ratio, sliding = shear_of(spec, diameter)
         out[label] = {"diameter": diameter, "restitution": restitution_of(spec, diameter),
                       "kt_over_kn": kt_over_kn, "kn_over_design": kn_ratio, "sliding_ratio": sliding}

@@ -29,6 +29,7 @@ import numpy as np
 
 from dem.core import checks, contract, measure, protocol, schema
 from dem.core.rawfile import DISK_ERRORS, DISK_FULL, DiskError, require_free, save_npz, stack, write_raw, write_status
+from dem.core.state import RunState
 
 STATUS = "status.json"  # the run's progress, read by pipeline.runs.state
 #: files of a run in progress, removed once its raw.npz is written
@@ -36,13 +37,8 @@ SCRATCH_PREFIXES = ("checkpoint", "samples_", "restart_")
 
 
 def initial_state(spec, **engine_state):
-    """The persistent state of a new run (JSON-able), with the engine's own entries."""
-    return {
-        "phase": "compaction", "hold_since": None, "t_shear0": None, "gap0": None, "wall_speed": None,
-        "next_sample": 0, "alarm_strain": 0.0, "samples_file": None, "next_checkpoint": int(spec["checkpoint_steps"]),
-        "err_sum": 0.0, "err_n": 0, "err_max": 0.0, "callback_seconds": 0.0, "loop_seconds": 0.0, "cpu_seconds": 0.0,
-        **engine_state,
-    }
+    """The persistent state of a new run, with what the engine built (``RunState``'s cell and engine entries)."""
+    return RunState(next_checkpoint=spec.checkpoint_steps, **engine_state)
 
 
 class Experiment:
@@ -58,10 +54,10 @@ class Experiment:
         self.run_dir = run_dir
         self.spec = spec
         self.state = state
-        self.area = spec["width_d"] ** 2
-        self.gain = spec["gap_d"] * spec["overlap_ratio"] / spec["control_time"]
-        self.gamma_dot = spec["inertial_number"]  # I = d gamma_dot / sqrt(p/rho) with d = p = rho = 1
-        self.samples = load_samples(run_dir, state["samples_file"])
+        self.area = spec.width_d ** 2
+        self.gain = spec.gap_d * spec.overlap_ratio / spec.control_time
+        self.gamma_dot = spec.inertial_number  # I = d gamma_dot / sqrt(p/rho) with d = p = rho = 1
+        self.samples = load_samples(run_dir, state.samples_file)
         self.sample_strains = protocol.sample_strains(spec)
         self.failure = None
         self.last_print = (time.time(), self.iteration())
@@ -70,7 +66,7 @@ class Experiment:
     def inner_planes(self):
         """Heights of the walls' inner planes (centres of their rough layers)."""
         y_bottom, y_top = self.wall_heights()
-        return y_bottom + self.state["bottom_inner_offset"], y_top + self.state["top_inner_offset"]
+        return y_bottom + self.state.bottom_inner_offset, y_top + self.state.top_inner_offset
 
     def wall_stress(self):
         """Normal stress on the top wall (force of the grains along +e2 per cell area; p > 0)."""
@@ -82,21 +78,21 @@ class Experiment:
         st = self.state
         err = self.wall_stress() - 1.0
         vy = self.gain * err
-        if st["phase"] == "compaction":
+        if st.phase == "compaction":
             vy = max(-0.1, min(0.1, vy))
             self.move_walls((0.0, vy, 0.0), None)
             self.compaction_check(err)
-        elif st["phase"] == "shear":
-            st["err_sum"] += err
-            st["err_n"] += 1
-            st["err_max"] = max(st["err_max"], abs(err))
-            strain = protocol.strain(self.time(), st["t_shear0"], self.gamma_dot, self.spec)
+        elif st.phase == "shear":
+            st.err_sum += err
+            st.err_n += 1
+            st.err_max = max(st.err_max, abs(err))
+            strain = protocol.strain(self.time(), st.t_shear0, self.gamma_dot, self.spec)
             phi = math.radians(protocol.direction_deg(strain, self.spec))
-            u = (st["wall_speed"] * math.cos(phi), 0.0, st["wall_speed"] * math.sin(phi))
+            u = (st.wall_speed * math.cos(phi), 0.0, st.wall_speed * math.sin(phi))
             self.move_walls((u[0], u[1] + vy, u[2]), (-u[0], -u[1], -u[2]))
-            if strain >= self.sample_strains[st["next_sample"]] - protocol.EPS:
+            if strain >= self.sample_strains[st.next_sample] - protocol.EPS:
                 self.sample(strain)
-        st["callback_seconds"] += time.perf_counter() - tic
+        st.callback_seconds += time.perf_counter() - tic
 
     def compaction_check(self, err):
         st = self.state
@@ -111,20 +107,20 @@ class Experiment:
                   f"{rate:.0f} steps/s", flush=True)
             self.last_print = (now, self.iteration())
         # the wall stress rings after compaction (more so in a large cell): judge its mean over a window
-        if st["hold_since"] is None:
-            st.update(hold_since=t, hold_sum=0.0, hold_n=0)
-        st["hold_sum"] += err
-        st["hold_n"] += 1
-        if t - st["hold_since"] >= self.spec["compaction_hold_time"]:
-            mean = st["hold_sum"] / st["hold_n"]
-            st["hold_since"] = None
-            if abs(mean) < self.spec["compaction_tolerance"]:
-                st.update(phase="shear", t_shear0=t, gap0=y_top - y_bottom,
-                          wall_speed=self.gamma_dot * (y_top - y_bottom) / 2)
-                print(f"compaction done at t = {t:.1f}: gap H0 = {st['gap0']:.3f} d, "
-                      f"U = {st['wall_speed']:.3g}; shearing", flush=True)
-        if t > self.spec["compaction_max_time"]:
-            self.fail(f"compaction did not converge within t = {self.spec['compaction_max_time']} "
+        if st.hold_since is None:
+            st.hold_since, st.hold_sum, st.hold_n = t, 0.0, 0
+        st.hold_sum += err
+        st.hold_n += 1
+        if t - st.hold_since >= self.spec.compaction_hold_time:
+            mean = st.hold_sum / st.hold_n
+            st.hold_since = None
+            if abs(mean) < self.spec.compaction_tolerance:
+                st.phase, st.t_shear0, st.gap0 = "shear", t, y_top - y_bottom
+                st.wall_speed = self.gamma_dot * (y_top - y_bottom) / 2
+                print(f"compaction done at t = {t:.1f}: gap H0 = {st.gap0:.3f} d, "
+                      f"U = {st.wall_speed:.3g}; shearing", flush=True)
+        if t > self.spec.compaction_max_time:
+            self.fail(f"compaction did not converge within t = {self.spec.compaction_max_time} "
                       f"(sigma_wall/p - 1 = {err:+.3f})")
 
     # sampling
@@ -133,25 +129,25 @@ class Experiment:
         contacts, grains = self.gather()
         y_bottom, y_top = self.inner_planes()
         gap = y_top - y_bottom
-        margin = self.spec["region_margin_d"]
-        n_bins = max(1, int(round(st["gap0"] / self.spec["profile_bin_d"])))
+        margin = self.spec.region_margin_d
+        n_bins = max(1, int(round(st.gap0 / self.spec.profile_bin_d)))
         edges = np.linspace(y_bottom, y_top, n_bins + 1)
-        row = measure.measure(contacts, grains, st["first_grain"], self.area, (y_bottom + margin, y_top - margin),
+        row = measure.measure(contacts, grains, st.first_grain, self.area, (y_bottom + margin, y_top - margin),
                               edges)
         row.update(
             iteration=self.iteration(), time=self.time(), strain=strain,
             direction_deg=protocol.direction_deg(strain, self.spec), gap=gap,
             region=[y_bottom + margin, y_top - margin], profile_edges=edges, **self.wall_record(),
-            wall_stress_error_mean=st["err_sum"] / max(st["err_n"], 1), wall_stress_error_max=st["err_max"],
+            wall_stress_error_mean=st.err_sum / max(st.err_n, 1), wall_stress_error_max=st.err_max,
         )
-        st.update(err_sum=0.0, err_n=0, err_max=0.0)
+        st.err_sum, st.err_n, st.err_max = 0.0, 0, 0.0
         schema.check_row(row)
         self.samples.append(row)
-        st["next_sample"] += 1
+        st.next_sample += 1
         self.check(row, grains, y_bottom, y_top)
         self.progress(strain, row)
-        if st["next_sample"] >= len(self.sample_strains) and self.failure is None:
-            st["phase"] = "done"
+        if st.next_sample >= len(self.sample_strains) and self.failure is None:
+            st.phase = "done"
             self.stop_after_this_step()
 
     def check(self, row, grains, y_bottom, y_top):
@@ -160,23 +156,23 @@ class Experiment:
         rings after compaction (by +54 % in LAMMPS's paper cell, whose compaction's windowed mean had passed)."""
         st = self.state
         problem = checks.sample_problem(row, grains["id"], grains["pos"], grains["vel"], (y_bottom, y_top),
-                                        st["gap0"])
+                                        st.gap0)
         if problem is None and len(self.samples) > 1:
             interval = row["strain"] - self.samples[-2]["strain"]
-            st["alarm_strain"], problem = checks.stress_alarm(row["wall_stress_error_mean"], st["alarm_strain"],
+            st.alarm_strain, problem = checks.stress_alarm(row["wall_stress_error_mean"], st.alarm_strain,
                                                               interval, self.spec)
         if problem is not None:
             self.fail(problem)
 
     def progress(self, strain, row):
-        total = protocol.end_strain(self.spec) + self.spec["pre_strain"]
-        done = (strain + self.spec["pre_strain"]) / total
+        total = protocol.end_strain(self.spec) + self.spec.pre_strain
+        done = (strain + self.spec.pre_strain) / total
         now = time.time()
         if done * 100 < self.next_percent and now - self.last_print[0] < 60:
             return
         self.next_percent = math.floor(done * 50 + 1e-9) * 2 + 2
         rate = (self.iteration() - self.last_print[1]) / max(now - self.last_print[0], 1e-9)
-        steps_left = (total - strain - self.spec["pre_strain"]) / (self.gamma_dot * self.dt())
+        steps_left = (total - strain - self.spec.pre_strain) / (self.gamma_dot * self.dt())
         eta = steps_left / rate if rate > 0 else float("nan")
         print(f"[{done:4.0%}] strain {strain:+.3f} / {protocol.end_strain(self.spec):.2f}  "
               f"sigma_wall/p - 1 = {row['wall_stress_error_mean']:+.2%}  tau12/p = {row['stress_contact'][0, 1]:+.3f}  "
@@ -189,7 +185,7 @@ class Experiment:
 
     def fail(self, message):
         self.failure = message
-        self.state["phase"] = "failed"
+        self.state.phase = "failed"
         self.stop_after_this_step()
 
 
@@ -221,11 +217,11 @@ def checkpoint(run, scene):
     columns = stack(run.samples)
     require_free(run.run_dir, 2 * scene.checkpoint_bytes() + 2 * sum(a.nbytes for a in columns.values()),
                  "a checkpoint")
-    previous = run.state["samples_file"]
+    previous = run.state.samples_file
     try:
         if run.writer:
             save_npz(os.path.join(run.run_dir, name), columns)
-        run.state["samples_file"] = name
+        run.state.samples_file = name
         scene.save(run)
     except OSError as exc:
         if exc.errno in DISK_ERRORS:
@@ -239,11 +235,11 @@ def write_run_raw(run, engine_meta):
     """``raw.npz``: every sample and the run's meta data (the engine's entries in ``engine_meta``)."""
     st = run.state
     meta = {
-        "spec": run.spec, **engine_meta, "dt": run.dt(), "kn": st["kn"], "kt": st["kt"], "cn": st["cn"],
-        "ct": st["ct"], "n_grains": st["n_grains"], "gap0": st["gap0"], "wall_speed": st["wall_speed"],
-        "gamma_dot_nominal": run.gamma_dot, "t_shear0": st["t_shear0"], "iterations": run.iteration(),
-        "callback_seconds": st["callback_seconds"], "loop_seconds": st["loop_seconds"],
-        "cpu_seconds": st.get("cpu_seconds", st["loop_seconds"]),
+        "spec": run.spec.to_dict(), **engine_meta, "dt": run.dt(), "kn": st.kn, "kt": st.kt, "cn": st.cn,
+        "ct": st.ct, "n_grains": st.n_grains, "gap0": st.gap0, "wall_speed": st.wall_speed,
+        "gamma_dot_nominal": run.gamma_dot, "t_shear0": st.t_shear0, "iterations": run.iteration(),
+        "callback_seconds": st.callback_seconds, "loop_seconds": st.loop_seconds,
+        "cpu_seconds": st.cpu_seconds,
         "grain_radius": run.radius.tolist(),
     }
     write_raw(os.path.join(run.run_dir, "raw.npz"), stack(run.samples), meta)
@@ -316,7 +312,7 @@ def next_stop(scene) -> str:
     resumed."""
     if scene.run is None:
         return "the first checkpoint, once the run is built or resumed"
-    return f"iteration {scene.run.state['next_checkpoint']}"
+    return f"iteration {scene.run.state.next_checkpoint}"
 
 
 def cores() -> int:
@@ -327,9 +323,8 @@ def cores() -> int:
 def count_seconds(state, seconds):
     """Add ``seconds`` of the run's loop (wall time) and its cost in CPU-seconds (times ``cores()``, which may
     change between sessions) to ``state``; a checkpoint from before CPU-seconds were counted ran on one core."""
-    state.setdefault("cpu_seconds", state["loop_seconds"])
-    state["loop_seconds"] += seconds
-    state["cpu_seconds"] += seconds * cores()
+    state.loop_seconds += seconds
+    state.cpu_seconds += seconds * cores()
 
 
 def run_scene(scene):
@@ -350,7 +345,7 @@ def run_scene(scene):
         tic = time.time()
         scene.advance(run, stop)
         count_seconds(run.state, time.time() - tic)
-        phase = run.state["phase"]
+        phase = run.state.phase
         if phase == "failed":
             sys.stderr.write(f"error: {run.failure}\n")
             sys.exit(3)
@@ -365,9 +360,9 @@ def run_scene(scene):
                         os.remove(os.path.join(run_dir, name))
             print(f"done: {len(run.samples)} samples, {run.iteration()} steps", flush=True)
             return
-        regular = run.iteration() == run.state["next_checkpoint"]
+        regular = run.iteration() == run.state.next_checkpoint
         if regular:
-            run.state["next_checkpoint"] += run.spec["checkpoint_steps"]
+            run.state.next_checkpoint += run.spec.checkpoint_steps
         checkpoint(run, scene)
         if not regular:
             print(f"interrupted: checkpoint at iteration {run.iteration()} (off the regular checkpoints: "

@@ -23,10 +23,10 @@ from dem.core.contact import contact_constants
 def pair_commands(spec):
     """The LAMMPS commands of the contact law for one atom type."""
     kn, kt, cn, ct = contact_constants(spec)
-    mu = math.tan(math.radians(spec["friction_deg"]))
+    mu = math.tan(math.radians(spec.friction_deg))
     return [
         "pair_style granular",
         f"pair_coeff * * hooke {kn!r} {cn!r} tangential linear_history {kt!r} {ct / cn!r} {mu!r} "
-        f"damping velocity limit_damping cutoff {float(spec['diameter_max_d'])!r}",
+        f"damping velocity limit_damping cutoff {float(spec.diameter_max_d)!r}",
         "comm_modify vel yes",
     ]

@@ -32,6 +32,8 @@ from dem.core import driver, protocol
 from dem.core.cell import ROUGH_HEIGHT, WALL_RADIUS, Y_BOTTOM, initial_cloud, wall_centres
 from dem.core.contact import contact_constants
 from dem.core.rawfile import sync
+from dem.core.spec import read_spec, same_spec
+from dem.core.state import RunState
 from dem.lammps.contact import pair_commands
 from dem.lammps.lib import LMP_STYLE_GLOBAL, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY, LMP_TYPE_VECTOR, new_lammps
 
@@ -66,7 +68,7 @@ def settings(spec, dt, restarted):
     reads, the controller and the halt; and the contact law, without ``pair_style`` when ``restarted`` (a restart
     file keeps the pair style with its contacts' history, which a new ``pair_style`` would drop; its coefficients
     are given again, since this LAMMPS restores the pair style with a zero cut-off)."""
-    every = int(spec["control_every_steps"])
+    every = int(spec.control_every_steps)
     law = pair_commands(spec)
     commands = ([c for c in law if not c.startswith("pair_style")] if restarted else law) + [
         f"neighbor {SKIN} bin", "neigh_modify delay 0 every 1 check yes exclude type 1 1", f"timestep {dt!r}",
@@ -96,7 +98,7 @@ def settings(spec, dt, restarted):
 def build(lmp, spec):
     """The cell, walls and grains in ``lmp``; returns the driver's initial state."""
     kn, kt, cn, ct = contact_constants(spec)
-    width = int(spec["width_d"])
+    width = int(spec.width_d)
     n_grains = protocol.grain_count(spec)
     cloud, y_top = initial_cloud(spec, n_grains, width, Y_BOTTOM)
     bottom, top = wall_centres(Y_BOTTOM, +1, width), wall_centres(y_top, -1, width)
@@ -117,7 +119,7 @@ def build(lmp, spec):
     m_min = min(math.pi / 6 * (2 * r) ** 3 for _, r in cloud)
     centre = [np.mean(np.array(wall)[:, 1]) for wall in (bottom, top)]
     return driver.initial_state(
-        spec, first_grain=n_walls + 1, n_grains=n_grains, n_wall_spheres=n_walls, dt=spec["dt_safety"]
+        spec, first_grain=n_walls + 1, n_grains=n_grains, n_wall_spheres=n_walls, dt=spec.dt_safety
         * math.sqrt(m_min / kn), bottom_inner_offset=Y_BOTTOM + ROUGH_HEIGHT - centre[0],
         top_inner_offset=y_top - ROUGH_HEIGHT - centre[1], kn=kn, kt=kt, cn=cn, ct=ct)
 
@@ -144,21 +146,21 @@ class Run(driver.Experiment):
     def __init__(self, scene, lmp, state):
         self.lmp = lmp
         tag, radius, mass, velocity = atoms(lmp, "radius", "rmass", "v")
-        grains = tag >= state["first_grain"]
+        grains = tag >= state.first_grain
         self.radius, self.mass = radius[grains].copy(), mass[grains].copy()
         super().__init__(scene.run_dir, scene.spec, state)
         # the walls go on at the velocities they had (a restart file keeps the atoms', not the variables')
-        first_top = state["n_wall_spheres"] // 2
+        first_top = state.n_wall_spheres // 2
         self.move_walls(velocity[first_top], velocity[0])
 
     def iteration(self):
         return int(self.lmp.extract_global("ntimestep"))
 
     def time(self):
-        return self.iteration() * self.state["dt"]
+        return self.iteration() * self.state.dt
 
     def dt(self):
-        return self.state["dt"]
+        return self.state.dt
 
     def vector(self, compute):
         return self.lmp.numpy.extract_compute(compute, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR).tolist()
@@ -196,7 +198,7 @@ class Run(driver.Experiment):
         pairs, i, j, dist, overlap = pairs[touching], i[touching], j[touching], dist[touching], overlap[touching]
         normal = -pairs[:, 7:10] / dist[:, None]
         point = x[i - 1] + (radius[i - 1] - overlap / 2)[:, None] * normal
-        grains = slice(self.state["first_grain"] - 1, None)
+        grains = slice(self.state.first_grain - 1, None)
         contacts = {"id1": i, "id2": j, "normal": normal, "point": point, "force": -(pairs[:, 1:4] + pairs[:, 4:7]),
                     "branch": dist}
         return contacts, {"id": tag[grains].astype(np.int64), "pos": x[grains], "vel": v[grains],
@@ -213,8 +215,7 @@ class Scene:
     def __init__(self, run_dir, continued=False):
         self.run_dir = run_dir
         self.continued = continued
-        with open(os.path.join(run_dir, "spec.json")) as fh:
-            self.spec = json.load(fh)
+        self.spec = read_spec(os.path.join(run_dir, "spec.json"))
         self.lmp = None
         self.run = None
         self.stop = {"count": 0, "signal": 0}  # the driver's (``stop_on_signals``) from the first ``advance``
@@ -243,7 +244,7 @@ class Scene:
 
     def attach(self, state, restarted):
         lmp = self.lmp
-        for command in settings(self.spec, state["dt"], restarted):
+        for command in settings(self.spec, state.dt, restarted):
             lmp.command(command)
         self.run = Run(self, lmp, state)
         return self.run
@@ -256,13 +257,13 @@ class Scene:
                 print(f"resumed from checkpoint at iteration {run.iteration()}", flush=True)
             return run
         state = build(self.new_lammps(), self.spec)
-        print(f"built: {state['n_grains']} grains, dt = {state['dt']:.4g}", flush=True)
+        print(f"built: {state.n_grains} grains, dt = {state.dt:.4g}", flush=True)
         return self.attach(state, restarted=False)
 
     def advance(self, run, stop):
         """Run to the next checkpoint iteration, or until the driver stops the run (``fix halt``)."""
         self.stop = stop
-        self.lmp.command(f"run {run.state['next_checkpoint'] - run.iteration()}")
+        self.lmp.command(f"run {run.state.next_checkpoint - run.iteration()}")
 
     @staticmethod
     def agreed_stop(stop):
@@ -291,8 +292,8 @@ class Scene:
         sync(path)
         previous = self.checkpoint_record().get("restart") if os.path.exists(
             os.path.join(self.run_dir, CHECKPOINT)) else None
-        record = {"spec": self.spec, "state": run.state, "restart": name, "bytes": os.path.getsize(path),
-                  "sha256": file_sha256(path)}
+        record = {"spec": self.spec.to_dict(), "state": run.state.to_dict(), "restart": name,
+                  "bytes": os.path.getsize(path), "sha256": file_sha256(path)}
         tmp = os.path.join(self.run_dir, f"{CHECKPOINT}.tmp{os.getpid()}")
         try:
             with open(tmp, "w") as fh:
@@ -337,7 +338,7 @@ class Scene:
     def read_checkpoint(self):
         """A LAMMPS instance from the checkpoint, checked first: its spec, the restart file's size and hash."""
         record = self.checkpoint_record()
-        if record.get("spec") != self.spec:
+        if not same_spec(record.get("spec"), self.spec):
             driver.damaged(f"checkpoint {os.path.join(self.run_dir, CHECKPOINT)} belongs to another spec")
         restart = os.path.join(self.run_dir, record["restart"])
         if (not os.path.isfile(restart) or os.path.getsize(restart) != record.get("bytes")
@@ -348,15 +349,13 @@ class Scene:
             lmp.command(command)
         lmp.command(f"read_restart {restart}")
         try:
-            return self.attach(record["state"], restarted=True)
-        except (OSError, ValueError, KeyError, EOFError) as exc:
+            return self.attach(RunState.from_dict(record["state"]), restarted=True)
+        except (OSError, ValueError, KeyError, TypeError, EOFError) as exc:
             driver.damaged(f"the samples of the checkpoint cannot be read ({type(exc).__name__})")
 
     def meta(self):
-        from dem.yade.lib import VERSION as YADE_VERSION  # the grains' cloud is Yade's
-
-        return {"engine": "lammps", "engine_version": self.lmp.version(), "yade_version": YADE_VERSION,
-                "n_wall_spheres": self.run.state["n_wall_spheres"]}
+        return {"engine": "lammps", "engine_version": self.lmp.version(), "yade_version": "",
+                "n_wall_spheres": self.run.state.n_wall_spheres}
 
 
 def file_sha256(path):

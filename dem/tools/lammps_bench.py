@@ -9,6 +9,7 @@ restart from one kept state (LAMMPS reads a restart file back in one process onl
 ``dem/lammps/scene.py``): each repeat shears on, in the same steady state.
 """
 
+import dataclasses
 import json
 import sys
 import time
@@ -20,15 +21,15 @@ def main():
     steps, repeats, out = int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
     scene = lammps_scene.Scene(sys.argv[1])
     run = scene.start()
-    run.state["next_checkpoint"] = 1 << 62
+    run.state.next_checkpoint = 1 << 62
     # the runs follow one another: a bare run's held gap leaves the wall stress off p for the next full run, whose
     # wall-stress alarm would stop the benchmark (it measures speed, not physics)
-    run.spec = {**run.spec, "stress_alarm": float("inf")}
+    run.spec = dataclasses.replace(run.spec, stress_alarm=float("inf"))
     lmp = scene.lmp
-    while run.state["phase"] == "compaction":
+    while run.state.phase == "compaction":
         lmp.command(f"run {steps}")
     lmp.command(f"run {steps}")
-    every = int(scene.spec["control_every_steps"])
+    every = int(scene.spec.control_every_steps)
     times = {"bare": [], "full": []}
     for _ in range(repeats):
         for mode in times:
@@ -42,12 +43,12 @@ def main():
             if mode == "bare":
                 lmp.command(f"fix control all python/invoke {every} end_of_step {lammps_scene.CONTROL}")
                 lmp.command(f"fix halt all halt {every} v_halte != 0 error continue message no")
-            if run.state["phase"] != "shear":
-                raise RuntimeError(f"the benchmark left the shear phase: {run.state['phase']} {run.failure}")
+            if run.state.phase != "shear":
+                raise RuntimeError(f"the benchmark left the shear phase: {run.state.phase} {run.failure}")
     best = {mode: min(t) for mode, t in times.items()}
-    bodies = run.state["n_grains"] + run.state["n_wall_spheres"]
-    result = {"engine": "lammps", "engine_version": lmp.version(), "preset": scene.spec["preset"],
-              "grains": run.state["n_grains"], "wall_spheres": run.state["n_wall_spheres"], "steps": steps,
+    bodies = run.state.n_grains + run.state.n_wall_spheres
+    result = {"engine": "lammps", "engine_version": lmp.version(), "preset": scene.spec.preset,
+              "grains": run.state.n_grains, "wall_spheres": run.state.n_wall_spheres, "steps": steps,
               "repeats": repeats, "dt": run.dt(), "seconds": best,
               "steps_per_second": {mode: steps / t for mode, t in best.items()},
               "particle_steps_per_second": {mode: steps * bodies / t for mode, t in best.items()},

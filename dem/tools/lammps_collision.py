@@ -66,7 +66,7 @@ def shear(spec, diameter, overlap_ratio=0.5):
     """Contact at a fixed overlap sheared at constant tangential speed: k_t/k_n, k_n against the design,
     and the sliding ratio |F_t|/|F_n|."""
     kn = contact_constants(spec)[0]
-    overlap = overlap_ratio * spec["overlap_ratio"]
+    overlap = overlap_ratio * spec.overlap_ratio
     lmp = two_grains(spec, diameter, -overlap)
     dt = lmp.extract_global("dt")
     speed = 1e-4 * overlap / dt
@@ -80,7 +80,7 @@ def shear(spec, diameter, overlap_ratio=0.5):
     (t1, fn, fs1), (t2, _, fs2) = samples[2], samples[-1]
     kt_measured = (fs2 - fs1) / (speed * (t2 - t1))
     kn_measured = fn / overlap
-    fs_limit = math.tan(math.radians(spec["friction_deg"])) * fn
+    fs_limit = math.tan(math.radians(spec.friction_deg)) * fn
     lmp.command(f"run {int(3 * fs_limit / (kt_measured * speed * dt)) + 10} post no")
     fn, ft = contact_forces(lmp)
     return kt_measured / kn_measured, kn_measured / kn, ft / fn

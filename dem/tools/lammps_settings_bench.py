@@ -21,7 +21,7 @@ def main():
     run_dir, steps, out, commands = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4:]
     scene = lammps_scene.Scene(run_dir)
     run = scene.start()
-    run.state["next_checkpoint"] = 1 << 62
+    run.state.next_checkpoint = 1 << 62
     lmp = scene.lmp
     for command in commands:
         lmp.command(command)
@@ -31,7 +31,7 @@ def main():
     seconds = time.perf_counter() - tic
     if run.failure:
         raise RuntimeError(f"the run failed while timed: {run.failure}")
-    result = {"engine_version": lmp.version(), "preset": scene.spec["preset"], "grains": run.state["n_grains"],
+    result = {"engine_version": lmp.version(), "preset": scene.spec.preset, "grains": run.state.n_grains,
               "iteration": run.iteration(), "commands": commands, "steps": steps, "seconds": seconds,
               "steps_per_second": steps / seconds}
     with open(out, "w") as fh:

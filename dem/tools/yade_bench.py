@@ -28,7 +28,7 @@ def configure(scene, mode):
     """Reload the kept state into ``scene`` and configure ``mode``."""
     O.loadTmp("bench")
     run = scene.attach()
-    run.state["next_checkpoint"] = 1 << 62
+    run.state.next_checkpoint = 1 << 62
     controller = next(e for e in O.engines if e.label == "controller")
     controller.dead = mode == "bare"
     if mode == "bare":  # walls at constant velocity: keep the shear, stop the vertical motion
@@ -43,8 +43,8 @@ def timed(scene, mode, steps):
     tic = time.perf_counter()
     O.run(steps, True)
     seconds = time.perf_counter() - tic
-    if state["phase"] != "shear":
-        raise RuntimeError(f"the benchmark left the shear phase: {state['phase']} {scene.run.failure}")
+    if state.phase != "shear":
+        raise RuntimeError(f"the benchmark left the shear phase: {state.phase} {scene.run.failure}")
     return seconds
 
 
@@ -70,7 +70,7 @@ def main():
     scene = yade_scene.Scene(sys.argv[1])
     prepare(scene, cache, shear_steps=steps)
     state = scene.run.state
-    O.tags["state"] = json.dumps(state)
+    O.tags["state"] = json.dumps(state.to_dict())
     O.saveTmp("bench")
     runs = {mode: [] for mode in MODES}
     for _ in range(repeats):  # interleaved, so that a busy spell of the machine hits every mode
@@ -79,11 +79,11 @@ def main():
     best = {mode: min(r) for mode, r in runs.items()}
     engines = {mode: engine_split(scene, mode, steps) for mode in MODES}
     full = engines["full"]["microseconds_per_step"]
-    wall_spheres = len(state["top"][1]) * 2
-    bodies = state["n_grains"] + wall_spheres
+    wall_spheres = len(state.top[1]) * 2
+    bodies = state.n_grains + wall_spheres
     result = {
-        "preset": scene.spec["preset"], "grains": state["n_grains"], "wall_spheres": wall_spheres,
-        "steps": steps, "repeats": repeats, "control_every_steps": scene.spec["control_every_steps"], "dt": O.dt,
+        "preset": scene.spec.preset, "grains": state.n_grains, "wall_spheres": wall_spheres,
+        "steps": steps, "repeats": repeats, "control_every_steps": scene.spec.control_every_steps, "dt": O.dt,
         "seconds": best, "steps_per_second": {mode: steps / t for mode, t in best.items()},
         "particle_steps_per_second": {mode: steps * bodies / t for mode, t in best.items()},
         "spread_percent": {mode: 100 * (max(r) / best[mode] - 1) for mode, r in runs.items()},

@@ -47,7 +47,7 @@ def shear(spec, diameter, overlap_ratio=0.5):
     mat = reset(spec, diameter)
     r = diameter / 2
     kn = contact_constants(spec)[0]
-    overlap = overlap_ratio * spec["overlap_ratio"]
+    overlap = overlap_ratio * spec.overlap_ratio
     a = O.bodies.append(utils.sphere((0, 0, 0), r, material=mat))
     b = O.bodies.append(utils.sphere((2 * r - overlap, 0, 0), r, material=mat))
     for i in (a, b):
@@ -63,7 +63,7 @@ def shear(spec, diameter, overlap_ratio=0.5):
     (t1, fn, fs1), (t2, _, fs2) = samples[2], samples[-1]
     kt_measured = (fs2 - fs1) / (speed * (t2 - t1))
     kn_measured = fn / overlap
-    fs_limit = math.tan(math.radians(spec["friction_deg"])) * fn
+    fs_limit = math.tan(math.radians(spec.friction_deg)) * fn
     O.run(int(3 * fs_limit / (kt_measured * speed * O.dt)) + 10, True)
     i = O.interactions[a, b]
     return kt_measured / kn_measured, kn_measured / kn, i.phys.shearForce.norm() / i.phys.normalForce.norm()

@@ -99,7 +99,7 @@ def main():
     prepare(scene, None, shear_steps=200, chunk=500)  # into the shear, with all of the protocol left
     run = scene.run
     steps = int(strain / (run.gamma_dot * O.dt))
-    run.state["next_checkpoint"] = 1 << 62
+    run.state.next_checkpoint = 1 << 62
     walls = (run.top_clump, run.bottom_clump)
     e_kin0, held = kinetic(run.grains), contact_energies()
     e_el0 = sum(map(sum, held.values()))
@@ -107,7 +107,7 @@ def main():
     made = 0
     previous = [Vector3(w.state.vel) for w in walls]  # the walls' velocities the half step before
     before = body_motion()
-    while made < steps and run.state["phase"] == "shear":
+    while made < steps and run.state.phase == "shear":
         made += 1
         moved = [Vector3(w.state.vel) for w in walls]  # the velocity each wall moves with in this step
         O.step()
@@ -125,7 +125,7 @@ def main():
         released += (sum(sum(e) for key, e in held.items() if key not in now)
                      - sum(sum(e) for key, e in now.items() if key not in held))
         held, before = now, after
-    if run.state["phase"] == "failed":
+    if run.state.phase == "failed":
         sys.stderr.write(f"error: {run.failure}\n")
         sys.exit(3)
     e_kin1, e_el1 = kinetic(run.grains), sum(map(sum, held.values()))

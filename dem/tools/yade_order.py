@@ -28,7 +28,7 @@ def morton_key(x, y, z, bits=10):
 def layout(scene, order, steps, cache):
     """Load the cached state; with ``morton``, move the grains' states so that ids follow space."""
     run = scene.load(cache)
-    run.state["next_checkpoint"] = 1 << 62
+    run.state.next_checkpoint = 1 << 62
     grains = run.grains
     if order == "morton":
         keys = [morton_key(*(int(max(c, 0.0)) for c in b.state.pos)) for b in grains]
@@ -39,7 +39,7 @@ def layout(scene, order, steps, cache):
             body.state.pos, body.state.vel, body.state.angVel, body.state.ori = Vector3(pos), Vector3(vel), \
                 Vector3(ang), ori
             body.shape.radius, body.state.mass, body.state.inertia = radius, mass, Vector3(inertia)
-        scene.attach().state["next_checkpoint"] = 1 << 62  # radii and masses in the new order
+        scene.attach().state.next_checkpoint = 1 << 62  # radii and masses in the new order
     O.interactions.clear()
     O.run(200, True)  # the collider finds the contacts again
     tic = time.perf_counter()
@@ -55,7 +55,7 @@ def main():
         for order in times:
             times[order].append(layout(scene, order, steps, cache))
     best = {k: min(v) for k, v in times.items()}
-    result = {"preset": scene.spec["preset"], "grains": scene.run.state["n_grains"], "steps": steps,
+    result = {"preset": scene.spec.preset, "grains": scene.run.state.n_grains, "steps": steps,
               "repeats": repeats, "seconds": times, "steps_per_second": {k: steps / v for k, v in best.items()},
               "speedup": best["created"] / best["morton"]}
     with open(out, "w") as fh:

@@ -28,11 +28,11 @@ def prepare(scene, cache, shear_steps=2000, chunk=20000):
         scene.load(cache)
         return "loaded"
     state = scene.build().state
-    state["next_checkpoint"] = 1 << 62
-    while state["phase"] == "compaction":
+    state.next_checkpoint = 1 << 62
+    while state.phase == "compaction":
         O.run(chunk, True)  # the shear starts within the last chunk
     O.run(shear_steps, True)  # into shear
-    O.tags["state"] = json.dumps(state)
+    O.tags["state"] = json.dumps(state.to_dict())
     if cache:
         O.save(cache)
     return "built"
@@ -49,8 +49,8 @@ def main():
     cache = sys.argv[4] if len(sys.argv) > 4 else None
     scene = yade_scene.Scene(run_dir)
     origin = prepare(scene, cache)
-    scene.run.state["next_checkpoint"] = 1 << 62
-    O.tags["state"] = json.dumps(scene.run.state)
+    scene.run.state.next_checkpoint = 1 << 62
+    O.tags["state"] = json.dumps(scene.run.state.to_dict())
     plain = timed_steps(steps)  # timers off: the production speed
     collider = next(e for e in O.engines if type(e).__name__ == "InsertionSortCollider")
     sorts_before = collider.numAction
@@ -70,7 +70,7 @@ def main():
     for e in engines:
         e["percent"] = 100 * e["seconds"] / total
     st = scene.run.state
-    grains = st["n_grains"]
+    grains = st.n_grains
     potential, real = len(O.interactions), O.interactions.countReal()  # a saved scene keeps only real contacts
     tic = time.perf_counter()
     O.save(os.path.join(run_dir, "profile.yade.gz"))
@@ -80,10 +80,10 @@ def main():
     loaded = time.perf_counter() - tic
     os.remove(os.path.join(run_dir, "profile.yade.gz"))
     result = {
-        "preset": scene.spec["preset"], "grains": grains, "wall_spheres": 2 * len(st["top"][1]),
+        "preset": scene.spec.preset, "grains": grains, "wall_spheres": 2 * len(st.top[1]),
         "origin": origin, "steps": steps, "threads": int(os.environ.get("OMP_NUM_THREADS", "1")),
         "steps_per_second": steps / plain, "steps_per_second_timed": steps / timed,
-        "particle_steps_per_second": steps * (grains + 2 * len(st["top"][1])) / plain,
+        "particle_steps_per_second": steps * (grains + 2 * len(st.top[1])) / plain,
         "engines": engines, "collider_sorts": collider.numAction - sorts_before,
         "collider_verlet_dist": collider.verletDist,
         "interactions_potential_per_grain": potential / grains, "interactions_real_per_grain": real / grains,

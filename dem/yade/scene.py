@@ -3,7 +3,7 @@ in Yade and gives ``dem/core/driver.py`` its clock, walls and contact arrays.
 
 Run by ``python -m pipeline.runs`` (``make dem``) as ``python3 -m dem.yade.scene RUN_DIR`` (Debian's python3, Yade
 imported as a library by ``dem/yade/lib.py``: no remote console is opened); RUN_DIR holds ``spec.json`` (every
-parameter, resolved and validated by ``pipeline/runs/spec.py``) and receives checkpoints
+parameter, resolved and validated by ``pipeline/spec.py``) and receives checkpoints
 (``checkpoint.yade.gz``, the driver's state in ``O.tags``) and ``raw.npz``. Each wall is a rigid, non-dynamic
 clump of its spheres; contacts are ``dem/core/contact.py``'s (linear visco-elastic, constant k_n, damping set for the
 mean pair). Exit statuses: ``dem/core/driver.py``.
@@ -21,6 +21,8 @@ from dem.core import driver, protocol
 from dem.core.cell import ROUGH_HEIGHT, WALL_RADIUS, Y_BOTTOM, initial_cloud, wall_centres
 from dem.core.contact import contact_constants, contact_engines, contact_material
 from dem.core.rawfile import DiskError, complete_gzip, sync
+from dem.core.spec import DemSpec, read_spec
+from dem.core.state import RunState
 from dem.yade import active
 from dem.yade.lib import VERSION, O, PyRunner, Vector3, utils
 
@@ -37,7 +39,7 @@ def wall_spheres(y_compact, towards, width, material):
 def build(spec):
     """Create the cell, walls, grains and engines; the driver's state goes to O.tags['state']."""
     kn, kt, cn, ct = contact_constants(spec)
-    width = int(spec["width_d"])
+    width = int(spec.width_d)
     n_grains = protocol.grain_count(spec)
     cloud, y_top = initial_cloud(spec, n_grains, width, Y_BOTTOM)
     O.periodic = True
@@ -48,15 +50,15 @@ def build(spec):
     first_grain = len(O.bodies)
     O.bodies.append([utils.sphere(c, r, material=material) for c, r in cloud])
     m_min = min(b.state.mass for b in O.bodies if b.id >= first_grain)
-    O.dt = spec["dt_safety"] * math.sqrt(m_min / kn)
+    O.dt = spec.dt_safety * math.sqrt(m_min / kn)
     O.engines = contact_engines() + [
-        PyRunner(iterPeriod=int(spec["control_every_steps"]), command=active.COMMAND, label="controller"),
+        PyRunner(iterPeriod=int(spec.control_every_steps), command=active.COMMAND, label="controller"),
     ]
-    O.tags["spec"] = json.dumps(spec)
+    O.tags["spec"] = json.dumps(spec.to_dict())
     O.tags["state"] = json.dumps(driver.initial_state(
         spec, bottom=bottom, top=top, first_grain=first_grain, n_grains=n_grains,
         bottom_inner_offset=Y_BOTTOM + ROUGH_HEIGHT - O.bodies[bottom[0]].state.pos[1],
-        top_inner_offset=y_top - ROUGH_HEIGHT - O.bodies[top[0]].state.pos[1], kn=kn, kt=kt, cn=cn, ct=ct))
+        top_inner_offset=y_top - ROUGH_HEIGHT - O.bodies[top[0]].state.pos[1], kn=kn, kt=kt, cn=cn, ct=ct).to_dict())
 
 
 # ---------------------------------------------------------------- the running scene (state restored from O.tags)
@@ -65,9 +67,9 @@ class Run(driver.Experiment):
 
     def __init__(self, scene):
         self.scene = scene
-        state = json.loads(O.tags["state"])
-        self.top_clump, self.bottom_clump = O.bodies[state["top"][0]], O.bodies[state["bottom"][0]]
-        self.grain_ids = list(range(state["first_grain"], state["first_grain"] + state["n_grains"]))
+        state = RunState.from_dict(json.loads(O.tags["state"]))
+        self.top_clump, self.bottom_clump = O.bodies[state.top[0]], O.bodies[state.bottom[0]]
+        self.grain_ids = list(range(state.first_grain, state.first_grain + state.n_grains))
         self.grains = [O.bodies[i] for i in self.grain_ids]
         self.radius = np.array([b.shape.radius for b in self.grains])
         self.mass = np.array([b.state.mass for b in self.grains])
@@ -138,8 +140,7 @@ class Scene:
 
     def __init__(self, run_dir):
         self.run_dir = run_dir
-        with open(os.path.join(run_dir, "spec.json")) as fh:
-            self.spec = json.load(fh)
+        self.spec = read_spec(os.path.join(run_dir, "spec.json"))
         self.checkpoint = os.path.join(run_dir, "checkpoint.yade.gz")
         self.run = None
 
@@ -174,7 +175,7 @@ class Scene:
         if os.path.exists(self.checkpoint):
             try:
                 O.load(self.checkpoint)
-                same_spec = json.loads(O.tags["spec"]) == self.spec
+                same_spec = DemSpec.from_dict(json.loads(O.tags["spec"])) == self.spec
             except Exception as exc:  # noqa: BLE001 - any damage: Yade raises RuntimeError, MemoryError, ...
                 driver.damaged(f"checkpoint {self.checkpoint} cannot be loaded ({type(exc).__name__})")
             if not same_spec:
@@ -194,7 +195,7 @@ class Scene:
         The loop stops itself only at the end of a whole step (``O.run(n)`` sets ``stopAtIter``), so no engine is
         still running when this returns. A second signal asks for a stop two steps ahead.
         """
-        O.run(run.state["next_checkpoint"] - O.iter)
+        O.run(run.state.next_checkpoint - O.iter)
         target = None
         while O.running:
             if stop["count"] >= 2 and (target is None or O.iter >= target):
@@ -216,7 +217,7 @@ class Scene:
         checkpoint."""
         tmp = os.path.join(self.run_dir, "checkpoint.tmp.yade.gz")
         try:
-            O.tags["state"] = json.dumps(run.state)
+            O.tags["state"] = json.dumps(run.state.to_dict())
             O.save(tmp)
             if not complete_gzip(tmp):
                 raise DiskError(f"the checkpoint written in {self.run_dir} is incomplete (a full disk?)")
@@ -233,7 +234,7 @@ class Scene:
     def meta(self):
         st = self.run.state
         return {"engine": "yade", "engine_version": VERSION, "yade_version": VERSION,
-                "n_wall_spheres": len(st["top"][1]) + len(st["bottom"][1])}
+                "n_wall_spheres": len(st.top[1]) + len(st.bottom[1])}
 
 
 def main(run_dir):

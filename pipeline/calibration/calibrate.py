@@ -129,14 +129,14 @@ def check_distinct(runs: list) -> None:
     """Refuse a run given twice (the same spec, seed included, is the same run): it would count as two seeds."""
     seen = {}
     for run in runs:
-        key = json.dumps(run.spec, sort_keys=True)
+        key = json.dumps(run.spec.to_dict(), sort_keys=True)
         if key in seen:
             raise CalibrationError(f"{run.path} is the same run as {seen[key]} (same spec and seed): give it once")
         seen[key] = run.path
 
 
 def check_window(window: float, runs: list) -> None:
-    shortest = min(min(r.spec["rotate_at_strain"], r.spec["period_strain"] - r.spec["rotate_at_strain"])
+    shortest = min(min(r.spec.rotate_at_strain, r.spec.period_strain - r.spec.rotate_at_strain)
                    for r in runs)
     if not (math.isfinite(window) and 0 < window < shortest):
         raise CalibrationError(f"window={window} must be a positive strain shorter than the shortest segment "
@@ -150,7 +150,7 @@ def check_settings(settings: Settings, reversals: list, cross_runs: tuple) -> No
         raise CalibrationError(f"cannot hold {', '.join(unknown)}: only {', '.join(global_fit.FREE)} can be held")
     if not reversals:
         raise CalibrationError("no reversal run found (theta = 180): run `make dem THETA=180 PRESET=...` first")
-    not_reversals = [f"{r.path} (theta = {r.spec['theta_deg']})" for r in reversals if not r.is_reversal]
+    not_reversals = [f"{r.path} (theta = {r.spec.theta_deg})" for r in reversals if not r.is_reversal]
     if not_reversals:
         raise CalibrationError(f"not a reversal run: {', '.join(not_reversals)}")
     check_distinct([*reversals, *cross_runs])
@@ -164,7 +164,7 @@ def check_settings(settings: Settings, reversals: list, cross_runs: tuple) -> No
                                    f"{len(groups)} ({', '.join(groups) or 'none'})")
     if settings.fit_from and settings.bootstrap:
         raise CalibrationError("a bootstrap of a restarted fit (fit_from > 0) is not implemented: leave one out")
-    if settings.bootstrap and not any(r.spec["n_cycles"] > 1 for r in (*reversals, *cross_runs)):
+    if settings.bootstrap and not any(r.spec.n_cycles > 1 for r in (*reversals, *cross_runs)):
         raise CalibrationError("a bootstrap needs runs with more than one cycle (the noise is measured from them)")
 
 
@@ -173,10 +173,10 @@ def jackknife_groups(over: str, reversals: list, cross_runs: tuple) -> dict[str,
     seed alone (``"seeds"``), or each angle with all its runs (``"angles"``: every seed of the reversal goes
     out at once)."""
     if over == "seeds":
-        return {f"seed {r.spec['seed']}": [i] for i, r in enumerate(reversals)}
+        return {f"seed {r.spec.seed}": [i] for i, r in enumerate(reversals)}
     groups: dict[str, list[int]] = {}
     for i, r in enumerate([*reversals, *cross_runs]):
-        groups.setdefault(f"theta = {r.spec['theta_deg']:g}", []).append(i)
+        groups.setdefault(f"theta = {r.spec.theta_deg:g}", []).append(i)
     return groups
 
 
@@ -238,7 +238,7 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
                 weight=settings.weight)
             identifiable["spread_over_angles"] = identifiability.spread_over_angles(spread)
     resampled = None
-    if len(reversals) == 1 and reversals[0].spec["n_cycles"] > 1:  # one run: its error from its cycles
+    if len(reversals) == 1 and reversals[0].spec.n_cycles > 1:  # one run: its error from its cycles
         resampled = boot["stepwise"] if boot else stepwise_bootstrap(reversals, STEPWISE_RESAMPLES, window)
     estimates = combine(per_run, resampled)
     bad = [k for k in ("C_eq15", "n", "m", "a1", "b1", "a2", "b2") if not math.isfinite(estimates[k]["value"])]

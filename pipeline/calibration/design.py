@@ -111,12 +111,12 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: lis
     weakest = np.array([fit.directions[0]["direction"][n] for n in fit.names]) / scale
     reference = next(r for r in runs if r.is_reversal)
     spec = reference.spec
-    seconds_per_strain = float(np.mean([r.cpu_seconds / (r.spec["pre_strain"] + r.spec["n_cycles"]
-                                                         * r.spec["period_strain"]) for r in runs]))
+    seconds_per_strain = float(np.mean([r.cpu_seconds / (r.spec.pre_strain + r.spec.n_cycles
+                                                         * r.spec.period_strain) for r in runs]))
     ratio = bulk_over_nominal(reference)
     present = global_fit.run_parts(fit.jacobian, data, noise)
     fit_from = data[0].fit_from
-    committed = {(r.spec["theta_deg"], r.spec["rotate_at_strain"]): r for r in left_out}
+    committed = {(r.spec.theta_deg, r.spec.rotate_at_strain): r for r in left_out}
     fitted = {}
     for i, d in enumerate(data):
         fitted.setdefault(_protocol(d.theta_deg, d.rotate_at, d.n_cycles, d.sample_step), i)
@@ -127,14 +127,14 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: lis
         if key in fitted:
             return data[fitted[key]], present[fitted[key]]
         own = committed.get((c.theta_deg, c.rotate_at))
-        if own is not None and (c.committed or key == _protocol(c.theta_deg, c.rotate_at, own.spec["n_cycles"],
-                                                                 own.spec["sample_strain"])):
+        if own is not None and (c.committed or key == _protocol(c.theta_deg, c.rotate_at, own.spec.n_cycles,
+                                                                 own.spec.sample_strain)):
             if key not in own_parts:
                 probe = global_fit.scaled_cycle(own, noise, fit_from, stress)
                 probe.prediction(fit.params)  # the model's failure named, not read as a run that adds nothing
                 own_parts[key] = probe, candidate_parts(probe, noise, fit, cache)
             return own_parts[key]
-        probe = candidate_data(c, spec["period_strain"], ratio, noise, fit.params, stress, fit_from)
+        probe = candidate_data(c, spec.period_strain, ratio, noise, fit.params, stress, fit_from)
         return probe, candidate_parts(probe, noise, fit, cache)
 
     def measures(cov):
@@ -142,7 +142,7 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: lis
 
     before = measures(V)
     out, failed = [], []
-    for c in candidates(list(committed), spec["n_cycles"]):
+    for c in candidates(list(committed), spec.n_cycles):
         try:
             probe, part = parts_of(c)
         except (model.SolverError, model.ParameterError, ValueError, CalibrationError) as exc:
@@ -150,7 +150,7 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: lis
             continue
         weights = [d.weight for d in global_fit.weighed([*data, probe], weight)]
         after = measures(global_fit.sandwich([*present, part], weights)[0])
-        hours = c.cost_factor * c.strain_run(spec["period_strain"], spec["pre_strain"]) * seconds_per_strain / 3600
+        hours = c.cost_factor * c.strain_run(spec.period_strain, spec.pre_strain) * seconds_per_strain / 3600
         gain = 1 - after[0] / before[0]
         out.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "n_cycles": c.n_cycles,
                     "sample_strain": c.sample_strain, "cpu_hours": hours,

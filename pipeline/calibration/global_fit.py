@@ -110,7 +110,7 @@ def scaled_cycle(run, noise: noise_model.NoiseModel | None, fit_from: float = 0.
                  stress: str = STRESS_DEFAULT) -> Cycle:
     """The run's :class:`Cycle` with each component's noise per sample as its scale (``noise_scales``)."""
     cycle = Cycle.from_run(run)
-    step = run.spec["sample_strain"]
+    step = run.spec.sample_strain
     states = None if abs(fit_from / step - round(fit_from / step)) <= 1e-6 else states_after_changes(run, fit_from)
     scales = noise_scales(len(cycle.strain), noise, cycle.n_cycles, stress)
     try:

@@ -45,14 +45,14 @@ def per_cycle(run, key: str) -> np.ndarray:
     """The run's samples of ``key`` on its cycle grid, ``(n_cycles, n_grid - 1, 3, 3)`` (the sample that
     closes the period left out, as in the fit)."""
     spec = run.spec
-    _, idx = cycle_indices(run.series["strain_nominal"], spec["period_strain"], spec["sample_strain"],
-                           spec["n_cycles"])
+    _, idx = cycle_indices(run.series["strain_nominal"], spec.period_strain, spec.sample_strain,
+                           spec.n_cycles)
     return run.series[key][idx][:, :-1]
 
 
 def _protocol(run) -> tuple:
     s = run.spec
-    return (s["theta_deg"], s["rotate_at_strain"], s["period_strain"], s["sample_strain"], s["n_cycles"])
+    return (s.theta_deg, s.rotate_at_strain, s.period_strain, s.sample_strain, s.n_cycles)
 
 
 def sokal_window(rho: np.ndarray, c: float = 5.0) -> int:
@@ -168,7 +168,7 @@ def _white_scatter(runs: list) -> NoiseModel:
     gamma[:, 0] = np.eye(2)
     zero = {q: np.zeros(len(COMPONENTS)) for q in QUANTITIES}
     pool = tuple({q: d[q][0] for q in QUANTITIES} for d in devs)
-    return NoiseModel(runs[0].spec["sample_strain"], sigma, zero, gamma,
+    return NoiseModel(runs[0].spec.sample_strain, sigma, zero, gamma,
                       "scatter about each run's smoothed cycle, taken as white (one cycle per run, no seeds: "
                       "the noise is not measurable)", pool, sigma, measured=False)
 
@@ -195,12 +195,12 @@ def estimate(runs: list) -> NoiseModel:
     """The noise model of ``runs`` (read with the definitions they carry); see the module docstring."""
     if not runs:
         raise CalibrationError("no run to measure the noise on")
-    steps = {r.spec["sample_strain"] for r in runs}
+    steps = {r.spec.sample_strain for r in runs}
     if len(steps) > 1:
         raise CalibrationError(f"runs sampled at different strains ({sorted(steps)}): fit them separately")
     cycles = []
     for run in runs:
-        n = run.spec["n_cycles"]
+        n = run.spec.n_cycles
         if n > 1:
             cycles.append({q: (x - x.mean(axis=0)) * np.sqrt(n / (n - 1))
                            for q in QUANTITIES for x in [per_cycle(run, q)]})
@@ -224,5 +224,5 @@ def estimate(runs: list) -> NoiseModel:
     series = _deviation_series(blocks, sigma)
     gamma = np.array([joint_autocovariance(s, MAX_LAG) for s in series])
     pool = tuple({q: b[q][c] for q in QUANTITIES} for b in blocks for c in range(b["A"].shape[0]))
-    return NoiseModel(runs[0].spec["sample_strain"], sigma_cycle, sigma_seed, gamma, f"correlation from {source}",
+    return NoiseModel(runs[0].spec.sample_strain, sigma_cycle, sigma_seed, gamma, f"correlation from {source}",
                       pool, sigma)

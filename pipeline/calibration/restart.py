@@ -38,7 +38,7 @@ PARAMS_FOLDER = "fit_from"
 
 
 def on_grid(run, fit_from: float) -> bool:
-    k = fit_from / run.spec["sample_strain"]
+    k = fit_from / run.spec.sample_strain
     return abs(k - round(k)) <= 1e-6
 
 

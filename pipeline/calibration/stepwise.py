@@ -58,10 +58,10 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
     """Every stepwise estimate of one reversal run (see the module docstring); ``cycle`` replaces the
     run's own cycle (a bootstrap resample)."""
     if not run.is_reversal:
-        raise CalibrationError(f"{run.path} is not a reversal run (theta = {run.spec['theta_deg']})")
+        raise CalibrationError(f"{run.path} is not a reversal run (theta = {run.spec.theta_deg})")
     c = run.cycle if cycle is None else cycle
     strain, A, tau, phi = c["strain"], c["A"], c["tau_over_p"], c["packing_fraction"]
-    rotate_at = run.spec["rotate_at_strain"]
+    rotate_at = run.spec.rotate_at_strain
     D = cycle_D_dev(run)  # per unit nominal gamma_dot
     ratio = bulk_over_nominal(run)
     if not (math.isfinite(ratio) and ratio > 0):
@@ -98,7 +98,7 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
     phi_s, dphi = smooth_segments(strain, phi, D, window_strain=window)
     c2_coef, phi_c = dilatancy_estimate(strain, phi_s, dphi, A_s, D, S, -C, ratio, rotate_at)
     return {
-        "path": str(run.path), "seed": run.spec.get("seed"), "bulk_over_nominal": float(ratio),
+        "path": str(run.path), "seed": run.spec.seed, "bulk_over_nominal": float(ratio),
         "transient_strain": float(transient),
         "C_eq15": C, "C_eq15_by_reversal": [f.slope for f in fits_C],
         "C_eq15_se": float(np.hypot(*[f.slope_se for f in fits_C]) / 2),
@@ -124,7 +124,7 @@ def cross_check_run(run, window: float = 0.05, min_sine: float = 0.1) -> dict:
     C, Y = cal.backstress_and_yield(tau_s, A_s, D, min_sine=min_sine)
     S = model.hardening_variable_stack(A_s, D)
     ok = np.isfinite(C) & np.isfinite(S)
-    out = {"path": str(run.path), "theta_deg": run.spec["theta_deg"], "samples": int(ok.sum()),
+    out = {"path": str(run.path), "theta_deg": run.spec.theta_deg, "samples": int(ok.sum()),
            "arrays": {"strain": strain, "S": S, "C": C, "Y": Y}}
     if ok.sum() >= 3:
         q25, q50, q75 = np.percentile(C[ok], [25, 50, 75])
@@ -191,13 +191,13 @@ def stepwise_bootstrap(runs: list, replicates: int, window: float, seed: int = 0
     for _ in range(replicates):
         per_run = []
         for run in runs:
-            cycle = {**run.cycle, **resampled_cycle(run, rng)} if run.spec["n_cycles"] > 1 else run.cycle
+            cycle = {**run.cycle, **resampled_cycle(run, rng)} if run.spec.n_cycles > 1 else run.cycle
             per_run.append(calibrate_run(run, window=window, cycle=cycle))
         values.append([np.nanmean([r[key] for r in per_run]) for key in BOOTSTRAPPED])
     v = np.array(values)
     lo, hi = np.nanpercentile(v, [15.87, 84.13], axis=0)
     return {"free": list(BOOTSTRAPPED), "replicates": replicates,
-            "cycles": min(run.spec["n_cycles"] for run in runs),
+            "cycles": min(run.spec.n_cycles for run in runs),
             "standard_deviation": np.nanstd(v, axis=0, ddof=1).tolist(), "half_width_68": ((hi - lo) / 2).tolist(),
             "percentile_2.5": np.nanpercentile(v, 2.5, axis=0).tolist(),
             "percentile_97.5": np.nanpercentile(v, 97.5, axis=0).tolist(), "seed": seed}

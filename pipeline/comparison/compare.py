@@ -43,8 +43,8 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
                        param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
         for k, run in enumerate(runs):
             g = f.create_group(f"runs/{k:02d}")
-            g.attrs.update(path=str(run.path), name=Path(run.path).stem, theta_deg=run.spec["theta_deg"],
-                           rotate_at_strain=run.spec["rotate_at_strain"], is_reversal=run.is_reversal,
+            g.attrs.update(path=str(run.path), name=Path(run.path).stem, theta_deg=run.spec.theta_deg,
+                           rotate_at_strain=run.spec.rotate_at_strain, is_reversal=run.is_reversal,
                            default_rotation=run.default_rotation)
             c = run.cycle
             ratio = metrics.bulk_over_nominal(predictions[k])
@@ -55,7 +55,7 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
                 dem.create_dataset(key, data=c[key] / ratio)
             for other, preds in zip(other_seeds, others, strict=True):
                 if protocol_and_seed(other)[:2] == protocol_and_seed(run)[:2]:
-                    write_dem_cycle(g.create_group(f"other_seeds/{other.spec['seed']}"), other,
+                    write_dem_cycle(g.create_group(f"other_seeds/{other.spec.seed}"), other,
                                     metrics.bulk_over_nominal(preds), ("A", "tau_over_p"))
             for label, (data, pred) in predictions[k].items():
                 m = g.create_group(f"model/{label}")
@@ -113,7 +113,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
     if fit_h5 is not None:
         with h5py.File(fit_h5, "r") as f:
             groups = [f["reversal"][k] for k in f["reversal"]]
-            rotate_at = reversals[0].spec["rotate_at_strain"] if reversals else model.ROTATE_AT_STRAIN
+            rotate_at = reversals[0].spec.rotate_at_strain if reversals else model.ROTATE_AT_STRAIN
             parts = [metrics.reversal_parts(g["strain"][()], g["tau12"][()], g["A12"][()], ours.C, rotate_at)
                      for g in groups]
         iso, back = metrics.relaxation_strains(parts)

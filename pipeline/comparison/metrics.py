@@ -54,7 +54,7 @@ def errors(data: Cycle, pred: model.Result) -> dict[str, float]:
 def error_rows(runs: list, predictions: list) -> list[dict]:
     """``errors`` of every run (named by its file, with its seed) against each parameter set's prediction
     (``model_for``'s, one per run)."""
-    return [{"run": Path(run.path).stem, "seed": run.spec["seed"], "parameters": label, **errors(data, pred)}
+    return [{"run": Path(run.path).stem, "seed": run.spec.seed, "parameters": label, **errors(data, pred)}
             for run, preds in zip(runs, predictions, strict=True) for label, (data, pred) in preds.items()]
 
 
@@ -86,7 +86,7 @@ def beside_first(first: list[dict], more: list[dict]) -> list[dict]:
 def backstress_share(run, C: float) -> float:
     """Share of the backstress C A12 in the steady shear stress tau12/p (paper: 88 %)."""
     c = run.cycle
-    rotate_at = run.spec["rotate_at_strain"]
+    rotate_at = run.spec.rotate_at_strain
     steady = (c["strain"] > rotate_at - 0.2) & (c["strain"] < rotate_at)
     return float(np.mean(C * c["A"][steady, 0, 1]) / np.mean(c["tau_over_p"][steady, 0, 1]))
 
@@ -121,7 +121,7 @@ def second_law(runs: list, params: model.Params) -> dict:
     work rate of the model's cycles (Eq. 17, per unit p gamma_dot) for the runs' protocols."""
     phi_max = max(float(np.nanmax(r.cycle["packing_fraction"])) for r in runs)
     bound = params.phi_c + params.c3
-    w_min = min(float(model.predict(r.spec["theta_deg"], rotate_at=r.spec["rotate_at_strain"],
+    w_min = min(float(model.predict(r.spec.theta_deg, rotate_at=r.spec.rotate_at_strain,
                                     params=params).w_total.min()) for r in runs)
     return {"c1": params.c1, "C": params.C, "phi_max_dem": phi_max, "phi_c_plus_c3": bound,
             "min_total_work_rate": w_min, "holds": bool(params.c1 == -params.C and phi_max <= bound and w_min >= 0)}
@@ -154,13 +154,13 @@ def cycle_mean_and_error(per_cycle: np.ndarray) -> tuple[np.ndarray, np.ndarray 
 
 def cycle_grid(spec: dict, strain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A run's strain within the cycle and the indices of each cycle's samples (``derived.cycle_indices``)."""
-    return cycle_indices(strain, spec["period_strain"], spec["sample_strain"], spec["n_cycles"])
+    return cycle_indices(strain, spec.period_strain, spec.sample_strain, spec.n_cycles)
 
 
 def changes(spec: dict):
     """The cycle's changes of direction: (label, the new segment's start and end, its direction, the old
     direction, the old segment's start and end), strains in the cycle and directions in degrees."""
-    theta, turn, period = spec["theta_deg"], spec["rotate_at_strain"], spec["period_strain"]
+    theta, turn, period = spec.theta_deg, spec.rotate_at_strain, spec.period_strain
     yield "after the turn to theta", turn, period, theta, 0.0, 0.0, turn
     yield "after the turn back", 0.0, turn, 0.0, theta, turn, period
 
@@ -193,7 +193,7 @@ def memory_curves(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dic
                 or abs(np.sin(np.radians(new - old))) < 0.25):
             continue
         strain, dem = old_direction_curve(run.series["A"][idx], grid, change)
-        out.append({"run": run.path.stem, "seed": run.spec["seed"], "segment": label, "from_deg": old,
+        out.append({"run": run.path.stem, "seed": run.spec.seed, "segment": label, "from_deg": old,
                     "direction_deg": new,
                     "strain_after": strain, "dem": dem,
                     "model": {name: old_direction_curve(pred.A, data.strain, change)
@@ -230,9 +230,9 @@ def overshoots(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
     grid, idx = cycle_grid(spec, run.series["strain_nominal"])
     out = []
     for label, start, end, phi, *_ in changes(spec):
-        if end - start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE or spec["theta_deg"] == 0:
+        if end - start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE or spec.theta_deg == 0:
             continue
-        row = {"run": run.path.stem, "seed": spec["seed"], "segment": label, "direction_deg": phi,
+        row = {"run": run.path.stem, "seed": spec.seed, "segment": label, "direction_deg": phi,
                "cycles": len(idx)}
         early, late = segment_windows(grid, start, end)
         model_windows = {name: segment_windows(data.strain, start, end) for name, (data, _) in preds.items()}

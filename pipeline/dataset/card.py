@@ -13,6 +13,8 @@ from pathlib import Path
 
 import h5py
 
+from dem.core.spec import DemSpec
+
 from ..cli import Parser, one_line_errors
 from ..errors import DemFileError, PipelineError
 from ..io import atomic_path
@@ -32,20 +34,20 @@ def describe(path: Path, root: Path) -> dict:
             prov, params = dict(f["provenance"].attrs), dict(f["parameters"].attrs)
     except (OSError, KeyError) as exc:
         raise DemFileError(f"{path}: not a readable run file ({exc})") from None
-    spec = json.loads(prov["spec_json"])
-    engine = spec.get("engine", "yade")
+    spec = DemSpec.from_dict(json.loads(prov["spec_json"]))
+    engine = spec.engine
     version = prov.get("engine_version", prov.get("yade_version", "")) if engine == "lammps" else prov.get(
         "yade_version", "")
     runs = sessions(prov)
     commits = [str(prov.get("git_commit", "unknown"))] + [str(s["git_commit"]) for s in runs if "git_commit" in s]
-    overrides = {k: v for k, v in spec.get("overrides", {}).items() if k != "seed"}
+    overrides = {k: v for k, v in spec.overrides.items() if k != "seed"}
     cores = {s.get("ranks", 1) * s.get("threads", 1) for s in runs}  # one count: loop x cores is exact
     return {"file": str(path.relative_to(root)), "engine": f"{engine} {version}".strip(),
-            "theta_deg": float(spec["theta_deg"]), "rotate_at": float(spec["rotate_at_strain"]),
-            "seed": int(spec.get("seed", prov.get("seed", 0))),
+            "theta_deg": float(spec.theta_deg), "rotate_at": float(spec.rotate_at_strain),
+            "seed": spec.seed,
             "overrides": " ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in
                                   sorted(overrides.items())),
-            "cycles": int(spec["n_cycles"]), "grains": int(params.get("n_grains", 0)),
+            "cycles": int(spec.n_cycles), "grains": int(params.get("n_grains", 0)),
             "steps": int(params.get("iterations", 0)), "loop_hours": float(params["loop_seconds"]) / 3600,
             "cpu_hours": cpu_seconds(params, runs) / 3600,
             "cpu_exact": cpu_seconds_counted(params) or len(cores) < 2,

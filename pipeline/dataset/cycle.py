@@ -53,8 +53,8 @@ class Cycle:
         # at the period's end has not, so it is left out
         keep = slice(0, -1)
         ones = np.ones((len(c["strain"][keep]), 3, 3))
-        return cls(run.spec["theta_deg"], run.spec["rotate_at_strain"], run.spec["period_strain"],
-                   bulk_over_nominal(run), run.spec["n_cycles"], c["strain"][keep], c["A"][keep],
+        return cls(run.spec.theta_deg, run.spec.rotate_at_strain, run.spec.period_strain,
+                   bulk_over_nominal(run), run.spec.n_cycles, c["strain"][keep], c["A"][keep],
                    c["tau_over_p"][keep], ones, ones, c["packing_fraction"][keep])
 
     def with_scales(self, A_scale: np.ndarray, tau_scale: np.ndarray) -> Cycle:

@@ -29,6 +29,7 @@ import numpy as np
 
 from dem.core.protocol import on_grid
 from dem.core.schema import sample_fields
+from dem.core.spec import LEGACY_ENGINE, DemSpec
 
 from ..errors import DemFileError
 from ..io import atomic_path
@@ -41,7 +42,6 @@ CONVENTIONS = ("stress tension-positive, normalised by the controlled wall norma
                "(deviator); walls normal to e2; shear direction cos(phi) e1 + sin(phi) e3, phi from e1 towards "
                "e3; strain t*gamma_dot from the start of the first period; fabric A = <n n> - I/3 (Eq. 8)")
 #: the spec values every reader needs
-REQUIRED_SPEC = ("theta_deg", "rotate_at_strain", "period_strain", "sample_strain", "n_cycles", "pre_strain")
 
 
 def read_raw(path: Path) -> tuple[dict, dict]:
@@ -65,29 +65,33 @@ def _dataset(group, name, data, unit):
 def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
     """Write ``out`` atomically (temporary file, then rename) from the scene's ``raw.npz``."""
     raw, meta = read_raw(raw_path)
-    spec = meta["spec"]
+    try:
+        spec = DemSpec.from_dict(meta["spec"])
+    except (TypeError, ValueError) as exc:
+        raise DemFileError(f"{raw_path}: its spec is not a run spec ({exc})") from None
     fields = sample_fields()
     missing = sorted(set(fields) - set(raw))
     if missing:
         raise DemFileError(f"{raw_path} lacks the raw field(s) {', '.join(missing)}")
     # every cycle complete on the grid?
     grid = grid_samples(raw["strain"], spec)
-    derived.cycle_indices(raw["strain"][grid], spec["period_strain"], spec["sample_strain"], spec["n_cycles"])
+    derived.cycle_indices(raw["strain"][grid], spec.period_strain, spec.sample_strain, spec.n_cycles)
     with atomic_path(out) as tmp, h5py.File(tmp, "w") as f:
         f.attrs.update(schema=SCHEMA, schema_version=SCHEMA_VERSION, creator="granular-backstress",
                        created=dt.datetime.now().isoformat(timespec="seconds"), conventions=CONVENTIONS)
         prov = f.create_group("provenance")
         prov.attrs.update(
-            preset=spec["preset"], theta_deg=spec["theta_deg"], rotate_at_strain=spec["rotate_at_strain"],
-            seed=spec["seed"], engine=meta.get("engine", "yade"),
+            preset=spec.preset, theta_deg=spec.theta_deg, rotate_at_strain=spec.rotate_at_strain,
+            seed=spec.seed, engine=meta.get("engine", LEGACY_ENGINE),
             engine_version=str(meta.get("engine_version", meta["yade_version"])), yade_version=meta["yade_version"],
             git_commit=provenance.get("git_commit", "unknown"),
             started=provenance.get("started", ""), finished=provenance.get("finished", ""),
-            sessions=json.dumps(provenance.get("sessions", [])), spec_json=json.dumps(spec, sort_keys=True),
-            overrides=json.dumps(spec["overrides"], sort_keys=True),
+            sessions=json.dumps(provenance.get("sessions", [])), spec_json=json.dumps(meta["spec"], sort_keys=True),
+            overrides=json.dumps(spec.overrides, sort_keys=True),
         )
         params = f.create_group("parameters")
-        params.attrs.update({k: v for k, v in spec.items() if isinstance(v, (int, float)) and not isinstance(v, bool)})
+        params.attrs.update({k: v for k, v in meta["spec"].items()
+                             if isinstance(v, (int, float)) and not isinstance(v, bool)})
         params.attrs.update(
             kn_pd=meta["kn"], kt_pd=meta["kt"], cn=meta["cn"], ct=meta["ct"], dt=meta["dt"],
             n_grains=meta["n_grains"], n_wall_spheres=meta["n_wall_spheres"], gap0_d=meta["gap0"],
@@ -118,7 +122,7 @@ class DemRun:
     """
 
     path: Path
-    spec: dict
+    spec: DemSpec
     parameters: dict
     provenance: dict
     raw: dict
@@ -129,26 +133,26 @@ class DemRun:
 
     @property
     def theta_deg(self) -> float:
-        return self.spec["theta_deg"]
+        return self.spec.theta_deg
 
     @property
     def engine(self) -> str:
         """The DEM engine that ran it (a file from before specs named their engine is Yade's)."""
-        return self.spec.get("engine", "yade")
+        return self.spec.engine
 
     @property
     def is_reversal(self) -> bool:
         """The second half period turns the shear direction by 180 degrees (the paper's reversal)."""
-        return math.isclose(abs(self.spec["theta_deg"]), 180.0, abs_tol=1e-9)
+        return math.isclose(abs(self.spec.theta_deg), 180.0, abs_tol=1e-9)
 
     @property
     def default_rotation(self) -> bool:
         """The direction turns at half the period (Fig. 1), not at another strain (Fig. 7)."""
-        return math.isclose(self.spec["rotate_at_strain"], self.spec["period_strain"] / 2, abs_tol=1e-9)
+        return math.isclose(self.spec.rotate_at_strain, self.spec.period_strain / 2, abs_tol=1e-9)
 
     @property
     def overrides(self) -> dict:
-        return dict(self.spec.get("overrides", {}))
+        return dict(self.spec.overrides)
 
     @property
     def sessions(self) -> list[dict]:
@@ -193,8 +197,8 @@ def _check_raw(path: Path, raw: dict, spec: dict, grid: np.ndarray) -> None:
         if not np.all(np.isfinite(raw[key])):
             raise DemFileError(f"{path}: /raw/{key} has non-finite values")
     try:
-        derived.cycle_indices(raw["strain"][grid], spec["period_strain"],
-                              spec["sample_strain"], spec["n_cycles"])
+        derived.cycle_indices(raw["strain"][grid], spec.period_strain,
+                              spec.sample_strain, spec.n_cycles)
     except ValueError as exc:
         raise DemFileError(f"{path}: {exc}") from None
 
@@ -238,12 +242,15 @@ def load(path) -> DemRun:
             prov = dict(f["provenance"].attrs)
             params = dict(f["parameters"].attrs)
             diameters = f["parameters/grain_diameter"][()] if "grain_diameter" in f["parameters"] else None
-            spec = json.loads(prov["spec_json"])
+            stored = json.loads(prov["spec_json"])
         except (KeyError, ValueError) as exc:
             raise DemFileError(f"{path} lacks part of the schema ({exc})") from None
-    missing = [k for k in REQUIRED_SPEC if k not in spec]
-    if missing or "gamma_dot_nominal" not in params:
-        raise DemFileError(f"{path}: the spec lacks {', '.join(missing or ['gamma_dot_nominal'])}")
+    try:
+        spec = DemSpec.from_dict(stored)
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise DemFileError(f"{path}: its spec is not a run spec ({exc})") from None
+    if "gamma_dot_nominal" not in params:
+        raise DemFileError(f"{path}: the parameters lack gamma_dot_nominal")
     grid = grid_samples(raw["strain"], spec)
     _check_raw(path, raw, spec, grid)
     return DemRun(path, spec, params, prov, {k: v[grid] for k, v in raw.items()}, units, diameters, raw_all=raw)

@@ -66,7 +66,7 @@ def shear_rate_tensor(gradient):
 def cycle_D_dev(run) -> np.ndarray:
     """D' per unit nominal gamma_dot along the run's cycle grid: phi = 0 before ``rotate_at``, theta after."""
     strain = run.cycle["strain"]
-    angle = np.where(strain < run.spec["rotate_at_strain"] - 1e-9, 0.0, run.spec["theta_deg"])
+    angle = np.where(strain < run.spec.rotate_at_strain - 1e-9, 0.0, run.spec.theta_deg)
     return deviator(shear_rate_tensor(shear_direction(angle)))
 
 
@@ -177,7 +177,7 @@ def run_cycle(run) -> dict:
     """The run's periodic cycle: mean and standard error of every ``CYCLE_KEYS`` series across its cycles."""
     spec = run.spec
     return cycle_average(run.series["strain_nominal"], {k: run.series[k] for k in CYCLE_KEYS},
-                         spec["period_strain"], spec["sample_strain"], spec["n_cycles"])
+                         spec.period_strain, spec.sample_strain, spec.n_cycles)
 
 
 def states_after_changes(run, offset: float):
@@ -186,11 +186,11 @@ def states_after_changes(run, offset: float):
     where some cycle has no sample there (a run without dense sampling at that strain)."""
     spec, series = run.spec, run.series_all
     strain = series["strain_nominal"]
-    fine = spec.get("dense_sample_strain", 0.0) if spec.get("dense_window_strain", 0.0) > offset else 0.0
-    tol = 0.25 * (fine if fine > 0 else spec["sample_strain"])
+    fine = spec.dense_sample_strain if spec.dense_window_strain > offset else 0.0
+    tol = 0.25 * (fine if fine > 0 else spec.sample_strain)
     A, phi = [], []
-    for at in (0.0, spec["rotate_at_strain"]):
-        targets = np.arange(spec["n_cycles"]) * spec["period_strain"] + at + offset
+    for at in (0.0, spec.rotate_at_strain):
+        targets = np.arange(spec.n_cycles) * spec.period_strain + at + offset
         idx = np.abs(strain[None, :] - targets[:, None]).argmin(axis=1)
         if np.max(np.abs(strain[idx] - targets)) > tol:
             return None
@@ -202,7 +202,7 @@ def states_after_changes(run, offset: float):
 def resampled_cycle(run, rng: np.random.Generator, keys=("A", "tau_over_p", "packing_fraction")) -> dict:
     """The cycle means of ``keys`` over the run's cycles drawn with replacement (a bootstrap sample),
     on the grid of ``cycle_indices``."""
-    n = run.spec["n_cycles"]
-    _, idx = cycle_indices(run.series["strain_nominal"], run.spec["period_strain"], run.spec["sample_strain"], n)
+    n = run.spec.n_cycles
+    _, idx = cycle_indices(run.series["strain_nominal"], run.spec.period_strain, run.spec.sample_strain, n)
     pick = idx[rng.integers(0, n, n)]
     return {key: run.series[key][pick].mean(axis=0) for key in keys}

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from .. import spec as run_spec
 from ..errors import PipelineError
 from ..paths import DATA_ROOTS, preset_files
-from ..runs.spec import ENGINES
 from .dem_file import DemRun, load
 from .selection import DataSet
 
@@ -16,17 +16,10 @@ def load_of_preset(path: Path, preset: str) -> DemRun:
     """The run at ``path``, which must be a run of ``preset`` by its own provenance (a file copied into
     another preset's folder is refused, not fitted as that preset)."""
     run = load(path)
-    if run.spec.get("preset") != preset:
-        raise PipelineError(f"{path} is a run of preset {run.spec.get('preset')!r} by its provenance, not of "
-                            f"{preset!r}: move it to results/{run.spec.get('preset')}/dem/")
+    if run.spec.preset != preset:
+        raise PipelineError(f"{path} is a run of preset {run.spec.preset!r} by its provenance, not of "
+                            f"{preset!r}: move it to results/{run.spec.preset}/dem/")
     return run
-
-
-def engine_folder(preset: str, engine: str = ENGINES[0]) -> str:
-    """The folder of a preset's runs in ``engine`` (``<preset>``, or ``<preset>-<engine>`` for another than Yade)."""
-    if engine not in ENGINES:
-        raise PipelineError(f"engine={engine!r} is not a DEM engine here (known: {', '.join(ENGINES)})")
-    return preset if engine == ENGINES[0] else f"{preset}-{engine}"
 
 
 def preset_runs(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
@@ -39,14 +32,14 @@ def _of_data_set(chosen: DataSet, roots: tuple[Path, ...], read=lambda path: Tru
     """The data set's runs at every seed (of the files ``read(path)`` keeps, decided before loading): its own
     folder's and every ``<preset>[-<engine>]-<hash>`` variant's whose overrides are the data set's besides the
     seed."""
-    runs = [load_of_preset(p, chosen.preset) for p in preset_files(engine_folder(chosen.preset, chosen.engine), roots)
-            if read(p)]
+    folder = run_spec.run_folder(chosen.preset, chosen.engine)
+    runs = [load_of_preset(p, chosen.preset) for p in preset_files(folder, roots) if read(p)]
     return [r for r in runs if chosen.matches(r.engine, r.overrides)]
 
 
 def protocol_and_seed(run: DemRun) -> tuple[float, float, int]:
     """What tells a data set's runs apart: the angle, the rotation's strain and the seed."""
-    return run.spec["theta_deg"], run.spec["rotate_at_strain"], run.spec["seed"]
+    return run.spec.theta_deg, run.spec.rotate_at_strain, run.spec.seed
 
 
 def every_seed(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS, read=lambda path: True) -> list[DemRun]:
@@ -65,10 +58,10 @@ def runs_at_seed(chosen: DataSet, seed: int, roots: tuple[Path, ...] = DATA_ROOT
     """The data set's runs of one ``seed``, every angle and rotation; none there is a one-line error naming the
     seeds that are."""
     every = every_seed(chosen, roots)
-    runs = [r for r in every if r.spec["seed"] == seed]
+    runs = [r for r in every if r.spec.seed == seed]
     if every and not runs:
         raise PipelineError(f"seed={seed}: {chosen.label} has runs of seeds "
-                            f"{', '.join(str(s) for s in sorted({r.spec['seed'] for r in every}))} only")
+                            f"{', '.join(str(s) for s in sorted({r.spec.seed for r in every}))} only")
     return runs
 
 
@@ -76,7 +69,7 @@ def seed_runs(chosen: DataSet, theta_deg: float, roots: tuple[Path, ...] = DATA_
     """The data set's runs at ``theta_deg`` and the default rotation, every seed."""
     name = f"theta{int(round(theta_deg)):03d}.h5"
     return [r for r in _of_data_set(chosen, roots, lambda p: p.name == name)
-            if r.default_rotation and r.spec["theta_deg"] == theta_deg]
+            if r.default_rotation and r.spec.theta_deg == theta_deg]
 
 
 def reversal_seeds(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:

@@ -17,9 +17,9 @@ import dataclasses
 import tomllib
 from pathlib import Path
 
+from .. import spec as run_spec
 from ..errors import PipelineError
 from ..paths import CONFIG_DIR, DATA_ROOTS, check_folder_name, first_existing
-from ..runs import spec as run_spec
 
 DATASETS_FILE = CONFIG_DIR / "datasets.toml"
 
@@ -35,7 +35,7 @@ class DataSet:
     """The runs of ``preset`` in ``engine`` with ``overrides`` (besides their seeds)."""
 
     preset: str
-    engine: str = run_spec.ENGINES[0]
+    engine: str = run_spec.DEFAULT_ENGINE
     overrides: tuple[tuple[str, float], ...] = ()
 
     @property
@@ -68,10 +68,10 @@ def data_set(preset: str, engine: str | None = None, overrides: dict | None = No
     check_folder_name(preset)
     given = {k: float(v) for k, v in (overrides or {}).items() if k not in SEED_KEYS}
     # validates, and drops a preset's own values: they are no overrides
-    chosen = run_spec.resolve(180, preset, overrides=given, engine=engine or run_spec.ENGINES[0]).overrides
+    chosen = run_spec.resolve(180, preset, overrides=given, engine=engine or run_spec.DEFAULT_ENGINE).overrides
     if overrides:
-        return DataSet(preset, engine or run_spec.ENGINES[0], tuple(sorted(chosen.items())))
-    candidates = [DataSet(preset, engine or run_spec.ENGINES[0])]
+        return DataSet(preset, engine or run_spec.DEFAULT_ENGINE, tuple(sorted(chosen.items())))
+    candidates = [DataSet(preset, engine or run_spec.DEFAULT_ENGINE)]
     declared = declared_data_set(preset, datasets_file)
     if declared is not None and engine in (None, declared.engine):
         candidates.append(declared)
@@ -92,7 +92,7 @@ def declared_data_set(preset: str, datasets_file: Path | None = None) -> DataSet
     unknown = sorted(set(entry) - {"engine", "set"})
     if unknown:
         raise PipelineError(f"{datasets_file.name}: [{preset}] has unknown key(s) {', '.join(unknown)}")
-    engine = entry.get("engine", run_spec.ENGINES[0])
+    engine = entry.get("engine", run_spec.DEFAULT_ENGINE)
     overrides = {k: float(run_spec.parse_number(k, v)) for k, v in entry.get("set", {}).items()}
     run_spec.resolve(180, preset, overrides=overrides, engine=engine)  # validates the declaration
     return DataSet(preset, engine, tuple(sorted(overrides.items())))

@@ -24,12 +24,12 @@ import h5py
 from dem.core.rawfile import DISK_ERRORS, DISK_FULL
 
 from .. import engines, io
+from .. import spec as run_spec
 from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import write_h5
 from ..errors import SpecError
 from ..paths import RESULTS_DIR, ROOT
 from . import scripts
-from . import spec as run_spec
 from .state import FAILED
 
 

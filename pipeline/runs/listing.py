@@ -27,8 +27,8 @@ def overrides_of(h5: Path, run_dir: Path) -> dict | None:
                 return json.loads(f["provenance"].attrs["overrides"])
         except (OSError, KeyError, ValueError):
             return None
-    spec = read_json(run_dir / "spec.json")
-    return None if spec is None else spec.get("overrides")
+    stored = read_json(run_dir / "spec.json")
+    return None if stored is None else stored.get("overrides")
 
 
 def runs(roots: tuple[Path, ...] = DATA_ROOTS, summaries: Path = SUMMARIES) -> list[dict]:

@@ -21,12 +21,12 @@ import sys
 from pathlib import Path
 
 from .. import io
+from .. import spec as run_spec
 from ..cli import Parser, one_line_errors
 from ..config import check_presets
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs import scripts
-from ..runs import spec as run_spec
 
 #: steps per timed run: a few seconds of each preset here, several sampling intervals of the small ones
 STEPS = {"tiny": 3000, "quick": 31000, "reduced": 45000, "paper": 1500}

@@ -15,6 +15,8 @@ import sys
 import time
 from pathlib import Path
 
+from dem.core.spec import LEGACY_ENGINE
+
 from .. import io
 from ..cli import Parser, one_line_errors
 from ..errors import PipelineError
@@ -26,10 +28,10 @@ from ..targets import lammps_settings
 
 def checked_run_dir(run_dir: Path) -> Path:
     """A LAMMPS run folder with a checkpoint, else a one-line error naming it."""
-    spec = read_json(run_dir / "spec.json")
-    if not (run_dir / "checkpoint.json").is_file() or spec is None:
+    stored = read_json(run_dir / "spec.json")
+    if not (run_dir / "checkpoint.json").is_file() or stored is None:
         raise PipelineError(f"--run-dir {run_dir}: no checkpoint there (a run folder <run>.run of results/*/dem/)")
-    engine = spec.get("engine", "yade")
+    engine = stored.get("engine", LEGACY_ENGINE)
     if engine != "lammps":
         raise PipelineError(f"--run-dir {run_dir}: a {engine} run, not a LAMMPS one")
     return run_dir

@@ -71,9 +71,9 @@ def setting_label(run) -> str:
     only by their seed), and whether it has dense samples (its band strain right after a change is resolved; on
     the 0.005 grid alone the trapezoid over the first interval averages the old and the new direction's flow)."""
     rest = {k: v for k, v in sorted(run.overrides.items()) if k != "seed"}
-    dense = run.spec.get("dense_window_strain", 0) > 0
+    dense = run.spec.dense_window_strain > 0
     engine = "" if run.engine == "yade" else f" {run.engine}"
-    return (run.spec["preset"] + engine + "".join(f" {k}={v:g}" for k, v in rest.items())
+    return (run.spec.preset + engine + "".join(f" {k}={v:g}" for k, v in rest.items())
             + (" (dense)" if dense else ""))
 
 
@@ -88,15 +88,15 @@ def summarise(runs: list) -> dict:
     """Per (setting, angle): runs, changes, and every measure's mean, standard error and count."""
     groups = {}
     for run in runs:
-        key = (setting_label(run), f"{run.theta_deg:g}", f"{run.spec['rotate_at_strain']:g}")
+        key = (setting_label(run), f"{run.theta_deg:g}", f"{run.spec.rotate_at_strain:g}")
         groups.setdefault(key, []).append((run, run_profiles(run)))
     out = []
     for (label, theta, rotate_at), members in sorted(groups.items()):
         profiles = [p for _, ps in members for p in ps]
         row = {"setting": label, "theta_deg": float(theta), "rotate_at": float(rotate_at),
                "runs": [str(r.path) for r, _ in members], "changes": len(profiles),
-               "seeds": sorted({int(r.spec["seed"]) for r, _ in members}),
-               "dense": any(r.spec.get("dense_window_strain", 0) > 0 for r, _ in members)}
+               "seeds": sorted({int(r.spec.seed) for r, _ in members}),
+               "dense": any(r.spec.dense_window_strain > 0 for r, _ in members)}
         for name in ("fabric", "band"):
             row[name] = [dict(zip(("mean", "se", "n"), mean_and_error([p[name][k] for p in profiles]), strict=True))
                          for k in range(len(GAMMAS))]

@@ -13,12 +13,12 @@ import sys
 from pathlib import Path
 
 from .. import io
+from .. import spec as run_spec
 from ..cli import Parser, one_line_errors
 from ..config import check_presets
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs import scripts
-from ..runs import spec as run_spec
 
 OUT_DIR = RESULTS_DIR / "bench"
 STEPS = {"tiny": 2000, "quick": 20000, "reduced": 20000, "paper": 3000}

@@ -26,12 +26,12 @@ from pathlib import Path
 import numpy as np
 
 from .. import io
+from .. import spec as run_spec
 from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import load
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs import launch, scripts
-from ..runs import spec as run_spec
 from ..runs.state import FAILED
 
 RUNS_DIR = RESULTS_DIR / "stability"
@@ -73,8 +73,8 @@ CASES = (
 def spec_of(case: Case) -> run_spec.DemSpec:
     """The case's spec; its ``unchecked`` values put in past the bounds that ``resolve`` enforces."""
     spec = run_spec.resolve(case.theta_deg, case.preset, overrides=case.overrides, allow_inertial=case.allow_inertial)
-    return dataclasses.replace(spec, folder=f"{case.preset}-{case.label}", values={**spec.values, **case.unchecked},
-                               overrides={**spec.overrides, **case.unchecked})
+    return dataclasses.replace(spec, folder=f"{case.preset}-{case.label}",
+                               overrides={**spec.overrides, **case.unchecked}, **case.unchecked)
 
 
 def checks(path: Path) -> dict:
@@ -85,9 +85,9 @@ def checks(path: Path) -> dict:
     strain = s["strain_nominal"]
     late = strain > strain[0] + 0.05
     wall = float(np.max(np.abs(raw["wall_stress_error_mean"][late])))
-    tail = strain > strain[-1] - 0.3 * run.spec["period_strain"] / 2
+    tail = strain > strain[-1] - 0.3 * run.spec.period_strain / 2
     out = {"finite": bool(finite), "max_wall_stress_error": wall, "steady_tau12": float(np.mean(s["w_shear"][tail]))}
-    if run.spec["theta_deg"] == 0.0:  # the last half of the run, past the transient from compaction
+    if run.spec.theta_deg == 0.0:  # the last half of the run, past the transient from compaction
         A12 = s["A"][:, 0, 1][strain >= strain[-1] / 2]
         out["A12_drift"] = float(np.max(A12) - np.min(A12))
         out["A12_noise"] = float(np.std(np.diff(A12)) / np.sqrt(2))

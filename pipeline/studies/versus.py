@@ -37,7 +37,7 @@ from ..dataset.derived import Definitions, bulk_over_nominal
 from ..dataset.lookup import seed_runs
 from ..errors import PipelineError
 from ..paths import RESULTS_DIR
-from ..runs.spec import ENGINES, parse_overrides
+from ..spec import ENGINES, parse_overrides
 from . import welch
 from .fidelity.summary import PAPER_DEFINITIONS, own_fit, steady_values
 from .jump import mean_and_error, run_profiles
@@ -137,7 +137,7 @@ def summarise(runs: dict, fits: bool = True) -> dict:
                     for label in labels}
         measures = {label: [values for values, _ in runs] for label, runs in measured.items()}
         own = {label: [errors for _, errors in runs] for label, runs in measured.items()}
-        cycles = {label: [r.spec["n_cycles"] for r in by_side[label]] for label in labels}
+        cycles = {label: [r.spec.n_cycles for r in by_side[label]] for label in labels}
         groups[theta] = {"seeds": {e: len(m) for e, m in measures.items()}, "rows": compare(measures, cycles, own)}
     return {"sides": labels, "gammas": list(TRANSIENT_GAMMAS), "level": LEVEL, "groups": groups}
 

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pipeline import spec as run_spec
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
-from pipeline.runs import spec as run_spec
 from pipeline.runs.state import STATUS, read_json
 from pipeline.runs.sweep import plan as sweep_plan
 from pipeline.runs.sweep import slurm as sweep_slurm

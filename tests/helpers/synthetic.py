@@ -20,7 +20,7 @@ import numpy as np
 
 import model
 from dem.core.schema import check_row
-from pipeline.config import protocol_defaults
+from pipeline.config import load_presets, protocol_defaults
 
 PERIOD, PRE, STEP = (protocol_defaults()[k] for k in ("period_strain", "pre_strain", "sample_strain"))
 #: a 10d x 8.5d cell of grains of diameter d: the gap follows Phi, so Phi of the gap is the model's Phi too
@@ -118,10 +118,14 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
         "profile_fabric": A[:, None], "profile_contacts": np.full((n, 1), 1000),
     }
     check_row(raw)
-    spec = {"preset": preset, "engine": engine, "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2,
-            "seed": seed, "width_d": WIDTH,
-            "overrides": dict(overrides or {}), "period_strain": PERIOD, "sample_strain": STEP, "n_cycles": n_cycles,
-            "pre_strain": PRE, "inertial_number": gamma_dot, "noise": noise, "model_params": params.to_dict()}
+    # a whole spec (``dem.core.spec.DemSpec``): the reduced preset's values, with the synthetic run's protocol and
+    # no dense samples
+    values = {**load_presets()["reduced"], "width_d": WIDTH, "period_strain": PERIOD, "sample_strain": STEP,
+              "n_cycles": int(n_cycles), "pre_strain": PRE, "inertial_number": gamma_dot, "seed": int(seed),
+              "dense_window_strain": 0.0, "dense_sample_strain": 0.0}
+    spec = {"spec_version": 1, "preset": preset, "engine": engine, "overrides": dict(overrides or {}),
+            "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2, "name": f"theta{theta_deg:g}",
+            "folder": preset, **values}
     meta = {"spec": spec, "yade_version": "none (synthetic, made by the model)", "dt": 1.0, "kn": 0.0, "kt": 0.0,
             "cn": 0.0, "ct": 0.0, "n_grains": N_GRAINS, "n_wall_spheres": 0, "gap0": 8.5, "wall_speed": 0.0,
             "gamma_dot_nominal": gamma_dot, "t_shear0": 0.0, "iterations": int(n * 1000), "callback_seconds": 0.0,

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from dem.core import driver
+from pipeline import spec as run_spec
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
 from pipeline.runs import scripts
-from pipeline.runs import spec as run_spec
 from tests.helpers import assert_contact_law
 
 pytestmark = pytest.mark.lammps
@@ -90,7 +90,7 @@ def assert_holds_the_wall_stress(run):
     alarm itself, which stops a run only over ``stress_alarm_strain`` in a row: the tiny cell is chaotic, and
     another order of the force sums (MPI ranks, the atoms' sorting) gives another trajectory."""
     error = run.raw["wall_stress_error_mean"]
-    assert np.sqrt(np.mean(error ** 2)) < 0.2 and np.all(np.abs(error) < 2 * run.spec["stress_alarm"]), error
+    assert np.sqrt(np.mean(error ** 2)) < 0.2 and np.all(np.abs(error) < 2 * run.spec.stress_alarm), error
 
 
 def test_both_engines_run_one_spec_into_files_the_pipeline_reads_alike(both_engines):

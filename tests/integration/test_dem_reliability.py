@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pipeline import spec as run_spec
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
-from pipeline.runs import spec as run_spec
 
 pytestmark = pytest.mark.yade
 
@@ -48,7 +48,7 @@ def test_runs_on_a_loaded_machine_lose_no_sample_and_match_an_undisturbed_run(tm
     assert reference.returncode == 0, reference.stdout + reference.stderr
     ref = load(output_of(tmp_path / "alone", *RACE_ARGS))
     spec = ref.spec
-    expected = int(round((spec["pre_strain"] + spec["n_cycles"] * spec["period_strain"]) / spec["sample_strain"])) + 1
+    expected = int(round((spec.pre_strain + spec.n_cycles * spec.period_strain) / spec.sample_strain)) + 1
     assert len(ref.raw["strain"]) == expected
     load_procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
     try:
@@ -244,7 +244,7 @@ def test_a_killed_launcher_leaves_no_second_scene_and_the_run_resumes(tmp_path):
     assert not is_locked(run_dir)
     again = subprocess.run(launcher(*args, results=tmp_path), cwd=ROOT, capture_output=True, text=True)
     assert again.returncode == 0, again.stdout + again.stderr
-    assert load(output_of(tmp_path, *args)).spec["seed"] == 4
+    assert load(output_of(tmp_path, *args)).spec.seed == 4
 
 
 @pytest.mark.parametrize("odd", ["lock-link", "lock-folder", "run-link"])
@@ -306,4 +306,4 @@ def test_a_full_disk_stops_the_run_with_one_line_and_the_run_resumes_when_space_
     again = subprocess.run(launcher(*args, results=disk), cwd=ROOT, capture_output=True, text=True)
     assert again.returncode == 0, again.stdout + again.stderr
     assert "resumed from checkpoint" in again.stdout
-    assert load(output_of(disk, *args)).spec["seed"] == 6
+    assert load(output_of(disk, *args)).spec.seed == 6

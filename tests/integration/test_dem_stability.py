@@ -3,8 +3,8 @@ run spec refuses such a step before anything runs."""
 
 import pytest
 
+from pipeline import spec as run_spec
 from pipeline.errors import SpecError
-from pipeline.runs import spec as run_spec
 from pipeline.studies import stability
 
 pytestmark = pytest.mark.yade

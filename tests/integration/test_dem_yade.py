@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from dem.core import protocol
+from pipeline import spec as run_spec
 from pipeline.dataset.dem_file import SCHEMA, load
 from pipeline.paths import ROOT
 from pipeline.runs import scripts
-from pipeline.runs import spec as run_spec
 from tests.helpers import assert_contact_law
 
 pytestmark = pytest.mark.yade
@@ -52,11 +52,10 @@ def test_tiny_run_end_to_end_into_hdf5(tiny_run):
     assert "ETA" in stdout and "steps/s" in stdout
     spec = run_spec.resolve(90, "tiny")
     run_file = load(run_spec.output_path(spec, results))
-    spec = spec.to_dict()
     assert run_file.provenance["preset"] == "tiny" and run_file.provenance["yade_version"].startswith("20")
     assert run_file.spec == spec
     n = len(run_file.raw["strain"])
-    expected = int(round((spec["pre_strain"] + spec["period_strain"]) / spec["sample_strain"])) + 1
+    expected = int(round((spec.pre_strain + spec.period_strain) / spec.sample_strain)) + 1
     assert n == expected
     assert run_file.raw["fabric"].shape == (n, 3, 3) and run_file.raw["profile_velocity"].shape[::2] == (n, 3)
     assert all(unit for unit in run_file.units.values())
@@ -148,9 +147,9 @@ def test_the_numpy_cloud_is_yades_makecloud_bit_for_bit(preset, seed, box_growth
         "yade = (np.array([tuple(c) for c, _ in sp]).reshape(-1, 3), np.array([r for _, r in sp]))\n"
         "print(json.dumps([made, len(ours[1]), bool(np.array_equal(ours[0], yade[0])),\n"
         "                  bool(np.array_equal(ours[1], yade[1]))]))\n")
-    spec = run_spec.resolve(180, preset).to_dict()
+    spec = run_spec.resolve(180, preset)
     n = protocol.grain_count(spec)
-    width, top = spec["width_d"], 1 + spec["gap_d"] * spec["fill_packing_fraction"] / 0.35 * box_growth
+    width, top = spec.width_d, 1 + spec.gap_d * spec.fill_packing_fraction / 0.35 * box_growth
     args = [[0, 1.7, 0], [width, top, width], 0.25, 0.5, n, seed + 1]
     proc = subprocess.run([scripts.engine_python(), "-c", code, json.dumps(args)], capture_output=True, text=True,
                           cwd=ROOT, env=scripts.environment())

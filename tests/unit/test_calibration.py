@@ -1,5 +1,6 @@
 """`python -m pipeline.calibration` (`make fit`): the stepwise and global calibration on synthetic runs."""
 
+import dataclasses
 import json
 import re
 
@@ -16,6 +17,7 @@ from pipeline.dataset.derived import Definitions, cycle_D_dev
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import CalibrationError, PipelineError
 from pipeline.io import read_params
+from pipeline.spec import resolve
 from tests.helpers import RUNS_AWAY, module_main, synthetic_file, synthetic_run
 
 fit_main = module_main("pipeline.calibration")
@@ -406,8 +408,8 @@ def dense_fake_run(dense: bool = True):
 
     from dem.core.protocol import sample_strains
 
-    spec = {"n_cycles": 2, "period_strain": 1.4, "rotate_at_strain": 0.7, "sample_strain": 0.005, "pre_strain": 0.7,
-            "theta_deg": 180.0, "dense_sample_strain": 0.0005 if dense else 0.0, "dense_window_strain": 0.05}
+    spec = dataclasses.replace(resolve(180, "reduced"), dense_sample_strain=0.0005 if dense else 0.0,
+                               dense_window_strain=0.05)
     strain = np.array(sample_strains(spec))
     A = np.zeros((len(strain), 3, 3))
     A[:, 0, 1] = A[:, 1, 0] = strain

@@ -2,6 +2,7 @@
 neither engine), and the DEM core without any engine: what a LAMMPS-only machine needs."""
 
 import ast
+import dataclasses
 import inspect
 import subprocess
 import sys
@@ -9,9 +10,9 @@ import sys
 import pytest
 
 from dem.core import cell, contract, protocol
+from pipeline import spec as run_spec
 from pipeline.engines import DEFAULT_ENGINE, ENGINES
 from pipeline.paths import ROOT
-from pipeline.runs import spec as run_spec
 
 
 def members(protocol_class) -> set[str]:
@@ -50,15 +51,15 @@ def test_the_registry_names_the_reference_first_and_every_scene_module_exists():
 def test_every_seed_of_the_tiny_cell_gets_its_grains_without_any_engine():
     """Random placement stalls for about one seed in seven of the tiny cell in the usual box; the box then grows,
     so seeds 1-50 all build. ``dem.core`` imports neither Yade nor LAMMPS."""
-    spec = run_spec.resolve(180, "tiny").to_dict()
+    spec = run_spec.resolve(180, "tiny")
     placed = []
     for seed in range(1, 51):
-        s = dict(spec, seed=seed)
+        s = dataclasses.replace(spec, seed=seed)
         n = protocol.grain_count(s)
-        cloud, y_top = cell.initial_cloud(s, n, int(s["width_d"]), 1.0)
+        cloud, y_top = cell.initial_cloud(s, n, int(s.width_d), 1.0)
         placed.append((len(cloud), n, y_top))
         radii = [r for _, r in cloud]
-        assert min(radii) >= spec["diameter_min_d"] / 2 - 1e-12 and max(radii) <= spec["diameter_max_d"] / 2 + 1e-12
+        assert min(radii) >= spec.diameter_min_d / 2 - 1e-12 and max(radii) <= spec.diameter_max_d / 2 + 1e-12
     assert all(made == n for made, n, _ in placed)
     usual = min(y_top for _, _, y_top in placed)
     assert sum(y_top > usual + 1e-9 for _, _, y_top in placed) >= 3  # the box grew for some seeds

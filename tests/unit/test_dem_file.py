@@ -142,16 +142,21 @@ def test_cpu_seconds_count_each_session_s_cores_and_bound_an_older_file_from_abo
     """A run's cost: its loop's wall seconds times its cores (MPI ranks times threads) session by session; a file
     from before that count gives its loop times the most cores a session used (an upper bound)."""
     from dem.core import driver
+    from dem.core.state import RunState
 
-    state = {"loop_seconds": 100.0}  # a checkpoint from before the count: 100 s on one core
+    built = {"next_checkpoint": 0, "first_grain": 0, "n_grains": 1, "bottom_inner_offset": 0.0,
+             "top_inner_offset": 0.0, "kn": 1.0, "kt": 0.5, "cn": 0.0, "ct": 0.0}
+    state = RunState.from_dict({**built, "loop_seconds": 100.0})  # a checkpoint from before the count: one core
     monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "2")
     monkeypatch.setenv("OMP_NUM_THREADS", "1")
     driver.count_seconds(state, 50.0)
-    assert state == {"loop_seconds": 150.0, "cpu_seconds": 200.0}
+    assert (state.loop_seconds, state.cpu_seconds) == (150.0, 200.0)
     monkeypatch.delenv("OMPI_COMM_WORLD_SIZE")
     monkeypatch.setenv("OMP_NUM_THREADS", "3")
     driver.count_seconds(state, 10.0)
-    assert state == {"loop_seconds": 160.0, "cpu_seconds": 230.0}
+    assert (state.loop_seconds, state.cpu_seconds) == (160.0, 230.0)
+    with pytest.raises(ValueError, match="unknown entries"):
+        RunState.from_dict({**built, "colour": 1})
 
     raw, meta = synthetic_raw(180.0)
     write_raw(tmp_path / "raw.npz", raw, {**meta, "loop_seconds": 160.0, "cpu_seconds": 230.0})

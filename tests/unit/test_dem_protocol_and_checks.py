@@ -5,22 +5,22 @@ import pytest
 
 from dem.core import checks, protocol
 from pipeline.errors import SpecError
-from pipeline.runs.spec import resolve
+from pipeline.spec import resolve
 
 
 def test_direction_follows_fig1_and_a_boundary_belongs_to_the_segment_it_starts():
-    spec = resolve(90, "reduced").to_dict()
+    spec = resolve(90, "reduced")
     assert protocol.direction_deg(-0.3, spec) == 90.0  # the preceding half period at theta
     assert protocol.direction_deg(0.0, spec) == 0.0
     assert protocol.direction_deg(0.7 - 1e-9, spec) == 0.0
     assert protocol.direction_deg(0.7, spec) == 90.0
     assert protocol.direction_deg(1.4, spec) == 0.0  # the next period starts along e1
-    assert protocol.direction_deg(0.15, resolve(90, "reduced", rotate_at=0.1).to_dict()) == 90.0
+    assert protocol.direction_deg(0.15, resolve(90, "reduced", rotate_at=0.1)) == 90.0
     assert protocol.end_strain(spec) == pytest.approx(2.8)
 
 
 def test_samples_are_the_regular_grid_plus_a_dense_window_after_each_change_of_direction():
-    spec = resolve(180, "reduced", overrides={"dense_window_strain": 0.01, "dense_sample_strain": 0.001}).to_dict()
+    spec = resolve(180, "reduced", overrides={"dense_window_strain": 0.01, "dense_sample_strain": 0.001})
     strains = np.array(protocol.sample_strains(spec))
     assert np.all(np.diff(strains) > 1e-9) and strains[0] == pytest.approx(-0.7) and strains[-1] == pytest.approx(2.8)
     grid = [s for s in strains if protocol.on_grid(s, spec)]
@@ -30,9 +30,9 @@ def test_samples_are_the_regular_grid_plus_a_dense_window_after_each_change_of_d
     # after each of the 4 changes: 0.001 ... 0.009 but 0.005 (on the grid); 0.01 is on the grid
     assert len(dense) == 4 * 8 and dense[:5] == pytest.approx([0.001, 0.002, 0.003, 0.004, 0.006])
     assert protocol.on_grid(0.005 + 1e-5, spec) and not protocol.on_grid(0.006 + 1e-5, spec)  # a late sample
-    off = resolve(180, "reduced", overrides={"dense_window_strain": 0}).to_dict()
+    off = resolve(180, "reduced", overrides={"dense_window_strain": 0})
     assert len(protocol.sample_strains(off)) == 701
-    assert protocol.direction_changes(resolve(0, "reduced").to_dict()) == []
+    assert protocol.direction_changes(resolve(0, "reduced")) == []
     with pytest.raises(SpecError, match="dense_sample_strain=0.002 must divide sample_strain"):
         resolve(180, "reduced", overrides={"dense_sample_strain": 0.002})
 
@@ -55,7 +55,7 @@ def test_each_check_fires_on_a_case_built_to_fail_it():
 
 
 def test_the_stress_alarm_needs_the_error_to_last_a_strain_not_a_number_of_samples():
-    spec = resolve(180, "reduced").to_dict()  # alarm at 25 % for 0.05 strain
+    spec = resolve(180, "reduced")  # alarm at 25 % for 0.05 strain
     off, problem = 0.0, None
     for _ in range(9):
         off, problem = checks.stress_alarm(-0.3, off, 0.005, spec)

@@ -39,7 +39,7 @@ def test_a_run_with_a_summary_or_a_file_is_not_run_again_and_the_rest_is_a_sweep
     assert len(relatives) == len(set(relatives)) == len({r.relative for r in rungs}) - 2
     sweep = ladder.sweep_of(todo, "reduced", results)
     assert [t.output for t in sweep.tasks] == [results / r.relative for r in todo]
-    from pipeline.runs.spec import output_path
+    from pipeline.spec import output_path
 
     for task, rung in zip(sweep.tasks, todo, strict=True):  # the launcher's arguments make exactly that run
         assert output_path(task.spec(), results) == results / rung.relative
@@ -97,7 +97,7 @@ def test_the_table_recovers_a_known_bias_against_the_seeds_noise_and_prices_a_pr
 
 def test_stability_cases_are_distinct_runs_and_only_the_unchecked_ones_pass_the_bounds():
     from pipeline.errors import SpecError
-    from pipeline.runs.spec import resolve
+    from pipeline.spec import resolve
     from pipeline.studies import stability
 
     specs = [stability.spec_of(c) for c in stability.CASES]
@@ -307,7 +307,7 @@ def test_the_top_rungs_95_percent_verdict_covers_the_truth_about_95_percent_of_t
 
 
 def test_the_top_rung_reads_the_paper_presets_data_set_at_its_angles_every_seed(tmp_path):
-    from pipeline.runs import spec as run_spec
+    from pipeline import spec as run_spec
     from tests.helpers import synthetic_file
 
     i = {"inertial_number": 0.001}

@@ -164,7 +164,7 @@ def test_the_memory_skips_a_change_from_a_segment_too_short_to_be_steady(tmp_pat
     """Fig. 7's protocol (the turn at 0.1): before the turn to theta the old segment, 0.1 long, has no steady end
     to measure the memory against, and after the turn back the new one is too short to follow it."""
     run = synthetic_run(tmp_path, theta=90.0, name="theta090", n_cycles=2)
-    fig7 = SimpleNamespace(spec={**run.spec, "rotate_at_strain": 0.1}, series=run.series, path=run.path)
+    fig7 = SimpleNamespace(spec=dataclasses.replace(run.spec, rotate_at_strain=0.1), series=run.series, path=run.path)
     assert memory_curves(fig7, {}) == []
     assert [r["segment"] for r in memory_curves(run, {})] == ["after the turn to theta", "after the turn back"]
 

@@ -9,9 +9,9 @@ import h5py
 import pytest
 
 from dem.core.rawfile import write_raw
+from pipeline import spec as run_spec
 from pipeline.errors import SpecError
 from pipeline.runs import launch as dem
-from pipeline.runs import spec as run_spec
 from tests.helpers.synthetic import synthetic_raw
 
 

@@ -1,13 +1,14 @@
 """Run specifications: presets, overrides, validation with one-line messages, names and paths."""
 
+import dataclasses
 import math
 
 import pytest
 
+from pipeline import spec as run_spec
 from pipeline.config import load_presets
 from pipeline.errors import SpecError
-from pipeline.runs import spec as run_spec
-from pipeline.runs.spec import resolve
+from pipeline.spec import resolve
 
 
 def test_every_preset_resolves_and_the_paper_preset_is_section_2():
@@ -38,7 +39,7 @@ def test_overrides_change_the_folder_and_are_validated():
     assert spec.friction_deg == 30 and spec.seed == 4 and isinstance(spec.seed, int)
     assert spec.folder.startswith("quick-") and spec.folder != "quick"
     assert spec.to_dict()["seed"] == 4 and spec.to_dict()["overrides"] == {"friction_deg": 30.0, "seed": 4.0}
-    with pytest.raises(AttributeError, match="no value 'colour'"):
+    with pytest.raises(AttributeError, match="has no attribute 'colour'"):
         spec.colour  # noqa: B018
 
 
@@ -77,7 +78,7 @@ def test_a_runs_cost_is_known_from_its_spec():
     dt = spec.dt_safety * math.sqrt(math.pi / 6 * spec.diameter_min_d**3 * spec.overlap_ratio)
     assert cost["steps"] == pytest.approx((0.7 + 5 * 1.4) / (2.9e-4 * dt))
     assert 2.2e7 < cost["steps"] < 2.4e7  # the paper's cell: about 23 M steps
-    assert cost["samples"] == len(sample_strains(spec.to_dict())) and cost["grains"] > 5000
+    assert cost["samples"] == len(sample_strains(spec)) and cost["grains"] > 5000
     faster = run_spec.cost(run_spec.resolve(180, "paper", overrides={"inertial_number": 1e-3}))
     assert faster["steps"] == pytest.approx(cost["steps"] * 2.9e-4 / 1e-3)
 
@@ -104,3 +105,24 @@ def test_a_presets_own_value_is_no_override_and_names_no_other_folder():
     assert reduced.overrides == {"seed": 2} and reduced.folder == run_spec.run_folder("reduced", "yade", {"seed": 2})
     with pytest.raises(SpecError, match="seed='one' is not a number"):
         resolve(180, "paper", overrides={"seed": "one"})
+
+
+def test_the_spec_has_one_typed_field_per_key_of_the_presets_and_reads_older_files():
+    """``DemSpec`` (``dem/core/spec.py``) lists exactly ``config/dem.toml``'s keys, in its order; a spec written before
+    engines and dense samples existed reads as Yade's without dense samples; an unknown or missing key is refused."""
+    import tomllib
+
+    from dem.core.spec import DemSpec
+    from pipeline.config import PRESETS_FILE
+
+    with open(PRESETS_FILE, "rb") as fh:
+        assert DemSpec.value_keys() == tuple(tomllib.load(fh)["defaults"])
+    spec = resolve(90, "reduced")
+    assert DemSpec.from_dict(spec.to_dict()) == spec and isinstance(spec.n_cycles, int)
+    legacy = ("engine", "dense_window_strain", "dense_sample_strain")
+    older = {k: v for k, v in spec.to_dict().items() if k not in legacy}
+    assert DemSpec.from_dict(older) == dataclasses.replace(spec, dense_window_strain=0.0, dense_sample_strain=0.0)
+    with pytest.raises(ValueError, match=r"unknown \['colour'\]"):
+        DemSpec.from_dict({**spec.to_dict(), "colour": 3})
+    with pytest.raises(ValueError, match=r"missing \['gap_d'\]"):
+        DemSpec.from_dict({k: v for k, v in spec.to_dict().items() if k != "gap_d"})

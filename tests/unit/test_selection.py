@@ -2,11 +2,11 @@
 
 import pytest
 
+from pipeline import spec as run_spec
 from pipeline.calibration.inputs import folder_name
 from pipeline.dataset import lookup, selection
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import PipelineError
-from pipeline.runs import spec as run_spec
 from tests.helpers import synthetic_file
 
 DECLARED = '[reduced]\nengine = "lammps"\nset = { inertial_number = 0.002 }\n'

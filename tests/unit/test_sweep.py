@@ -5,10 +5,10 @@ import json
 import pytest
 
 from pipeline.errors import PipelineError, SpecError
-from pipeline.runs.spec import output_path
 from pipeline.runs.sweep import local, slurm
 from pipeline.runs.sweep.plan import plan, read_plan, write_plan
 from pipeline.runs.sweep.status import status
+from pipeline.spec import output_path
 from tests.helpers import module_main
 
 

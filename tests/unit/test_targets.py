@@ -6,9 +6,9 @@ import sys
 
 import pytest
 
+from pipeline import spec as run_spec
 from pipeline import targets
 from pipeline.paths import ROOT
-from pipeline.runs import spec as run_spec
 
 
 def plan(target: str, **variables: str) -> list[str]:

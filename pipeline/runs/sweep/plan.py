@@ -11,10 +11,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ... import io
+from ... import spec as run_spec
 from ...config import load_presets
 from ...errors import PipelineError, SpecError
 from ...paths import RESULTS_DIR, check_folder_name
-from .. import spec as run_spec
 
 
 @dataclass(frozen=True)
@@ -28,13 +28,13 @@ class Task:
     overrides: tuple[str, ...]
     output: Path
     label: str
-    engine: str = run_spec.ENGINES[0]
+    engine: str = run_spec.DEFAULT_ENGINE
 
     @property
     def args(self) -> tuple[str, ...]:
         """The launcher's arguments (``python -m pipeline.runs run ...``)."""
         args = ("--theta", self.theta, "--preset", self.preset)
-        args += ("--engine", self.engine) if self.engine != run_spec.ENGINES[0] else ()
+        args += ("--engine", self.engine) if self.engine != run_spec.DEFAULT_ENGINE else ()
         args += ("--rotate-at", self.rotate_at) if self.rotate_at is not None else ()
         return args + tuple(x for item in self.overrides for x in ("--set", item))
 
@@ -93,7 +93,7 @@ MAX_TASKS = 200
 
 def plan(preset: str, thetas: str, rotate_ats: str | None = None, seeds: str | None = None,
          overrides: list[str] = (), results: Path = RESULTS_DIR, allow_many: bool = False,
-         engine: str = run_spec.ENGINES[0]) -> Sweep:
+         engine: str = run_spec.DEFAULT_ENGINE) -> Sweep:
     """Every run of the sweep, each validated as ``make dem`` would validate it."""
     theta_list = _words(thetas)
     if not theta_list:
@@ -137,7 +137,7 @@ def read_plan(results: Path = RESULTS_DIR, ident: str | None = None) -> Sweep:
         raise PipelineError(f"sweep {ident!r} has no readable plan ({path})") from None
     try:
         tasks = tuple(Task(str(t["theta"]), check_folder_name(t["preset"]), t["rotate_at"], tuple(t["overrides"]),
-                           Path(t["output"]), str(t["label"]), str(t.get("engine", run_spec.ENGINES[0])))
+                           Path(t["output"]), str(t["label"]), str(t.get("engine", run_spec.DEFAULT_ENGINE)))
                       for t in data["tasks"])
         sweep = Sweep(str(data["id"]), path.parent, check_folder_name(data["preset"]), tasks, Path(data["results"]))
     except (KeyError, TypeError, AttributeError):

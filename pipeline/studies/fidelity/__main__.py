@@ -40,12 +40,12 @@ def main(argv=None) -> int:
         args.out = OUT_DIR if args.engine == engines.DEFAULT_ENGINE else OUT_DIR.with_name(f"fidelity-{args.engine}")
     if args.jobs < 1:
         parser.error(f"--jobs {args.jobs} must be at least 1")
-    spec = ladder.load()
-    rungs = ladder.rungs(spec, args.engine)
+    ladder_config = ladder.load()
+    rungs = ladder.rungs(ladder_config, args.engine)
     out = io.check_writable_dir(args.out)
     missing = ladder.missing(rungs)
     if args.run and missing:
-        sweep = ladder.sweep_of(missing, spec["preset"])
+        sweep = ladder.sweep_of(missing, ladder_config["preset"])
         write_plan(sweep)
         print(f"running {len(missing)} ladder run(s) as sweep {sweep.ident} ({args.launch}; "
               f"make sweep-status SWEEP={sweep.ident})", flush=True)
@@ -54,11 +54,12 @@ def main(argv=None) -> int:
             return 0
         run_local(sweep, args.jobs)
     entries = summaries(rungs)
-    label, top_paths = ladder.top_runs(spec)
-    top = (label, top_summaries(top_paths), list(spec["top"].get("checks", []))) if top_paths else None
-    result = table.build(entries, extrapolations={axis: entry["extrapolate"] for axis, entry in spec["axes"].items()
-                                                  if "extrapolate" in entry},
-                         node_cores=int(spec.get("node_cores", 32)), top=top)
+    label, top_paths = ladder.top_runs(ladder_config)
+    top = (label, top_summaries(top_paths), list(ladder_config["top"].get("checks", []))) if top_paths else None
+    extrapolations = {axis: entry["extrapolate"] for axis, entry in ladder_config["axes"].items()
+                      if "extrapolate" in entry}
+    result = table.build(entries, extrapolations=extrapolations,
+                         node_cores=int(ladder_config.get("node_cores", 32)), top=top)
     io.write_json(out / "table.json", result)
     io.write_text(out / "table.csv", csv_text(result["rows"]))
     io.write_text(out / "table.md", render.markdown(result))

@@ -13,11 +13,11 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from ... import spec as run_spec
 from ...config import load_presets
 from ...dataset import lookup, selection
 from ...errors import SpecError
 from ...paths import CONFIG_DIR, DATA_ROOTS, RESULTS_DIR, ROOT, first_existing
-from ...runs import spec as run_spec
 from ...runs.sweep.plan import Sweep, Task, make_sweep
 
 LADDER_FILE = CONFIG_DIR / "fidelity.toml"
@@ -52,7 +52,7 @@ def load(path: Path = LADDER_FILE) -> dict:
     return ladder
 
 
-def rungs(ladder: dict, engine: str = run_spec.ENGINES[0]) -> list[Rung]:
+def rungs(ladder: dict, engine: str = run_spec.DEFAULT_ENGINE) -> list[Rung]:
     """Every rung in ``engine``, each validated as ``make dem`` would (a bad value is an error before anything
     runs)."""
     preset = ladder["preset"]

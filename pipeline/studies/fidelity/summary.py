@@ -36,7 +36,7 @@ PAPER_DEFINITIONS = Definitions(strain="nominal", phi="gap")  # README, Calibrat
 
 def change_strains(spec: dict) -> np.ndarray:
     """Nominal strains where the shear direction changes: 0, rotate_at, period, ..., and the run's end."""
-    period, rotate, n = spec["period_strain"], spec["rotate_at_strain"], spec["n_cycles"]
+    period, rotate, n = spec.period_strain, spec.rotate_at_strain, spec.n_cycles
     starts = period * np.arange(n + 1)
     return np.unique(np.concatenate([starts, starts[:-1] + rotate]))
 
@@ -92,10 +92,10 @@ def cost(run) -> dict:
 def summarize(run) -> dict:
     """The compact summary of one DEM run (read with the default definitions)."""
     spec = run.spec
-    return {"schema": SCHEMA, "schema_version": VERSION, "folder": spec.get("folder", run.path.parent.parent.name),
-            "name": spec.get("name", run.path.stem), "preset": spec["preset"], "overrides": spec["overrides"],
-            "theta_deg": spec["theta_deg"], "rotate_at_strain": spec["rotate_at_strain"], "seed": spec["seed"],
-            "spec": spec,
+    return {"schema": SCHEMA, "schema_version": VERSION, "folder": spec.folder,
+            "name": spec.name, "preset": spec.preset, "overrides": spec.overrides,
+            "theta_deg": spec.theta_deg, "rotate_at_strain": spec.rotate_at_strain, "seed": spec.seed,
+            "spec": spec.to_dict(),
             "git_commit": run.provenance.get("git_commit", ""), "yade_version": run.provenance.get("yade_version", ""),
             "steady_window_strain": STEADY_WINDOW, "steady": steady_values(run),
             "bulk_over_nominal": bulk_over_nominal(run), "fit": own_fit(run) if run.is_reversal else None,

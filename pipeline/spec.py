@@ -1,15 +1,14 @@
 """DEM run specification: presets from ``config/dem.toml``, overrides, validation, names and paths.
 
-One source of truth for the Couette experiment's parameters. A :class:`DemSpec` is the fully resolved,
-validated, frozen spec of one run; its ``to_dict`` is the ``spec.json`` that the Yade scene
-(``dem/yade/scene.py``) reads, carrying every value it uses.
+One source of truth for the Couette experiment's parameters, below every stage. ``resolve`` gives the validated,
+frozen :class:`dem.core.spec.DemSpec` of one run (one typed field per key of ``config/dem.toml``); its ``to_dict`` is
+the ``spec.json`` the scenes read.
 Units: lengths in mean diameters d, stresses in the wall normal stress p, densities in the grain
 density rho (time in d sqrt(rho/p)); strain is t * gamma_dot; angles in degrees.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 import math
@@ -19,16 +18,15 @@ from pathlib import Path
 
 from dem.core.contact import tangential_damping_number
 from dem.core.protocol import grain_count, sample_strains
+from dem.core.spec import INTEGER_KEYS, DemSpec, same_spec
 
-from ..config import PRESETS_FILE, load_presets
-from ..errors import SpecError
-from ..paths import RESULTS_DIR
+from . import engines
+from .config import PRESETS_FILE, load_presets
+from .engines import DEFAULT_ENGINE, ENGINES
+from .errors import SpecError
+from .paths import RESULTS_DIR
 
-SPEC_VERSION = 1
-#: the DEM engines, the reference first (a spec without an ``engine`` entry, as every file before it had, is Yade's)
-ENGINES = ("yade", "lammps")
-
-INTEGER_KEYS = {"n_cycles", "control_every_steps", "checkpoint_steps", "seed"}
+__all__ = ["DEFAULT_ENGINE", "ENGINES", "DemSpec", "resolve", "same_spec"]
 #: keys that must be > 0 (everything else numeric must be >= 0 or is checked specifically)
 POSITIVE_KEYS = {
     "width_d", "gap_d", "diameter_min_d", "diameter_max_d", "fill_packing_fraction", "overlap_ratio",
@@ -52,7 +50,10 @@ def parse_overrides(items: list[str] | tuple[str, ...]) -> dict[str, float]:
     return out
 
 
-def _check_values(values: dict) -> None:
+def _check_values(values: dict, candidate) -> None:
+    """Every value a number, finite, whole where it must be and within its sign; then the bounds between values
+    and those physics sets (``_physical_problems``), read from ``candidate``, the spec these values make. Every
+    problem at once, in one :class:`SpecError`."""
     problems = []
     for key, value in values.items():
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -66,28 +67,33 @@ def _check_values(values: dict) -> None:
         elif value < 0:
             problems.append(f"{key}={value!r} must be >= 0")
     if not problems:
-        w = values["width_d"]
-        if w != int(w) or int(w) % 2:
-            problems.append(f"width_d={w!r} must be an even integer (the wall pattern repeats every 2d)")
-        if values["diameter_min_d"] >= values["diameter_max_d"]:
-            problems.append(f"diameter_min_d={values['diameter_min_d']!r} must be < diameter_max_d")
-        if 2 * values["region_margin_d"] >= values["gap_d"]:
-            problems.append(f"region_margin_d={values['region_margin_d']!r} leaves no central region")
-        if values["restitution"] >= 1:
-            problems.append(f"restitution={values['restitution']!r} must be < 1")
-        if values["friction_deg"] >= 90:
-            problems.append(f"friction_deg={values['friction_deg']!r} must be < 90")
-        if values["sample_strain"] >= values["period_strain"] / 2:
-            problems.append(f"sample_strain={values['sample_strain']!r} must be < period_strain/2")
-        ratio = values["sample_strain"] / values["dense_sample_strain"] if values["dense_sample_strain"] else 0
-        if values["dense_window_strain"] > 0 and not (ratio >= 2 and abs(ratio - round(ratio)) < 1e-6):
-            problems.append(f"dense_sample_strain={values['dense_sample_strain']!r} must divide sample_strain="
-                            f"{values['sample_strain']!r} at least twice when dense_window_strain > 0")
-        if values["dense_window_strain"] >= values["period_strain"] / 2:
-            problems.append(f"dense_window_strain={values['dense_window_strain']!r} must be < period_strain/2")
-        problems += _physical_problems(values)
+        problems += _relation_problems(candidate) + _physical_problems(candidate)
     if problems:
         raise SpecError("; ".join(problems))
+
+
+def _relation_problems(v: DemSpec) -> list[str]:
+    """Bounds between the values of one spec."""
+    problems = []
+    if v.width_d != int(v.width_d) or int(v.width_d) % 2:
+        problems.append(f"width_d={v.width_d!r} must be an even integer (the wall pattern repeats every 2d)")
+    if v.diameter_min_d >= v.diameter_max_d:
+        problems.append(f"diameter_min_d={v.diameter_min_d!r} must be < diameter_max_d")
+    if 2 * v.region_margin_d >= v.gap_d:
+        problems.append(f"region_margin_d={v.region_margin_d!r} leaves no central region")
+    if v.restitution >= 1:
+        problems.append(f"restitution={v.restitution!r} must be < 1")
+    if v.friction_deg >= 90:
+        problems.append(f"friction_deg={v.friction_deg!r} must be < 90")
+    if v.sample_strain >= v.period_strain / 2:
+        problems.append(f"sample_strain={v.sample_strain!r} must be < period_strain/2")
+    ratio = v.sample_strain / v.dense_sample_strain if v.dense_sample_strain else 0
+    if v.dense_window_strain > 0 and not (ratio >= 2 and abs(ratio - round(ratio)) < 1e-6):
+        problems.append(f"dense_sample_strain={v.dense_sample_strain!r} must divide sample_strain="
+                        f"{v.sample_strain!r} at least twice when dense_window_strain > 0")
+    if v.dense_window_strain >= v.period_strain / 2:
+        problems.append(f"dense_window_strain={v.dense_window_strain!r} must be < period_strain/2")
+    return problems
 
 
 #: a grain in up to ~12 contacts has a stiffness ~12 k_n: explicit integration is stable for
@@ -104,46 +110,46 @@ MIN_SAMPLE_STRAIN = 5e-4  # every sample is a pass over the contacts and a row o
 MIN_PROFILE_BIN_D = 0.25
 
 
-def _physical_problems(values: dict) -> list[str]:
+def _physical_problems(v: DemSpec) -> list[str]:
     """Bounds that physics sets, each with its reason."""
     problems = []
-    if values["dt_safety"] > MAX_DT_SAFETY:
-        problems.append(f"dt_safety={values['dt_safety']!r} is past the stability limit of the contact oscillation "
+    if v.dt_safety > MAX_DT_SAFETY:
+        problems.append(f"dt_safety={v.dt_safety!r} is past the stability limit of the contact oscillation "
                         f"(a grain in ~12 contacts needs dt_safety <= {MAX_DT_SAFETY})")
-    damping = tangential_damping_number(values)
-    if values["restitution"] < 1 and damping > MAX_TANGENTIAL_DAMPING:
-        problems.append(f"restitution={values['restitution']!r} with dt_safety={values['dt_safety']!r} damps the "
+    damping = tangential_damping_number(v)
+    if v.restitution < 1 and damping > MAX_TANGENTIAL_DAMPING:
+        problems.append(f"restitution={v.restitution!r} with dt_safety={v.dt_safety!r} damps the "
                         f"lightest pair's tangential contact too hard for the time step (c_t dt/m_t = {damping:.2f} > "
                         f"{MAX_TANGENTIAL_DAMPING}): lower dt_safety or raise the restitution")
-    if values["overlap_ratio"] > MAX_OVERLAP_RATIO:
-        problems.append(f"overlap_ratio={values['overlap_ratio']!r} is not a small overlap (grains must stay "
+    if v.overlap_ratio > MAX_OVERLAP_RATIO:
+        problems.append(f"overlap_ratio={v.overlap_ratio!r} is not a small overlap (grains must stay "
                         f"quasi-rigid: delta/d <= {MAX_OVERLAP_RATIO})")
-    if values["fill_packing_fraction"] > RANDOM_CLOSE_PACKING:
-        problems.append(f"fill_packing_fraction={values['fill_packing_fraction']!r} is above random close packing "
+    if v.fill_packing_fraction > RANDOM_CLOSE_PACKING:
+        problems.append(f"fill_packing_fraction={v.fill_packing_fraction!r} is above random close packing "
                         f"({RANDOM_CLOSE_PACKING}): the grains cannot fit in the gap")
-    if values["seed"] > MAX_SEED:
-        problems.append(f"seed={values['seed']!r} must be <= {MAX_SEED}")
-    if values["diameter_max_d"] > values["width_d"] / 2:
-        problems.append(f"diameter_max_d={values['diameter_max_d']!r} must be <= width_d/2 (a grain would touch its "
+    if v.seed > MAX_SEED:
+        problems.append(f"seed={v.seed!r} must be <= {MAX_SEED}")
+    if v.diameter_max_d > v.width_d / 2:
+        problems.append(f"diameter_max_d={v.diameter_max_d!r} must be <= width_d/2 (a grain would touch its "
                         "own periodic image)")
-    if values["gap_d"] < 2 * values["diameter_max_d"]:
-        problems.append(f"gap_d={values['gap_d']!r} must hold at least two of the largest grains")
-    if values["restitution"] < 0.01:
-        problems.append(f"restitution={values['restitution']!r} must be >= 0.01 (e -> 0 is overdamped)")
-    grains = grain_count(values)
+    if v.gap_d < 2 * v.diameter_max_d:
+        problems.append(f"gap_d={v.gap_d!r} must hold at least two of the largest grains")
+    if v.restitution < 0.01:
+        problems.append(f"restitution={v.restitution!r} must be >= 0.01 (e -> 0 is overdamped)")
+    grains = grain_count(v)
     if grains < 10:
-        problems.append(f"fill_packing_fraction={values['fill_packing_fraction']!r} gives {grains:.0f} grains: at "
+        problems.append(f"fill_packing_fraction={v.fill_packing_fraction!r} gives {grains:.0f} grains: at "
                         "least 10 are needed")
-    if values["sample_strain"] < MIN_SAMPLE_STRAIN:
-        problems.append(f"sample_strain={values['sample_strain']!r} must be >= {MIN_SAMPLE_STRAIN} (a sample costs "
+    if v.sample_strain < MIN_SAMPLE_STRAIN:
+        problems.append(f"sample_strain={v.sample_strain!r} must be >= {MIN_SAMPLE_STRAIN} (a sample costs "
                         "a pass over every contact; dense_sample_strain samples finer after each change)")
-    if values["dense_window_strain"] > 0 and values["dense_sample_strain"] < MIN_SAMPLE_STRAIN / 2:
-        problems.append(f"dense_sample_strain={values['dense_sample_strain']!r} must be >= {MIN_SAMPLE_STRAIN / 2}")
-    if values["profile_bin_d"] < MIN_PROFILE_BIN_D:
-        problems.append(f"profile_bin_d={values['profile_bin_d']!r} must be >= {MIN_PROFILE_BIN_D} d (a profile "
+    if v.dense_window_strain > 0 and v.dense_sample_strain < MIN_SAMPLE_STRAIN / 2:
+        problems.append(f"dense_sample_strain={v.dense_sample_strain!r} must be >= {MIN_SAMPLE_STRAIN / 2}")
+    if v.profile_bin_d < MIN_PROFILE_BIN_D:
+        problems.append(f"profile_bin_d={v.profile_bin_d!r} must be >= {MIN_PROFILE_BIN_D} d (a profile "
                         "bin thinner than a quarter grain holds no average)")
-    if values["checkpoint_steps"] < 1000:
-        problems.append(f"checkpoint_steps={values['checkpoint_steps']!r} must be >= 1000 (a checkpoint costs a save)")
+    if v.checkpoint_steps < 1000:
+        problems.append(f"checkpoint_steps={v.checkpoint_steps!r} must be >= 1000 (a checkpoint costs a save)")
     return problems
 
 
@@ -180,53 +186,15 @@ def run_name(theta_deg: float, rotate_at: float, default_rotate_at: float) -> st
     return name
 
 
-@dataclasses.dataclass(frozen=True)
-class DemSpec:
-    """One run, resolved and validated: its preset, angle theta (degrees), rotation strain, overrides, file
-    name and folder, and every physical value of ``config/dem.toml`` (``values``; read as attributes,
-    ``spec.gap_d``). Units as in ``config/dem.toml``: lengths d, stresses p, strain t*gamma_dot."""
-
-    preset: str
-    theta_deg: float
-    rotate_at_strain: float
-    name: str
-    folder: str
-    overrides: dict
-    values: dict
-    engine: str = ENGINES[0]
-
-    def __getattr__(self, key):
-        values = self.__dict__.get("values", {})
-        if key in values:
-            return values[key]
-        raise AttributeError(f"DemSpec has no value {key!r}")
-
-    def to_dict(self) -> dict:
-        """``spec.json``: what the scene reads (the identity first, then every value)."""
-        return {"spec_version": SPEC_VERSION, "preset": self.preset, "engine": self.engine,
-                "overrides": dict(self.overrides), "theta_deg": self.theta_deg,
-                "rotate_at_strain": self.rotate_at_strain, "name": self.name, "folder": self.folder, **self.values}
-
-    def label(self) -> str:
-        """``<folder>/<name>``, as logs and listings name a run."""
-        return f"{self.folder}/{self.name}"
-
-
-def same_spec(stored: dict | None, spec: DemSpec) -> bool:
-    """Whether a stored ``spec.json`` (or a run file's) is ``spec``'s; one written before specs named their engine
-    is Yade's."""
-    return stored is not None and {"engine": ENGINES[0], **stored} == spec.to_dict()
-
-
 def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | None = None,
-            presets_file: Path = PRESETS_FILE, allow_inertial: bool = False, engine: str = ENGINES[0]) -> DemSpec:
+            presets_file: Path = PRESETS_FILE, allow_inertial: bool = False, engine: str = DEFAULT_ENGINE) -> DemSpec:
     """Validate everything and return the run's :class:`DemSpec`; raises :class:`SpecError`.
 
     ``theta_deg``: rotation of the second half-period's shear direction about e2, in degrees
     (positive turns e1 towards e3). ``rotate_at``: strain within each period at which the direction
     turns from e1 to theta (default: half the period, Fig. 1). ``allow_inertial`` admits inertial
-    numbers past the quasi-static regime. ``engine``: the DEM engine (``ENGINES``); a run of another engine than
-    Yade goes to ``<preset>-<engine>[-<hash>]/``.
+    numbers past the quasi-static regime. ``engine``: the DEM engine (``pipeline.engines``); a run of another engine
+    than the reference goes to ``<preset>-<engine>[-<hash>]/``.
     """
     if engine not in ENGINES:
         raise SpecError(f"engine={engine!r} is not a DEM engine here (known: {', '.join(ENGINES)})")
@@ -245,21 +213,21 @@ def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | 
     # a preset's own value is no override: the same run, in the same folder, with or without it
     overrides = {k: v for k, v in overrides.items() if not _same_value(v, presets[preset][k])}
     values = {**presets[preset], **overrides}
-    _check_values(values)
-    if values["inertial_number"] > QUASI_STATIC_I and not allow_inertial:
-        raise SpecError(f"inertial_number={values['inertial_number']!r} is past the quasi-static regime "
+    candidate = DemSpec(preset=preset, engine=engine, theta_deg=theta, rotate_at_strain=0.0, name="", folder="",
+                        overrides=overrides, **values)
+    _check_values(values, candidate)
+    if candidate.inertial_number > QUASI_STATIC_I and not allow_inertial:
+        raise SpecError(f"inertial_number={candidate.inertial_number!r} is past the quasi-static regime "
                         f"(I <= {QUASI_STATIC_I}); pass --allow-inertial (ALLOW_INERTIAL=1) to run it anyway")
-    for key in INTEGER_KEYS:
-        values[key] = int(values[key])
-    period = values["period_strain"]
+    period = candidate.period_strain
     default_rotate_at = period / 2
     if rotate_at is None:
         rotate_at = default_rotate_at
     rotate_at = parse_number("rotate_at", rotate_at)
     if not 0 < rotate_at < period:
         raise SpecError(f"rotate_at={rotate_at!r} must lie strictly between 0 and period_strain={period}")
-    return DemSpec(preset, theta, rotate_at, run_name(theta, rotate_at, default_rotate_at),
-                   run_folder(preset, engine, overrides), overrides, values, engine)
+    return DemSpec.from_dict({**candidate.to_dict(), "rotate_at_strain": rotate_at, "name": run_name(
+        theta, rotate_at, default_rotate_at), "folder": run_folder(preset, engine, overrides)})
 
 
 def _same_value(given, preset_value) -> bool:
@@ -269,10 +237,10 @@ def _same_value(given, preset_value) -> bool:
         return False  # not a number: _check_values names it
 
 
-def run_folder(preset: str, engine: str = ENGINES[0], overrides: dict | None = None) -> str:
+def run_folder(preset: str, engine: str = DEFAULT_ENGINE, overrides: dict | None = None) -> str:
     """The folder of a preset's runs: ``<preset>`` in Yade, ``<preset>-<engine>`` in another engine, and
     ``-<hash>`` after either for runs with overrides (the first 8 hex digits of SHA-1 of their sorted JSON)."""
-    folder = preset if engine == ENGINES[0] else f"{preset}-{engine}"
+    folder = preset if engines.engine(engine).name == DEFAULT_ENGINE else f"{preset}-{engine}"
     if overrides:
         digest = hashlib.sha1(json.dumps(overrides, sort_keys=True).encode()).hexdigest()[:8]
         folder = f"{folder}-{digest}"
@@ -301,8 +269,8 @@ def cost(spec: DemSpec) -> dict:
     d_min = spec.diameter_min_d
     dt = spec.dt_safety * math.sqrt(math.pi / 6 * d_min**3 * spec.overlap_ratio)  # k_n = p d / delta = 1/ratio
     strain = spec.pre_strain + spec.n_cycles * spec.period_strain
-    samples = len(sample_strains(spec.to_dict()))
+    samples = len(sample_strains(spec))
     bins = max(1, round(spec.gap_d / spec.profile_bin_d))
     numbers = SAMPLE_NUMBERS_FIXED + SAMPLE_NUMBERS_PER_BIN * bins
     return {"steps": strain / (spec.inertial_number * dt), "samples": samples,
-            "megabytes": samples * numbers * 8 / 1e6, "grains": grain_count(spec.to_dict())}
+            "megabytes": samples * numbers * 8 / 1e6, "grains": grain_count(spec)}
