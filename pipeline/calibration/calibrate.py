@@ -19,9 +19,10 @@ import h5py
 
 import model
 
-from .. import io
+from .. import io, schema
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..errors import CalibrationError
+from ..schema import FitSummary
 from . import design, global_fit, identifiability
 from .residual_map import residual_map
 from .stepwise import calibrate_run, combine, cross_check_run, fitted_params, sensitivity, stepwise_bootstrap
@@ -97,9 +98,11 @@ class Calibration:
     residual_map: list | None = None
     arrays: dict = field(repr=False, default_factory=dict)
 
-    def to_dict(self) -> dict:
+    def summary(self) -> FitSummary:
+        """``fit.json``'s content (``pipeline.schema.FitSummary``)."""
         s = self.settings
-        return {"method": "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18), then a global least-squares refinement",
+        method = "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18), then a global least-squares refinement"
+        return FitSummary.from_dict({"method": method,
                 "definitions": dataclasses.asdict(s.definitions), "stress_fitted": s.stress, "weight": s.weight,
                 "held": s.hold,
                 "fit_from": s.fit_from,
@@ -113,7 +116,7 @@ class Calibration:
                 "identifiability": self.identifiability, "next_runs": self.next_runs,
                 "dilatancy": None if self.dilatancy is None else self.dilatancy.to_dict(),
                 "bootstrap": self.bootstrap, "jackknife": self.jackknife, "global_runs": self.global_runs,
-                "residual_map": self.residual_map, "notes": self.notes}
+                "residual_map": self.residual_map, "notes": self.notes})
 
     def params_metadata(self) -> dict | None:
         """What ``params.json`` records beside the values: the fit, its definitions and intervals."""
@@ -289,8 +292,8 @@ def write(cal: Calibration, out_dir: Path) -> None:
     with io.atomic_paths(*(out_dir / n for n in names)) as temps:
         tmp = dict(zip(names, temps, strict=True))
         write_arrays(tmp["fit.h5"], cal.arrays, cal.per_run, cal.cross_check)
-        tmp["params.json"].write_text(cal.params.to_json(cal.params_metadata()))
-        tmp["fit.json"].write_text(io.json_text(cal.to_dict()))
+        schema.write_params(tmp["params.json"], cal.params, cal.params_metadata())
+        schema.write_fit(tmp["fit.json"], cal.summary())
         if cal.stepwise is not None:
             tmp["params_stepwise.json"].write_text(cal.stepwise.to_json())
     if cal.stepwise is None:
@@ -306,4 +309,4 @@ def fit(reversals: list, out_dir: Path, cross_runs: tuple = (), left_out: tuple 
     io.check_writable_dir(out_dir)
     cal = calibrate(reversals, tuple(cross_runs), tuple(left_out), chosen, refine)
     write(cal, out_dir)
-    return cal.to_dict()
+    return cal.summary()

@@ -22,10 +22,10 @@ import numpy as np
 
 import model
 
-from ..dataset.cycle import Cycle
 from ..dataset.derived import bulk_over_nominal
 from ..errors import CalibrationError
 from . import global_fit
+from .fit_cycle import FitCycle
 from .noise import NoiseModel
 
 
@@ -60,16 +60,15 @@ def candidates(existing_rotations: list[tuple[float, float]], n_cycles: int) -> 
 
 
 def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel, params: model.Params,
-                   stress: str = global_fit.STRESS_DEFAULT, fit_from: float = 0.0) -> Cycle:
+                   stress: str = global_fit.STRESS_DEFAULT, fit_from: float = 0.0) -> FitCycle:
     """A pseudo-run of ``c``: the model's cycle as data (the values do not matter, only the Jacobian) with the
     noise scales of an ``n_cycles`` mean; with ``fit_from`` > 0 restarted that far past each change of direction,
-    as the fit's runs are (``Cycle.restarted``, from the model's own state there). A protocol the model's cycle
+    as the fit's runs are (``FitCycle.restarted``, from the model's own state there). A protocol the model's cycle
     fails for raises ``model.SolverError`` or ``ParameterError``; one whose segments are too short to restart in,
     ``ValueError``."""
     strain = np.arange(round(period / c.sample_strain)) * c.sample_strain
-    probe = Cycle(c.theta_deg, c.rotate_at, period, ratio, c.n_cycles, strain, np.zeros((len(strain), 3, 3)),
-                  np.zeros((len(strain), 3, 3)), np.ones((len(strain), 3, 3)), np.ones((len(strain), 3, 3)),
-                  np.zeros(len(strain)))
+    probe = FitCycle(c.theta_deg, c.rotate_at, period, ratio, c.n_cycles, strain, A=np.zeros((len(strain), 3, 3)),
+                     tau=np.zeros((len(strain), 3, 3)), phi=np.zeros(len(strain)))
     restarts = np.array([fit_from, c.rotate_at + fit_from]) if fit_from else np.empty(0)
     times, where = np.unique(np.concatenate([strain, restarts]), return_inverse=True)  # one periodic cycle for both
     pred = dataclasses.replace(probe, strain=times).prediction(params)
@@ -80,7 +79,7 @@ def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel,
     return probe.restarted(fit_from, (pred.A[at], pred.packing_fraction[at])) if fit_from else probe
 
 
-def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, cache: dict | None = None) -> tuple:
+def candidate_parts(data: FitCycle, noise: NoiseModel, fit: global_fit.GlobalFit, cache: dict | None = None) -> tuple:
     """A candidate's pseudo-run's parts of the least squares (``global_fit.run_parts``) at the best fit, its
     Jacobian by forward differences."""
     base = fit.params
@@ -94,7 +93,7 @@ def candidate_parts(data: Cycle, noise: NoiseModel, fit: global_fit.GlobalFit, c
     return global_fit.run_parts(jac, [data], noise, cache)[0]
 
 
-def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: list, data: list[Cycle],
+def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: list, data: list[FitCycle],
          stress: str = global_fit.STRESS_DEFAULT, weight: str = global_fit.WEIGHT_DEFAULT) -> list[dict]:
     """Every candidate with its effect on the weakest direction and the worst relative error, best per
     CPU-hour first (runs that cost nothing and narrow it first of all); last, any that cannot be weighed (the
@@ -122,7 +121,7 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: lis
         fitted.setdefault(_protocol(d.theta_deg, d.rotate_at, d.n_cycles, d.sample_step), i)
     cache, own_parts = {}, {}
 
-    def parts_of(c: Candidate) -> tuple[Cycle, tuple]:
+    def parts_of(c: Candidate) -> tuple[FitCycle, tuple]:
         key = _protocol(c.theta_deg, c.rotate_at, c.n_cycles, c.sample_strain)
         if key in fitted:
             return data[fitted[key]], present[fitted[key]]

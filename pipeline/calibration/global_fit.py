@@ -23,10 +23,10 @@ from scipy.optimize import least_squares
 
 import model
 
-from ..dataset.cycle import Cycle
 from ..dataset.derived import states_after_changes
 from ..errors import CalibrationError
 from . import noise as noise_model
+from .fit_cycle import FitCycle
 from .noise import COMPONENTS, QUANTITIES
 
 #: the parameters refined (the persistence exponent and the dilatancy stay as given)
@@ -58,7 +58,7 @@ def check_weight(weight: str) -> str:
     return weight
 
 
-def weighed(data: list[Cycle], weight: str = WEIGHT_DEFAULT) -> list[Cycle]:
+def weighed(data: list[FitCycle], weight: str = WEIGHT_DEFAULT) -> list[FitCycle]:
     """``data`` with each cycle's ``weight`` set by the scheme ``weight`` (``WEIGHTS``) among these cycles."""
     count = Counter((d.theta_deg, d.rotate_at) for d in data)
     share = (lambda d: 1.0) if check_weight(weight) == "runs" else (lambda d: 1.0 / count[d.theta_deg, d.rotate_at])
@@ -89,7 +89,7 @@ def noise_scales(samples: int, noise: noise_model.NoiseModel | None, n_cycles: i
     return scales
 
 
-def fitted_residuals(data: list[Cycle]) -> float:
+def fitted_residuals(data: list[FitCycle]) -> float:
     """How many residuals the data fit: every sample of every component with a finite scale, each counted with its
     run's weight (with ``WEIGHTS`` "angles", a protocol's seeds count as one run)."""
     i, j = np.array(COMPONENTS).T
@@ -98,18 +98,18 @@ def fitted_residuals(data: list[Cycle]) -> float:
 
 
 def prepare(runs: list, fit_from: float = 0.0, stress: str = STRESS_DEFAULT,
-            weight: str = WEIGHT_DEFAULT) -> tuple[list[Cycle], noise_model.NoiseModel]:
+            weight: str = WEIGHT_DEFAULT) -> tuple[list[FitCycle], noise_model.NoiseModel]:
     """The noise model measured on ``runs`` and every run's cycle scaled by it, fitting the components of tau/p that
     ``stress`` names, weighted by ``weight`` (``weighed``); with ``fit_from`` > 0 each cycle is restarted that far
-    past each change of direction (``Cycle.restarted``)."""
+    past each change of direction (``FitCycle.restarted``)."""
     noise = noise_model.estimate(runs)
     return weighed([scaled_cycle(r, noise, fit_from, stress) for r in runs], weight), noise
 
 
 def scaled_cycle(run, noise: noise_model.NoiseModel | None, fit_from: float = 0.0,
-                 stress: str = STRESS_DEFAULT) -> Cycle:
-    """The run's :class:`Cycle` with each component's noise per sample as its scale (``noise_scales``)."""
-    cycle = Cycle.from_run(run)
+                 stress: str = STRESS_DEFAULT) -> FitCycle:
+    """The run's :class:`FitCycle` with each component's noise per sample as its scale (``noise_scales``)."""
+    cycle = FitCycle.from_run(run)
     step = run.spec.sample_strain
     states = None if abs(fit_from / step - round(fit_from / step)) <= 1e-6 else states_after_changes(run, fit_from)
     scales = noise_scales(len(cycle.strain), noise, cycle.n_cycles, stress)
@@ -164,7 +164,7 @@ def directions(covariance: np.ndarray, values: np.ndarray, names) -> tuple[dict,
     return tuple(sorted(out, key=lambda d: -d["relative_step"]))
 
 
-def _scaled(d: Cycle, pred, pick=slice(None)) -> tuple[np.ndarray, np.ndarray]:
+def _scaled(d: FitCycle, pred, pick=slice(None)) -> tuple[np.ndarray, np.ndarray]:
     """(A, tau) residuals ``(samples, components)`` of ``pred`` against the samples ``pick`` of ``d``, over the
     noise scale."""
     i, j = np.array(COMPONENTS).T
@@ -181,7 +181,7 @@ TRACELESS_BASIS = np.array([
 RESTART_STEP = 1e-4
 
 
-def _restarted_residuals(d: Cycle, params: model.Params) -> tuple[np.ndarray, np.ndarray]:
+def _restarted_residuals(d: FitCycle, params: model.Params) -> tuple[np.ndarray, np.ndarray]:
     """A restarted cycle's residuals with each segment's restart state profiled out: the DEM's A at a restart is
     one noisy sample, so the model starts from it plus the symmetric traceless offset that fits the segment
     best (linearised: one Gauss-Newton step on five finite-difference sensitivities). Without it the restart
@@ -203,7 +203,7 @@ def _restarted_residuals(d: Cycle, params: model.Params) -> tuple[np.ndarray, np
     return np.concatenate(parts_A), np.concatenate(parts_tau)
 
 
-def residuals(values: np.ndarray, data: list[Cycle], base: model.Params, names=FREE) -> np.ndarray:
+def residuals(values: np.ndarray, data: list[FitCycle], base: model.Params, names=FREE) -> np.ndarray:
     """Model minus DEM over the noise scale, times the square root of the run's weight: per run, per component,
     the A block then the tau block (a restarted cycle's restart states profiled out: ``_restarted_residuals``)."""
     params = base.replace(**dict(zip(names, map(float, values), strict=True)))
@@ -219,7 +219,7 @@ def residuals(values: np.ndarray, data: list[Cycle], base: model.Params, names=F
     return np.concatenate(out)
 
 
-def sample_covariance(noise: noise_model.NoiseModel, k: int, d: Cycle, cache: dict | None = None) -> np.ndarray:
+def sample_covariance(noise: noise_model.NoiseModel, k: int, d: FitCycle, cache: dict | None = None) -> np.ndarray:
     """The noise's correlation of component ``k`` over the cycle's (A, tau) samples, at the cycle's sampling step
     (the noise's lags scaled to it: ``NoiseModel.covariance``); for a restarted cycle, the rows and columns of its
     kept samples out of the full grid's (the gaps keep their true lags). ``cache`` keeps each full grid's matrix
@@ -236,7 +236,7 @@ def sample_covariance(noise: noise_model.NoiseModel, k: int, d: Cycle, cache: di
     return cache[key][np.ix_(pick, pick)]
 
 
-def run_parts(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None,
+def run_parts(jac: np.ndarray, data: list[FitCycle], noise: noise_model.NoiseModel | None,
               cache: dict | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
     """Each run's parts of the least squares, ``(J^T J, J^T Sigma J)``, with ``J`` its unweighted rows of ``jac``
     (the Jacobian of the weighted residuals: per run, per component, the A block then the tau block) and
@@ -273,7 +273,7 @@ def sandwich(parts: list[tuple], weights: list[float], runs=None) -> tuple[np.nd
     return covariance, white
 
 
-def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None,
+def covariances(jac: np.ndarray, data: list[FitCycle], noise: noise_model.NoiseModel | None,
                 runs=None) -> tuple:
     """``sandwich`` of the fit whose weighted residuals have the Jacobian ``jac`` over ``data``: (the sandwich
     ``H^-1 J^T W Sigma W J H^-1``, ``W`` the runs' weights, or with ``runs`` its part from those runs' noise;
@@ -281,7 +281,7 @@ def covariances(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseMode
     return sandwich(run_parts(jac, data, noise), [d.weight for d in data], runs)
 
 
-def shift_covariance(jac: np.ndarray, data: list[Cycle], noise: noise_model.NoiseModel | None,
+def shift_covariance(jac: np.ndarray, data: list[FitCycle], noise: noise_model.NoiseModel | None,
                      left_out: list[int], kept_weights: list[float] | None = None) -> np.ndarray:
     """The covariance, from the noise alone, of (the fit without the runs ``left_out``) - (the fit with all),
     linearized about the fit with all (``jac``, the Jacobian of its weighted residuals): each is
@@ -302,7 +302,7 @@ def shift_covariance(jac: np.ndarray, data: list[Cycle], noise: noise_model.Nois
     return out
 
 
-def refine(data: list[Cycle], start: model.Params, names=FREE, max_nfev: int = 200,
+def refine(data: list[FitCycle], start: model.Params, names=FREE, max_nfev: int = 200,
            noise: noise_model.NoiseModel | None = None) -> GlobalFit:
     """Least squares from ``start``, its covariance with ``noise``'s correlation (white without one);
     a fit that fails raises CalibrationError."""
@@ -327,7 +327,7 @@ def refine(data: list[Cycle], start: model.Params, names=FREE, max_nfev: int = 2
 DILATANCY = ("c2_coef", "phi_c")
 
 
-def _dilatancy_residuals(values, data: list[Cycle], base: model.Params) -> np.ndarray:
+def _dilatancy_residuals(values, data: list[FitCycle], base: model.Params) -> np.ndarray:
     params = base.replace(**dict(zip(DILATANCY, map(float, values), strict=True)))
     out = []
     for d in data:
@@ -343,7 +343,7 @@ def with_eq19_c1(params: model.Params) -> model.Params:
     return params.replace(c1=-params.C)
 
 
-def refine_dilatancy(data: list[Cycle], params: model.Params) -> GlobalFit:
+def refine_dilatancy(data: list[FitCycle], params: model.Params) -> GlobalFit:
     """c2_coef and Phi_c of Eq. 18 fitted to the DEM's Phi over every cycle, with c1 = -C (Eq. 19)
     and c3, the c2 exponent and the flow rule and fabric law of ``params`` held fixed."""
     base = with_eq19_c1(params)
@@ -366,7 +366,7 @@ def refine_dilatancy(data: list[Cycle], params: model.Params) -> GlobalFit:
     return GlobalFit(fitted, DILATANCY, sol.x, se, cov / np.outer(se, se), chi2, int(sol.nfev), True, sol.message)
 
 
-def with_noise(data: Cycle, noise: noise_model.NoiseModel, block: int, rng: np.random.Generator) -> Cycle:
+def with_noise(data: FitCycle, noise: noise_model.NoiseModel, block: int, rng: np.random.Generator) -> FitCycle:
     """``data`` plus a draw of the measured noise: blocks of ``block`` samples of the DEM's own deviations
     (every component of A and tau at once, from a random series and start), scaled to the noise of
     ``data``'s cycle mean."""
@@ -387,7 +387,7 @@ def with_noise(data: Cycle, noise: noise_model.NoiseModel, block: int, rng: np.r
     return dataclasses.replace(data, **fields)
 
 
-def bootstrap(data: list[Cycle], noise: noise_model.NoiseModel, best: GlobalFit, replicates: int,
+def bootstrap(data: list[FitCycle], noise: noise_model.NoiseModel, best: GlobalFit, replicates: int,
               block_strain: float = 0.2, seed: int = 0, progress=None) -> dict:
     """Refit ``best``'s parameters on ``replicates`` copies of the data, each with a fresh draw of the
     DEM's own noise added in blocks of ``block_strain`` (``with_noise``). The spread of the refits about
@@ -409,7 +409,7 @@ def bootstrap(data: list[Cycle], noise: noise_model.NoiseModel, best: GlobalFit,
     return out
 
 
-def jackknife(data: list[Cycle], groups: dict[str, list[int]], best: GlobalFit,
+def jackknife(data: list[FitCycle], groups: dict[str, list[int]], best: GlobalFit,
               noise: noise_model.NoiseModel | None = None, progress=None, weight: str = WEIGHT_DEFAULT) -> dict:
     """Refit ``best``'s parameters leaving out one group of runs at a time (``groups``: a label for each, and
     the indices in ``data`` of its runs; at least three groups), the runs kept weighted anew by ``weight``

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..dataset.cycle import Cycle
 from . import global_fit
+from .fit_cycle import FitCycle
 from .noise import COMPONENTS
 
 #: strain since the last change of direction (the bulk or nominal measure of the fit), window edges
@@ -16,19 +16,19 @@ WINDOWS = (0.0, 0.005, 0.02, 0.1, 0.3, np.inf)
 LABELS = [f"{''.join(str(i + 1) for i in c)}" for c in COMPONENTS]
 
 
-def strain_since_change(d: Cycle, strain: np.ndarray) -> np.ndarray:
+def strain_since_change(d: FitCycle, strain: np.ndarray) -> np.ndarray:
     """Strain since the last change of direction of a cycle's samples (changes at 0 and ``rotate_at``)."""
     return np.where(strain >= d.rotate_at - 1e-9, strain - d.rotate_at, strain)
 
 
-def sample_strains(d: Cycle) -> np.ndarray:
+def sample_strains(d: FitCycle) -> np.ndarray:
     """The cycle strains of ``global_fit.residuals``' rows for ``d`` (restart segments in their order)."""
     if not d.restarts:
         return d.strain
     return np.concatenate([d.strain[d.segment_mask(k)] for k in range(len(d.restarts))])
 
 
-def residual_map(fit: global_fit.GlobalFit, data: list[Cycle], windows: tuple = WINDOWS) -> list[dict]:
+def residual_map(fit: global_fit.GlobalFit, data: list[FitCycle], windows: tuple = WINDOWS) -> list[dict]:
     """Per run, fitted quantity (A_ij, tau_ij/p) and window of ``windows`` (edges in strain since a change):
     samples, chi^2, its share of the total and its chi^2 per sample over the fit's mean per sample; largest share
     first. A component the fit leaves out

@@ -5,15 +5,17 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from ..schema import FitSummary
 
-def print_global(report: dict) -> None:
+
+def print_global(report: FitSummary) -> None:
     """The global fit first: values with their 68 % intervals from the measured noise, what is determined."""
-    g, ident, nm = report["global"], report["identifiability"], report["noise"]
+    g, ident, nm = report.global_fit, report.identifiability, report.noise
     unit = ("the DEM's noise: 1 is a fit within the noise" if ident["noise_measured"] else
             "the scatter about a smoothed cycle, which is less than the noise")
-    weighting = ("; each angle counts once, its seeds averaged" if report.get("weight", "runs") == "angles"
+    weighting = ("; each angle counts once, its seeds averaged" if report.weight == "angles"
                  else "")
-    print(f"global fit on {len(report['global_runs'])} run(s){weighting}; misfit {g['misfit']:.2f} (chi^2 per degree "
+    print(f"global fit on {len(report.global_runs)} run(s){weighting}; misfit {g['misfit']:.2f} (chi^2 per degree "
           f"of freedom in units of {unit})")
     if not ident["noise_measured"]:
         print(f"intervals: none ({nm['source']}): run two cycles or more, or three seeds")
@@ -21,10 +23,10 @@ def print_global(report: dict) -> None:
         print(f"intervals: 68 % from the DEM's noise ({nm['source']}; correlated over "
               f"{min(min(v) for v in nm['correlation_strain'].values()):.2f}-"
               f"{max(max(v) for v in nm['correlation_strain'].values()):.2f} strain), not scaled by the misfit; "
-              f"they and 'determined' hold at the persistence exponent k = {report['persistence_exponent']:g}, "
+              f"they and 'determined' hold at the persistence exponent k = {report.persistence_exponent:g}, "
               "held (make fit-from profiles it)")
-    if report["fit_from"]:
-        print(f"fitted past the reversal jump: the model restarts from the DEM's state {report['fit_from']:g} "
+    if report.fit_from:
+        print(f"fitted past the reversal jump: the model restarts from the DEM's state {report.fit_from:g} "
               "strain after each change of direction (make fit-from compares restarts)")
     noted = ident["misfit_noted"]
     spread = (ident.get("spread_over_angles") or {}).get("ranges", {})
@@ -40,7 +42,7 @@ def print_global(report: dict) -> None:
         if name in spread:
             line += f";  without one angle {interval_text(spread[name])}"
         print(line)
-    d = report["dilatancy"]
+    d = report.dilatancy
     if d is None:
         print("c2_coef, phi_c: not determined by these runs (Eq. 18's fit does not converge or sits at a bound); "
               "params.json keeps Table 2's")
@@ -66,25 +68,25 @@ def interval_text(band) -> str:
     return "[none]" if band is None else f"[{band[0]:+.4g}, {band[1]:+.4g}]"
 
 
-def print_next_runs(report: dict, count: int = 5) -> None:
-    ranked = [r for r in report["next_runs"] if "error" not in r]
+def print_next_runs(report: FitSummary, count: int = 5) -> None:
+    ranked = [r for r in report.next_runs if "error" not in r]
     if not ranked:
-        if report["next_runs"]:
-            first = report["next_runs"][0]
+        if report.next_runs:
+            first = report.next_runs[0]
             print(f"runs that would fix the weakest combination: none can be told, no candidate can be weighed at the "
                   f"best fit (the first, {first['run']}: {first['error']}; fit.json: next_runs)")
         return
     first = ranked[0]
     print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first['weakest_before']:.3g}; "
           "fit.json: next_runs" + ("; another seed of an angle shares that angle's weight"
-                                   if report.get("weight") == "angles" else "") + "):")
+                                   if report.weight == "angles" else "") + "):")
     for r in ranked[:count]:
         print(f"  {r['run']}: ±{r['weakest_after']:.3g}, {r['cpu_hours']:.2f} CPU-hours")
 
 
-def print_residual_map(report: dict, top: int = 4) -> None:
+def print_residual_map(report: FitSummary, top: int = 4) -> None:
     """The largest shares of the global fit's chi^2 by run, quantity and strain since a change of direction."""
-    rows = report.get("residual_map") or []
+    rows = report.residual_map or []
     if not rows:
         return
     print("where the global fit's residuals are largest (share of chi^2; chi^2 per sample over the mean; "
@@ -96,13 +98,13 @@ def print_residual_map(report: dict, top: int = 4) -> None:
               f"change: {r['share']:.0%} of chi^2, {r['per_sample_over_mean']:.1f}x the mean per sample")
 
 
-def print_report(report: dict, out: Path) -> None:
-    if report["global"]:
+def print_report(report: FitSummary, out: Path) -> None:
+    if report.global_fit:
         print_global(report)
         print_residual_map(report)
         print_next_runs(report)
-    if report.get("bootstrap"):
-        b = report["bootstrap"]
+    if report.bootstrap:
+        b = report.bootstrap
         print(f"noise bootstrap ({len(b['replicates'])} refits, blocks of {b['block_strain']:g} strain), 68 %: "
               + ", ".join(f"{n} [{lo:+.4g}, {hi:+.4g}]" for n, (lo, hi) in zip(b["free"], b["interval_68"],
                                                                                strict=True)))
@@ -111,16 +113,16 @@ def print_report(report: dict, out: Path) -> None:
               + ", ".join(f"{n} [{lo:+.4g}, {hi:+.4g}]" for n, lo, hi in
                           zip(st["free"], st["percentile_2.5"], st["percentile_97.5"], strict=True)
                           if not n.startswith("persistence_exponent")))
-    if report.get("jackknife"):
-        print_jackknife(report["jackknife"])
-    one_run = len(next(iter(report["estimates"].values()))["per_run"]) == 1
+    if report.jackknife:
+        print_jackknife(report.jackknife)
+    one_run = len(next(iter(report.estimates.values()))["per_run"]) == 1
     print("the paper's stepwise route (Sec. 4), "
           + ("one run ± its error from resamplings of its cycles (docs/calibration.md)" if one_run else
              "mean ± standard error over the reversal runs")
           + ", and its range over smoothing windows 0.03-0.08 and 1-4 relaxation strains of transient "
             "(fit.json: sensitivity):")
-    settings = [v for part in ("smoothing_window", "transient_efolds") for v in report["sensitivity"][part].values()]
-    for key, e in report["estimates"].items():
+    settings = [v for part in ("smoothing_window", "transient_efolds") for v in report.sensitivity[part].values()]
+    for key, e in report.estimates.items():
         if key.startswith("persistence_exponent"):
             continue  # biased at the DEM's 0.005 sampling (0.50 / 1.04 on model data made with 0.75): fit.json only
         values = [v[key] for v in settings if key in v]
@@ -128,15 +130,15 @@ def print_report(report: dict, out: Path) -> None:
         se = e["standard_error"]
         error = f"± {se:.2g}" if math.isfinite(se) else "(one run of one cycle: no error)"
         print(f"{key:>30s} = {e['value']:+.4g} {error}{spread}")
-    for c in report["cross_check"]:
+    for c in report.cross_check:
         if "C_median" in c:
             q = c["C_quartiles"]
             print(f"  Sec. 3.3, theta = {c['theta_deg']:g}: C = {c['C_median']:+.2f} (quartiles {q[0]:+.2f} "
                   f"{q[1]:+.2f}), Y = {c['n']:+.3f} {c['m']:+.3f} S")
-    for note in report["notes"][2:]:
+    for note in report.notes[2:]:
         print(f"note: {note}")
     print(f"wrote {out / 'params.json'} (global fit), fit.json and fit.h5"
-          + (", params_stepwise.json" if report["params_stepwise"] else ""))
+          + (", params_stepwise.json" if report.params_stepwise else ""))
 
 
 def print_jackknife(j: dict) -> None:

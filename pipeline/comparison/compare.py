@@ -12,14 +12,12 @@ import numpy as np
 
 import model
 
-from .. import io
+from .. import io, schema
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..dataset.lookup import protocol_and_seed
 from ..errors import PipelineError
 from ..paths import preset_output
 from . import metrics
-
-SCHEMA = "granular-backstress/compare"
 
 
 def write_dem_cycle(g: h5py.Group, run, ratio: float, keys: tuple[str, ...]) -> None:
@@ -39,7 +37,8 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
     memory (``metrics.memory_curves``, the compared runs' first, then other seeds'), the memory of the old direction
     against the strain after the change (the DEM's mean over cycles and its standard error, each parameter set's)."""
     with h5py.File(path, "w") as f:
-        f.attrs.update(schema=SCHEMA, schema_version=1, preset=preset, strain_measure=runs[0].definitions.strain,
+        schema.stamp_compare(f)
+        f.attrs.update(preset=preset, strain_measure=runs[0].definitions.strain,
                        param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
         for k, run in enumerate(runs):
             g = f.create_group(f"runs/{k:02d}")
@@ -90,8 +89,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
     others = [metrics.model_for(run, sets) for run in other_seeds]
     rows = metrics.error_rows(runs, predictions)
     result = {"preset": preset, "data_set": label or preset, "definitions": dataclasses.asdict(runs[0].definitions),
-              "param_sets": {label: p.to_dict() for label, p in sets.items()},
-              "components": list(metrics.COMPONENTS), "errors": rows,
+              "param_sets": dict(sets), "components": list(metrics.COMPONENTS), "errors": rows,
               "seed_spread": metrics.seed_spread(rows + metrics.error_rows(other_seeds, others))}
     per_run = metrics.per_run
     result["overshoot"] = metrics.beside_first(per_run(metrics.overshoots, runs, predictions),
@@ -123,15 +121,15 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
                                       strict=True)) for label, p in sets.items()}}
     with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
         write_compare_h5(h5, runs, predictions, sets, preset, parts, curves + more, other_seeds, others)
-        js.write_text(io.json_text(result))
-    return result
+        found = schema.Metrics(**result)
+        js.write_text(io.json_text(found.to_dict()))
+    return found
 
 
 def fitted_in(params_file: Path) -> Definitions:
     """The definitions of strain, Phi and p that the parameters in ``params_file`` were fitted in: its metadata's
     (``make fit`` and ``make fit-from`` write them), else the paper's (Table 2's; a file of one's own)."""
-    metadata = json.loads(params_file.read_text()).get("metadata")
-    given = metadata.get("definitions") if isinstance(metadata, dict) else None
+    given = schema.read_params(params_file).definitions
     if given is None:
         return PAPER_DEFINITIONS
     try:

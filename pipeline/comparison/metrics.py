@@ -1,6 +1,6 @@
 """Model against DEM, on arrays: the model's cycle for a run's protocol and the measures that compare them.
 
-The model runs in the fit's strain measure (``Cycle.prediction``),
+The model runs in the fit's strain measure (``FitCycle.prediction``),
 so its cycle is compared sample by sample with the DEM's cycle average. The error of a component is
 the RMSE over the cycle divided by the steady value of that component's family (the largest |A12|
 or |tau12/p| of the cycle).
@@ -14,7 +14,7 @@ import numpy as np
 
 import model
 
-from ..dataset.cycle import Cycle
+from ..calibration.fit_cycle import FitCycle
 from ..dataset.derived import cycle_indices
 from ..dataset.smoothing import relaxation_strain
 
@@ -29,18 +29,18 @@ MEMORY_WINDOWS = ((0.05, 0.10), (0.10, 0.20), (0.20, 0.30))
 MEMORY_SPAN = 0.5
 
 
-def model_for(run, sets: dict) -> dict[str, tuple[Cycle, model.Result]]:
+def model_for(run, sets: dict) -> dict[str, tuple[FitCycle, model.Result]]:
     """The run's cycle as the fit sees it (built once), and each parameter set's prediction at its samples."""
-    data = Cycle.from_run(run)
+    data = FitCycle.from_run(run)
     return {label: (data, data.prediction(params)) for label, params in sets.items()}
 
 
-def bulk_over_nominal(preds: dict[str, tuple[Cycle, model.Result]]) -> float:
+def bulk_over_nominal(preds: dict[str, tuple[FitCycle, model.Result]]) -> float:
     """The fit's strain per nominal strain of the run ``model_for`` predicted (its cycle's, one for every set)."""
     return next(iter(preds.values()))[0].bulk_over_nominal
 
 
-def errors(data: Cycle, pred: model.Result) -> dict[str, float]:
+def errors(data: FitCycle, pred: model.Result) -> dict[str, float]:
     """RMSE over the cycle of A12, A32, tau12/p, tau32/p, normalised by the steady |A12| or |tau12/p|."""
     steady = {"A": np.max(np.abs(data.A[:, 0, 1])), "tau": np.max(np.abs(data.tau[:, 0, 1]))}
     out = {}
@@ -179,7 +179,7 @@ def old_direction_curve(A: np.ndarray, strain: np.ndarray, change: tuple) -> tup
     return strain[after] - start, along(A, normal)[..., after] / (np.cos(np.radians(normal - old)) * steady)
 
 
-def memory_curves(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
+def memory_curves(run, preds: dict[str, tuple[FitCycle, model.Result]]) -> list[dict]:
     """``old_direction_curve`` after each change of direction by an angle whose normal part is not small
     (|sin| >= 0.25: not the reversal) from an old segment long enough to be steady at its end (not Fig. 7's turn
     at 0.1 or 0.2) into a segment long enough to follow it: the DEM's per cycle, each parameter set's on the
@@ -219,7 +219,7 @@ def memories(curves: list[dict]) -> list[dict]:
     return out
 
 
-def overshoots(run, preds: dict[str, tuple[Cycle, model.Result]]) -> list[dict]:
+def overshoots(run, preds: dict[str, tuple[FitCycle, model.Result]]) -> list[dict]:
     """After each change of direction whose segment is long enough (the turn to theta at ``rotate_at`` and the
     turn back to e1 at the period's start), the component of A and tau/p along the new shear direction, signed
     so that its steady value (the segment's last OVERSHOOT_LATE) is positive: its mean OVERSHOOT_EARLY after the

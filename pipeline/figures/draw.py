@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from types import SimpleNamespace
 
 import h5py
 
-from .. import io
+from .. import io, schema
 from ..errors import PipelineError
 from . import cycles, laws, memory, profiles, report, reversal
 
@@ -18,19 +17,19 @@ def read_json(path: Path) -> dict:
     try:
         return json.loads(path.read_text())
     except FileNotFoundError:
-        raise PipelineError(f"{path} not found: run `make compare` (or `make fit`) first") from None
+        raise PipelineError(f"{path} not found: run `make fit-profile` or `make fit-from` first") from None
     except (OSError, ValueError) as exc:
         raise PipelineError(f"{path} is not readable JSON ({exc})") from None
 
 
 def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     """Every figure and the report from the comparison and calibration outputs."""
-    metrics = read_json(compare_dir / "metrics.json")
+    metrics = schema.read_metrics(compare_dir / "metrics.json")
     io.check_writable_dir(out)
-    fit_json = read_json(fit_dir / "fit.json") if (fit_dir / "fit.json").exists() else None
-    sets = {label: SimpleNamespace(**values) for label, values in metrics["param_sets"].items()}
+    fit = schema.read_fit(fit_dir / "fit.json") if (fit_dir / "fit.json").exists() else None
+    sets = metrics.param_sets
     fitted, paper = sets["our fit"], sets["Table 2"]
-    preset = metrics["preset"]
+    preset = metrics.preset
     figures = out / "figures"
     made = []
     try:
@@ -38,6 +37,7 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     except OSError as exc:
         raise PipelineError(f"cannot read {compare_dir / 'compare.h5'}: run `make compare` first ({exc})") from None
     with f:
+        schema.check_compare(f, compare_dir / "compare.h5")
         runs = [f["runs"][k] for k in f["runs"]]
         default = [g for g in runs if g.attrs["default_rotation"]]
         rotated = [g for g in runs if not g.attrs["default_rotation"]]
@@ -56,7 +56,7 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
         n_runs = len(runs)
     if (fit_dir / "profiles.json").exists():
         result = read_json(fit_dir / "profiles.json")
-        if profiles.belongs_to(result, fit_json):
+        if profiles.belongs_to(result, fit):
             made.append(profiles.plot(result, paper, figures / "profiles.png"))
         else:
             print(f"{fit_dir / 'profiles.json'} profiles another fit than fit.json: not drawn (make fit-profile)")
@@ -65,9 +65,9 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
         made.append(laws.fabric_law(fit_h5, fitted, paper, figures / "fig3_fabric_law.png"))
         made.append(laws.flow_rule(fit_h5, fitted, paper, figures / "fig4_flow_rule.png"))
     fit_from = read_json(fit_dir / "fit_from.json") if (fit_dir / "fit_from.json").exists() else None
-    if fit_from and not report.same_weighting(fit_from, fit_json):
+    if fit_from and not report.same_weighting(fit_from, fit):
         print(f"{fit_dir / 'fit_from.json'} weighs the runs otherwise than fit.json: left out of the report "
               "(make fit-from with the fit's WEIGHT)")
         fit_from = None
-    made.append(report.write(metrics, fit_json, out / "report.md", n_runs, fit_from))
+    made.append(report.write(metrics, fit, out / "report.md", n_runs, fit_from))
     return made

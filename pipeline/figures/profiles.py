@@ -10,9 +10,10 @@ import numpy as np
 from .output import save
 
 
-def belongs_to(result: dict, fit_json: dict | None) -> bool:
-    """Whether ``profiles.json`` profiles the fit in ``fit.json`` (same parameters at the same best values)."""
-    g = (fit_json or {}).get("global") or {}
+def belongs_to(result: dict, fit) -> bool:
+    """Whether ``profiles.json`` profiles the fit in ``fit.json`` (a ``schema.FitSummary``, or None): the same
+    parameters at the same best values."""
+    g = (fit.global_fit if fit else None) or {}
     best = dict(zip(g.get("free", []), g.get("values", []), strict=True))
     parameters = result.get("parameters", {})
     return bool(parameters) and set(parameters) == set(best) and all(

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import write_text
+from ..schema import FitSummary, Metrics
 
 NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
 
@@ -61,11 +62,11 @@ def misfit_sentence(ident: dict) -> str:
             f"fits every run. {angles} (`make fit-jackknife OVER=angles`: each refit's shift).")
 
 
-def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]:
+def parameter_lines(ours: dict, paper: dict, fit: FitSummary | None) -> list[str]:
     """Our parameters with their 68 % intervals and status beside Table 2; what the data fix; Table 2's test."""
-    ident = (fit_json or {}).get("identifiability") or {}
+    ident = (fit.identifiability if fit else None) or {}
     params = ident.get("parameters", {})
-    dilatancy = (fit_json or {}).get("dilatancy") or {"free": [], "standard_errors": []}
+    dilatancy = (fit.dilatancy if fit else None) or {"free": [], "standard_errors": []}
     se = dict(zip(dilatancy["free"], dilatancy["standard_errors"], strict=True))
     noted = bool(ident.get("misfit_noted"))
     spread = (ident.get("spread_over_angles") or {}).get("ranges", {})  # only where the misfit is noted
@@ -85,7 +86,7 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
             lines.append(f"| {name} | {ours[name]:+.4g} | {scatter} | |{' |' * len(extra)} {paper[name]:+.4g} |")
     if not ident:
         return lines
-    g, noise = fit_json["global"], fit_json["noise"]
+    g, noise = fit.global_fit, fit.noise
     if not ident.get("noise_measured", True):
         return lines + ["", f"No intervals: {noise['source']}. Two cycles per run, or three seeds, let the noise be "
                         "measured."]
@@ -112,32 +113,31 @@ def parameter_lines(ours: dict, paper: dict, fit_json: dict | None) -> list[str]
                   f"above the best fit, a rise of {t['chi2_rise']:.0f} against {t['quantiles']['95']:.0f} for the "
                   f"95 % region from the noise: {verdict[t['inside']['95']]} it; "
                   f"{verdict[t['inside_misfit_widened']['95']]} it when the region is widened by the misfit."]
-    return lines + next_runs_lines(fit_json)
+    return lines + next_runs_lines(fit)
 
 
-def same_weighting(rows: list[dict], fit_json: dict | None) -> bool:
+def same_weighting(rows: list[dict], fit: FitSummary | None) -> bool:
     """Whether the rows of ``make fit-from`` (``fit_from.json``) weighed the runs as the fit in ``fit.json`` did
     (files from before the weighting was recorded counted each run once)."""
-    weight = lambda d: d.get("weight", "runs")  # noqa: E731
-    return all(weight(r) == weight(fit_json or {}) for r in rows)
+    return all(r.get("weight", "runs") == (fit.weight if fit else "runs") for r in rows)
 
 
-def fit_runs_sentence(fit_json: dict | None) -> str:
+def fit_runs_sentence(fit: FitSummary | None) -> str:
     """How many runs the global fit took (``fit.json`` → ``global_runs``) and how it weighed them."""
-    runs = (fit_json or {}).get("global_runs")
+    runs = fit.global_runs if fit else None
     if not runs:
         return ""
     return (f" The fit took {len(runs)} run(s), every seed of the reversal and of each angle rotated at half the "
-            "period, " + ("each angle counted once (WEIGHT=angles)." if fit_json.get("weight") == "angles"
+            "period, " + ("each angle counted once (WEIGHT=angles)." if fit.weight == "angles"
                           else "each run counted once."))
 
 
-def next_runs_lines(fit_json: dict) -> list[str]:
+def next_runs_lines(fit: FitSummary) -> list[str]:
     """The best new runs per CPU-hour (``fit.json`` → ``next_runs``), each joined to the fit's runs with its
     weighting."""
-    runs = [r for r in fit_json.get("next_runs") or [] if "error" not in r]  # last: those that cannot be weighed
+    runs = [r for r in fit.next_runs or [] if "error" not in r]  # last: those that cannot be weighed
     if not runs:
-        failed = fit_json.get("next_runs") or []
+        failed = fit.next_runs or []
         return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
                 f"None can be told: no candidate can be weighed at the best fit (the first, "
                 f"{failed[0]['run']}: {failed[0]['error']}; fit.json: next_runs)."] if failed else []
@@ -145,7 +145,7 @@ def next_runs_lines(fit_json: dict) -> list[str]:
             f"Its relative ± is {runs[0]['weakest_before']:.3g} now (fit.json: next_runs, every candidate); each "
             "run is joined to the fit's runs"
             + (" with each angle counted once, so another seed of an angle shares that angle's weight."
-               if fit_json.get("weight") == "angles" else ", each counting once."), "",
+               if fit.weight == "angles" else ", each counting once."), "",
             "| run | weakest ± after | largest relative ± after | CPU-hours |", "|---|---|---|---|",
             *(f"| {r['run']} | {r['weakest_after']:.3g} | {r['worst_relative_se_after']:.3g} | "
               f"{r['cpu_hours']:.2f} |" for r in runs[:6])]
@@ -235,40 +235,40 @@ def seed_spread_lines(spread: list[dict], components: list[str]) -> list[str]:
     return lines
 
 
-def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int, fit_from: list | None = None) -> Path:
-    """Write report.md from the comparison's ``metrics``, the calibration's ``fit_json`` and, where ``make fit-from``
-    has run, its rows."""
-    sets = metrics["param_sets"]
+def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int, fit_from: list | None = None) -> Path:
+    """Write report.md from the comparison's ``metrics``, the calibration's summary ``fit`` and, where ``make
+    fit-from`` has run, its rows."""
+    sets = {label: p.to_dict() for label, p in metrics.param_sets.items()}
     paper, ours = sets["Table 2"], sets["our fit"]
-    components = metrics["components"]
-    lines = [f"# Model against our DEM: `{metrics.get('data_set', metrics['preset'])}`", "",
+    components = metrics.components
+    lines = [f"# Model against our DEM: `{metrics.data_set}`", "",
              f"{n_runs} DEM run(s) compared, one per protocol"
-             + (" (their other seeds: \"Over seeds\")" if metrics.get("seed_spread") else "")
-             + f"; the model runs in the fit's strain measure for each run's protocol.{fit_runs_sentence(fit_json)}",
+             + (" (their other seeds: \"Over seeds\")" if metrics.seed_spread else "")
+             + f"; the model runs in the fit's strain measure for each run's protocol.{fit_runs_sentence(fit)}",
              "",
-             "## Parameters", "", *parameter_lines(ours, paper, fit_json)]
+             "## Parameters", "", *parameter_lines(ours, paper, fit)]
     lines += ["", "## Model against DEM", "",
               "RMSE over the cycle divided by the steady |A12| or |tau12/p|.", "",
               "| run | parameters | " + " | ".join(components) + " |", "|---|---|" + "---|" * len(components)]
-    for e in metrics["errors"]:
+    for e in metrics.errors:
         lines.append(f"| {e['run']} | {e['parameters']} | " + " | ".join(f"{e[k]:.2f}" for k in components) + " |")
-    if metrics.get("seed_spread"):
-        lines += ["", *seed_spread_lines(metrics["seed_spread"], components)]
-    if metrics.get("overshoot"):
-        lines += ["", *overshoot_lines(metrics["overshoot"], list(sets))]
-    if metrics.get("memory"):
-        lines += ["", *memory_lines(metrics["memory"], list(sets))]
-    if "reversal" in metrics:
-        r = metrics["reversal"]
+    if metrics.seed_spread:
+        lines += ["", *seed_spread_lines(metrics.seed_spread, components)]
+    if metrics.overshoot:
+        lines += ["", *overshoot_lines(metrics.overshoot, list(sets))]
+    if metrics.memory:
+        lines += ["", *memory_lines(metrics.memory, list(sets))]
+    if metrics.reversal is not None:
+        r = metrics.reversal
         lo, hi = r["table2_packing_fraction_range"]
         lines += ["", "## Reversal", "",
                   f"- share of the backstress C A12 in the steady shear stress: {r['backstress_share']:.0%} with our C "
                   f"(paper: 88 %)",
                   f"- mean packing fraction over the cycle: {r['mean_packing_fraction']:.3f} (the model with Table 2: "
                   f"{lo:.3f} to {hi:.3f}; Phi_c = {paper['phi_c']} is not the steady value)",
-                  second_law_line(metrics["second_law"])]
-    if "relaxation" in metrics:
-        rel = metrics["relaxation"]
+                  second_law_line(metrics.second_law)]
+    if metrics.relaxation is not None:
+        rel = metrics.relaxation
         lines.append(f"- relaxation strain after the reversal (to within 5 % of the final value, from an exponential "
                      f"fit; 'not resolved' where the fit does not fix it to +-50 %): isotropic part "
                      f"{_strain_text(rel['dem']['isotropic'])}, backstress {_strain_text(rel['dem']['backstress'])} "
@@ -279,6 +279,6 @@ def write(metrics: dict, fit_json: dict | None, out: Path, n_runs: int, fit_from
                          for label, v in rel["model"].items()))
     if fit_from:
         lines += ["", *jump_lines(fit_from, paper)]
-    if fit_json and fit_json.get("sensitivity"):
-        lines += ["", *sensitivity_lines(fit_json["sensitivity"])]
+    if fit and fit.sensitivity:
+        lines += ["", *sensitivity_lines(fit.sensitivity)]
     return write_text(out, "\n".join(lines) + "\n")

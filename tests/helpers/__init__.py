@@ -45,6 +45,16 @@ def run_main(main, argv) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(list(argv), code, out.getvalue(), err.getvalue())
 
 
+def fit_summary(**fields):
+    """A ``fit.json`` (``pipeline.schema.FitSummary``) with only ``fields`` given (each run counted once), the rest
+    empty: what a test of one part of the report needs."""
+    import dataclasses
+
+    from pipeline.schema import FitSummary
+
+    return FitSummary(**{**{f.name: None for f in dataclasses.fields(FitSummary)}, "weight": "runs", **fields})
+
+
 def module_main(module: str):
     """The command line ``python -m <module>`` as a function of its arguments, run in this process (a fresh run of
     the module's ``__main__`` each time): its exit status."""

@@ -10,15 +10,15 @@ import pytest
 import model
 from pipeline.calibration import global_fit
 from pipeline.calibration.calibrate import fit
+from pipeline.calibration.fit_cycle import FitCycle
 from pipeline.calibration.stepwise import dilatancy_estimate
 from pipeline.dataset import lookup
-from pipeline.dataset.cycle import Cycle
 from pipeline.dataset.derived import Definitions, cycle_D_dev
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import CalibrationError, PipelineError
 from pipeline.io import read_params
 from pipeline.spec import resolve
-from tests.helpers import RUNS_AWAY, module_main, synthetic_file, synthetic_run
+from tests.helpers import RUNS_AWAY, fit_summary, module_main, synthetic_file, synthetic_run
 
 fit_main = module_main("pipeline.calibration")
 
@@ -30,7 +30,7 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
     path = synthetic_file(tmp_path, n_cycles=2)
     assert fit_main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 0
     report = json.loads((tmp_path / "fit" / "fit.json").read_text())
-    est = {k: v["value"] for k, v in report["estimates"].items()}
+    est = {k: v["value"] for k, v in report.estimates.items()}
     # the fabric law (Eqs. 9, 12, 13) from the smoothed Jaumann rate
     assert est["b1"] == pytest.approx(TRUE.b1, rel=0.02) and est["b2"] == pytest.approx(TRUE.b2, rel=0.02)
     assert est["a1"] == pytest.approx(TRUE.a1, rel=0.05) and est["a2"] == pytest.approx(TRUE.a2, rel=0.15)
@@ -44,7 +44,7 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
         assert getattr(refined, name) == pytest.approx(getattr(TRUE, name), rel=0.02), name
     assert refined.c1 == -refined.C
     # on noise-free data the fabric law does not hinge on the smoothing window
-    for window, values in report["sensitivity"]["smoothing_window"].items():
+    for window, values in report.sensitivity["smoothing_window"].items():
         assert values["b2"] == pytest.approx(TRUE.b2, rel=0.02), window
 
 
@@ -52,7 +52,7 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
 def test_several_seeds_give_a_mean_and_its_standard_error(tmp_path):
     runs = [synthetic_run(tmp_path, name=f"s{seed}", n_cycles=2, noise=0.002, seed=seed) for seed in range(3)]
     report = fit(runs, tmp_path / "fit")
-    b2 = report["estimates"]["b2"]
+    b2 = report.estimates["b2"]
     assert len(b2["per_run"]) == 3
     assert b2["standard_error"] == pytest.approx(np.std(b2["per_run"], ddof=1) / np.sqrt(3))
 
@@ -75,11 +75,11 @@ def test_sec33_cross_check_on_other_angles_finds_constant_C(tmp_path):
     reversal = synthetic_run(tmp_path, name="rev", n_cycles=1)
     angles = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=1) for t in (60.0, 120.0)]
     report = fit([reversal], tmp_path / "fit", cross_runs=angles)
-    for check in report["cross_check"]:
+    for check in report.cross_check:
         assert check["C_median"] == pytest.approx(TRUE.C, rel=0.02)
         assert check["m"] == pytest.approx(TRUE.m, abs=0.1) and check["n"] == pytest.approx(TRUE.n, abs=0.02)
     # one reversal of one cycle: nothing to take a stepwise error from, and none is claimed
-    assert all(np.isnan(e["standard_error"]) and e["error_from"] is None for e in report["estimates"].values())
+    assert all(np.isnan(e["standard_error"]) and e["error_from"] is None for e in report.estimates.values())
 
 
 @pytest.mark.slow
@@ -87,11 +87,11 @@ def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(
     runs = [synthetic_run(tmp_path, theta=t, name=f"g{int(t)}", n_cycles=3, noise=0.01, seed=int(t))
             for t in (180.0, 30.0, 90.0, 150.0)]
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:])
-    g = report["global"]
+    g = report.global_fit
     assert g["success"] and 0.5 < g["misfit"] < 3  # white noise, measured from the cycles: misfit ~ 1
     for name, value, se in zip(g["free"], g["values"], g["standard_errors"], strict=True):
         assert abs(value - getattr(TRUE, name)) < 3.5 * se, name
-    d = report["dilatancy"]  # Eq. 18 on Phi with c1 = -C, noise 0.001 on Phi
+    d = report.dilatancy  # Eq. 18 on Phi with c1 = -C, noise 0.001 on Phi
     values = dict(zip(d["free"], d["values"], strict=True))
     assert values["phi_c"] == pytest.approx(TRUE.phi_c, abs=0.005)
     assert values["c2_coef"] == pytest.approx(TRUE.c2_coef, rel=0.15)
@@ -208,7 +208,7 @@ def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path, cap
     runs = [synthetic_run(tmp_path, theta=t, name=f"b{int(t)}", n_cycles=4, noise=0.01, seed=int(t) + 7)
             for t in (180.0, 90.0)]
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], bootstrap=12)
-    boot, g = report["bootstrap"], report["global"]
+    boot, g = report.bootstrap, report.global_fit
     assert len(boot["replicates"]) == 12
     ratio = np.array(boot["standard_deviation"]) / np.array(g["standard_errors"])
     assert np.all((ratio > 0.3) & (ratio < 3)), dict(zip(g["free"], ratio, strict=True))
@@ -217,10 +217,10 @@ def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path, cap
     for key in ("C_eq15", "n", "m", "b1", "b2", "c2_coef", "phi_c"):
         i = step["free"].index(key)
         assert 0 < step["standard_deviation"][i] < np.inf, key
-        assert step["percentile_2.5"][i] <= report["estimates"][key]["value"] <= step["percentile_97.5"][i], key
+        assert step["percentile_2.5"][i] <= report.estimates[key]["value"] <= step["percentile_97.5"][i], key
     # one reversal: its stepwise errors are the spread over the resamplings of its cycles
     for key in ("C_eq15", "m", "phi_c"):
-        e = report["estimates"][key]
+        e = report.estimates[key]
         assert e["error_from"] == "cycle resamples"
         half_width = step["half_width_68"][step["free"].index(key)]
         assert e["standard_error"] == pytest.approx(half_width * small_sample_factor(4)) and half_width > 0, key
@@ -239,7 +239,7 @@ def test_bootstrap_needs_more_than_one_cycle(tmp_path, capsys):
 def test_dilatancy_fit_at_a_bound_is_an_error(tmp_path):
     import dataclasses
 
-    data = Cycle.from_run(synthetic_run(tmp_path, n_cycles=1))
+    data = FitCycle.from_run(synthetic_run(tmp_path, n_cycles=1))
     too_dense = dataclasses.replace(data, phi=np.full_like(data.phi, 0.97))  # denser than any Phi_c in bounds
     with pytest.raises(CalibrationError, match=r"sits at a bound: (c2_coef|phi_c) = "):
         global_fit.refine_dilatancy([too_dense], TRUE)
@@ -264,7 +264,7 @@ def test_the_strain_measure_option_recovers_the_truth_of_each_measure(tmp_path):
             for t in (180.0, 90.0)]
     fits = {}
     for strain in ("bulk", "nominal"):
-        data = [Cycle.from_run(r.with_definitions(Definitions(strain=strain))) for r in runs]
+        data = [FitCycle.from_run(r.with_definitions(Definitions(strain=strain))) for r in runs]
         fits[strain] = global_fit.refine(data, TRUE).params
     ratio = 1.3 * (1 - 2 * 0.005 / 1.4)  # the band's strain per nominal strain over a cycle with two reversals
     for name in ("b1", "b2"):
@@ -279,8 +279,8 @@ def test_held_parameters_stay_and_the_fisher_directions_name_the_weakest_combina
     runs = [synthetic_run(tmp_path, theta=t, name=f"h{int(t)}", n_cycles=2, noise=0.005, seed=int(t))
             for t in (180.0, 90.0)]
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], hold={"a2": TRUE.a2})
-    g = report["global"]
-    assert "a2" not in g["free"] and g["params"]["a2"] == TRUE.a2 and report["held"] == {"a2": TRUE.a2}
+    g = report.global_fit
+    assert "a2" not in g["free"] and g["params"]["a2"] == TRUE.a2 and report.held == {"a2": TRUE.a2}
     steps = [d["relative_step"] for d in g["directions"]]
     assert len(steps) == len(g["free"]) == 6 and steps == sorted(steps, reverse=True)
     for d in g["directions"]:
@@ -331,7 +331,7 @@ def test_the_restarted_fit_recovers_the_truth_past_a_jump_that_biases_the_whole_
 
 
 def test_a_restarted_cycle_keeps_the_samples_past_gamma0_and_restarts_from_the_dem_state(tmp_path):
-    cycle = Cycle.from_run(synthetic_run(tmp_path, n_cycles=1).with_definitions(Definitions(strain="nominal")))
+    cycle = FitCycle.from_run(synthetic_run(tmp_path, n_cycles=1).with_definitions(Definitions(strain="nominal")))
     restarted = cycle.restarted(0.01)
     assert len(restarted.strain) == len(cycle.strain) - 4  # two samples after each of two changes
     assert restarted.strain[0] == pytest.approx(0.01) and 0.7 + 0.005 not in restarted.strain
@@ -430,7 +430,7 @@ def test_states_past_each_change_are_cycle_means_of_the_dense_samples():
 
 
 def test_a_cycle_restarts_between_grid_points_from_the_dense_state(tmp_path):
-    cycle = Cycle.from_run(synthetic_run(tmp_path, n_cycles=1).with_definitions(Definitions(strain="nominal")))
+    cycle = FitCycle.from_run(synthetic_run(tmp_path, n_cycles=1).with_definitions(Definitions(strain="nominal")))
     A = np.stack([np.eye(3) * 0.01, np.eye(3) * 0.02])
     restarted = cycle.restarted(0.002, (A, np.array([0.61, 0.62])))
     assert restarted.strain[0] == pytest.approx(0.005)  # the grid samples past the restart
@@ -477,8 +477,8 @@ def test_reversals_alone_leave_the_dilatancy_undetermined_and_say_so(tmp_path, c
     runs = [str(ROOT / f"data/reference/{folder}/dem/theta180.h5") for folder in ("reduced", "reduced-df0432d3")]
     assert fit_main(["--runs", *runs, "--out", str(tmp_path / "fit")]) == 0
     report = json.loads((tmp_path / "fit" / "fit.json").read_text())
-    assert report["dilatancy"] is None
-    assert any("c2_coef and Phi_c are not determined" in note for note in report["notes"])
+    assert report.dilatancy is None
+    assert any("c2_coef and Phi_c are not determined" in note for note in report.notes)
     params = read_params(tmp_path / "fit" / "params.json")
     assert (params.c2_coef, params.phi_c) == (model.PAPER.c2_coef, model.PAPER.phi_c)
     assert params.c1 == -params.C != model.PAPER.c1  # Eq. 19 follows the fitted C
@@ -582,10 +582,11 @@ def test_the_printout_says_why_no_new_run_is_ranked_when_none_can_be_weighed(cap
     ranking out without a word."""
     from pipeline.calibration.text import print_next_runs
 
-    print_next_runs({"next_runs": [{"run": "another reversal seed (theta = 180)", "error": "dop853: too many steps"},
-                                   {"run": "another seed at theta = 30", "error": "dop853: too many steps"}]})
+    print_next_runs(fit_summary(next_runs=[
+        {"run": "another reversal seed (theta = 180)", "error": "dop853: too many steps"},
+        {"run": "another seed at theta = 30", "error": "dop853: too many steps"}]))
     out = capsys.readouterr().out
     assert out.startswith("runs that would fix the weakest combination: none can be told")
     assert "another reversal seed (theta = 180): dop853: too many steps" in out
-    print_next_runs({"next_runs": []})
+    print_next_runs(fit_summary(next_runs=[]))
     assert capsys.readouterr().out == ""

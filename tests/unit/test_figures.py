@@ -17,7 +17,7 @@ from pipeline.dataset.derived import PAPER_DEFINITIONS, Definitions
 from pipeline.dataset.smoothing import relaxation_strain
 from pipeline.figures.draw import draw
 from pipeline.io import read_params, write_params
-from tests.helpers import module_main, synthetic_run
+from tests.helpers import fit_summary, module_main, synthetic_run
 
 main = module_main("pipeline.figures")
 
@@ -51,10 +51,10 @@ def test_comparison_writes_predictions_and_metrics(compared):
             assert m["dem"].shape == m["dem_sem"].shape == m["strain_after"].shape
             assert abs(m["model/Table 2/fraction"][0] - 1) < 0.05 and abs(m["dem"][0] - 1) < 0.2
     # the model with the true parameters fits the synthetic data to the noise: small normalised errors
-    row = next(e for e in metrics["errors"] if e["run"] == "theta180" and e["parameters"] == "Table 2")
+    row = next(e for e in metrics.errors if e["run"] == "theta180" and e["parameters"] == "Table 2")
     assert max(row[k] for k in ("A12", "A32", "tau12", "tau32")) < 0.15
     # model data made with c1 = -C and Phi below Phi_c + c3 satisfy Eq. 19
-    assert metrics["second_law"]["holds"]
+    assert metrics.second_law["holds"]
 
 
 def test_a_protocol_at_several_seeds_has_its_errors_over_the_seeds_and_an_overshoot_row_per_seed(compared):
@@ -62,20 +62,20 @@ def test_a_protocol_at_several_seeds_has_its_errors_over_the_seeds_and_an_oversh
     the first seed's own row is one end of the range; a protocol at one seed has no spread. The overshoot has a row
     per seed, the other seed's right after the first's."""
     _, metrics = compared
-    spread = {(r["run"], r["parameters"]): r for r in metrics["seed_spread"]}
+    spread = {(r["run"], r["parameters"]): r for r in metrics.seed_spread}
     assert set(spread) == {("theta180", "Table 2"), ("theta180", "our fit")}
     for (run, label), r in spread.items():
         assert r["seeds"] == [1, 3]
-        first = next(e for e in metrics["errors"] if e["run"] == run and e["parameters"] == label)
+        first = next(e for e in metrics.errors if e["run"] == run and e["parameters"] == label)
         for k in ("A12", "A32", "tau12", "tau32"):
             v = r[k]
             assert v["least"] < v["mean"] < v["largest"] and first[k] in (v["least"], v["largest"]), (label, k)
     # the overshoot: a row per seed, each seed's beside the first's, each its own measure
-    order = [(r["run"], r["seed"], r["segment"]) for r in metrics["overshoot"]]
+    order = [(r["run"], r["seed"], r["segment"]) for r in metrics.overshoot]
     assert order == [("theta180", 1, "after the turn to theta"), ("theta180", 3, "after the turn to theta"),
                      ("theta180", 1, "after the turn back"), ("theta180", 3, "after the turn back"),
                      ("theta060", 2, "after the turn to theta"), ("theta060", 2, "after the turn back")]
-    assert metrics["overshoot"][0]["A"]["dem"] != metrics["overshoot"][1]["A"]["dem"]
+    assert metrics.overshoot[0]["A"]["dem"] != metrics.overshoot[1]["A"]["dem"]
 
 
 def test_the_cycle_figure_draws_a_protocols_other_seeds_beside_its_first(compared, monkeypatch):
@@ -111,7 +111,7 @@ def test_the_memory_of_a_turn_at_two_seeds_has_a_row_and_a_curve_per_seed(tmp_pa
     second = synthetic_run(tmp_path / "b", theta=60.0, name="theta060", n_cycles=2, noise=0.005, seed=2)
     sets = {"Table 2": model.Params(), "our fit": model.Params()}
     metrics = compare([first], sets, None, tmp_path / "compare", "synthetic", other_seeds=(second,))
-    assert [(r["seed"], r["segment"]) for r in metrics["memory"]] == [
+    assert [(r["seed"], r["segment"]) for r in metrics.memory] == [
         (1, "after the turn to theta"), (2, "after the turn to theta"), (1, "after the turn back"),
         (2, "after the turn back")]
     drawn = []
@@ -131,7 +131,7 @@ def test_the_overshoot_of_model_made_runs_is_the_models_and_the_model_arrives_fr
     new direction, early minus steady, from the cycles) is the model's own by the same measure on its cycle,
     after both changes of each run; the model approaches its steady value from below (negative)."""
     _, metrics = compared
-    rows = {(r["run"], r["segment"]): r for r in metrics["overshoot"]}
+    rows = {(r["run"], r["segment"]): r for r in metrics.overshoot}
     assert set(rows) == {(run, seg) for run in ("theta180", "theta060")
                          for seg in ("after the turn to theta", "after the turn back")}
     for r in rows.values():
@@ -151,7 +151,7 @@ def test_the_memory_of_model_made_runs_is_the_models_and_fades(compared):
     normal to the new direction, as a fraction of the old steady fabric's) is the model's own by the same measure,
     after both turns at 60 degrees; it fades from near 1/3 to a few per cent; the reversal has no such part."""
     _, metrics = compared
-    rows = {(r["run"], r["segment"]): r for r in metrics["memory"]}
+    rows = {(r["run"], r["segment"]): r for r in metrics.memory}
     assert set(rows) == {("theta060", "after the turn to theta"), ("theta060", "after the turn back")}
     for r in rows.values():
         model_left = r["model"]["Table 2"]
@@ -290,13 +290,14 @@ def test_the_report_says_how_new_runs_join_the_fit():
 
     ranked = {"run": "another seed at theta = 120", "weakest_before": 0.14, "weakest_after": 0.11,
               "worst_relative_se_after": 0.11, "cpu_hours": 5.6}
-    per_run = next_runs_lines({"weight": "runs", "next_runs": [ranked, {"run": "x", "error": "fails"}]})
+    per_run = next_runs_lines(fit_summary(next_runs=[ranked, {"run": "x", "error": "fails"}]))
     assert per_run[-1] == "| another seed at theta = 120 | 0.11 | 0.11 | 5.60 |" and len(per_run) == 8
     assert per_run[3].endswith("each counting once.")
-    per_angle = next_runs_lines({"weight": "angles", "next_runs": [ranked]})
+    per_angle = next_runs_lines(fit_summary(weight="angles", next_runs=[ranked]))
     assert per_angle[3].endswith("another seed of an angle shares that angle's weight.")
-    assert next_runs_lines({"next_runs": []}) == []
-    failed = next_runs_lines({"next_runs": [{"run": "another seed at theta = 30", "error": "dop853: too many steps"}]})
+    assert next_runs_lines(fit_summary(next_runs=[])) == []
+    failed = next_runs_lines(fit_summary(next_runs=[{"run": "another seed at theta = 30",
+                                                     "error": "dop853: too many steps"}]))
     assert failed[-1].startswith("None can be told: no candidate can be weighed at the best fit")
     assert "another seed at theta = 30: dop853: too many steps" in failed[-1]
 
@@ -305,9 +306,10 @@ def test_the_report_takes_the_fits_past_the_jump_only_of_the_fits_weighting():
     from pipeline.figures.report import same_weighting
 
     rows = [{"fit_from": 0.005, "weight": "angles"}, {"fit_from": 0.0, "weight": "angles"}]
-    assert same_weighting(rows, {"weight": "angles"}) and not same_weighting(rows, {"weight": "runs"})
-    assert same_weighting([{"fit_from": 0.005}], {"weight": "runs"})  # from before the weighting was recorded
-    assert not same_weighting([{"fit_from": 0.005}], {"weight": "angles"})
+    angles, runs = fit_summary(weight="angles"), fit_summary(weight="runs")
+    assert same_weighting(rows, angles) and not same_weighting(rows, runs)
+    assert same_weighting([{"fit_from": 0.005}], runs)  # from before the weighting was recorded
+    assert not same_weighting([{"fit_from": 0.005}], angles)
 
 
 def test_atomic_writes_leave_files_as_readable_as_a_plain_write(tmp_path):

@@ -7,8 +7,9 @@ import pytest
 
 import model
 from pipeline.calibration import global_fit, identifiability, noise
+from pipeline.calibration.fit_cycle import FitCycle
 from pipeline.calibration.profile import profiles
-from pipeline.dataset.cycle import Cycle
+from pipeline.schema import FitSummary
 from tests.helpers import synthetic_run
 
 TRUE = model.Params()
@@ -60,7 +61,7 @@ def test_a_cycles_noise_correlation_follows_its_own_sampling_and_its_restarted_g
     nm = _ar1_noise()
     strain = np.arange(40) * 0.0025
     zeros, ones = np.zeros((40, 3, 3)), np.ones((40, 3, 3))
-    dense = Cycle(180.0, 0.05, 0.1, 1.0, 2, strain, zeros, zeros, ones, ones, np.zeros(40))
+    dense = FitCycle(180.0, 0.05, 0.1, 1.0, 2, strain, zeros, zeros, np.zeros(40), ones, ones)
     np.testing.assert_array_equal(global_fit.sample_covariance(nm, 1, dense), nm.covariance(1, 40, lag_scale=0.5))
     kept = np.r_[4:20, 24:40]
     restarted = dataclasses.replace(dense, strain=strain[kept], grid_index=kept)
@@ -132,8 +133,10 @@ def test_a_model_that_misses_the_runs_says_so_beside_intervals_widened_by_the_ro
     ours = {**TRUE.to_dict(), "c2_coef": TRUE.c2_coef, "phi_c": TRUE.phi_c}
     said = {}
     for label, ident, misfit in (("near", near, fit.misfit), ("far", far, 9.0)):
-        report = {"global": {"misfit": misfit}, "identifiability": ident, "noise": nm.to_dict(),
-                  "global_runs": runs, "dilatancy": None, "fit_from": None, "persistence_exponent": 0.75}
+        blank = {f.name: None for f in dataclasses.fields(FitSummary)}
+        report = FitSummary(**{**blank, "global_fit": {"misfit": misfit}, "identifiability": ident,
+                               "noise": nm.to_dict(), "global_runs": runs, "weight": "runs",
+                               "persistence_exponent": 0.75})
         print_global(report)
         said[label] = (capsys.readouterr().out, "\n".join(parameter_lines(ours, ours, report)))
     for printed, reported in (said["near"], said["far"]):
@@ -222,7 +225,7 @@ def test_each_packing_fraction_definition_recovers_the_truth_of_data_built_with_
     run = load(tmp_path / "run.h5")
     found = {}
     for definition in ("gap", "central"):
-        data = [Cycle.from_run(run.with_definitions(Definitions(phi=definition)))]
+        data = [FitCycle.from_run(run.with_definitions(Definitions(phi=definition)))]
         found[definition] = global_fit.refine_dilatancy(data, TRUE).params.phi_c
     assert found["gap"] == pytest.approx(TRUE.phi_c, abs=0.006)  # Eq. 18's fit: within 0.005 on exact data
     assert found["gap"] - found["central"] == pytest.approx(0.05, abs=0.006)  # Eq. 18 is not linear in Phi
@@ -236,11 +239,11 @@ def test_without_a_measured_noise_there_are_no_intervals_and_no_verdict_on_table
     runs = [synthetic_run(tmp_path, theta=t, name=f"u{int(t)}", n_cycles=1, seed=int(t), **NOISE)
             for t in (180.0, 90.0)]
     report = calibrate(runs[:1], tmp_path / "fit", cross_runs=runs[1:])
-    ident = report["identifiability"]
-    assert not report["noise"]["measured"] and not ident["noise_measured"] and ident["table2"] is None
+    ident = report.identifiability
+    assert not report.noise["measured"] and not ident["noise_measured"] and ident["table2"] is None
     assert all(p["intervals"]["68"] is None and p["status"].startswith("no interval") for p in
                ident["parameters"].values())
-    assert report["next_runs"] == []
+    assert report.next_runs == []
 
 
 @pytest.mark.slow

@@ -8,15 +8,15 @@ import pytest
 
 import model
 from pipeline.calibration import global_fit
+from pipeline.calibration.fit_cycle import FitCycle
 from pipeline.calibration.residual_map import residual_map, strain_since_change
-from pipeline.dataset.cycle import Cycle
 from tests.helpers import synthetic_run
 
 TRUE = model.Params()
 
 
 def test_a_feature_the_model_lacks_tops_the_map_in_its_run_quantity_and_window(tmp_path):
-    runs = [Cycle.from_run(synthetic_run(tmp_path, theta=t, name=f"r{int(t)}", noise=0.002, seed=int(t)))
+    runs = [FitCycle.from_run(synthetic_run(tmp_path, theta=t, name=f"r{int(t)}", noise=0.002, seed=int(t)))
             for t in (180.0, 90.0)]
     steady = strain_since_change(runs[1], runs[1].strain) >= 0.3
     tau = runs[1].tau.copy()
@@ -34,7 +34,7 @@ def test_a_feature_the_model_lacks_tops_the_map_in_its_run_quantity_and_window(t
 
 
 def test_strain_since_change_restarts_at_each_turn(tmp_path):
-    d = Cycle.from_run(synthetic_run(tmp_path, n_cycles=1))
+    d = FitCycle.from_run(synthetic_run(tmp_path, n_cycles=1))
     since = strain_since_change(d, np.array([0.0, 0.3, 0.69, 0.7, 1.0]))
     np.testing.assert_allclose(since, [0.0, 0.3, 0.69, 0.0, 0.3], atol=1e-12)
 
@@ -42,7 +42,7 @@ def test_strain_since_change_restarts_at_each_turn(tmp_path):
 def test_components_the_fit_leaves_out_have_no_rows_and_no_samples(tmp_path):
     from pipeline.calibration.global_fit import noise_scales
 
-    d = Cycle.from_run(synthetic_run(tmp_path, noise=0.002))
+    d = FitCycle.from_run(synthetic_run(tmp_path, noise=0.002))
     d = d.with_scales(*noise_scales(len(d.strain), None, d.n_cycles, "shear"))
     fit = SimpleNamespace(values=np.array([getattr(TRUE, n) for n in global_fit.FREE]), params=TRUE,
                           names=global_fit.FREE)

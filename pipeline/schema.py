@@ -1,0 +1,201 @@
+"""The files the stages hand each other, declared once: ``params.json``, ``fit.json``, ``metrics.json``, ``compare.h5``.
+
+Each has a typed object, a writer and a reader; the readers check the file's version and keys and refuse a file that
+is not one in one line. A file written before versions were recorded reads as version 1. ``params.json`` stays what
+``model.Params.from_json`` and continuum codes read: the parameters, with what fitted them under ``metadata``.
+Nested tables (a row per run, per parameter, per candidate run) stay lists of records, as ``report.md`` prints them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import model
+
+from . import io
+from .errors import PipelineError
+
+FIT_VERSION = 1
+METRICS_VERSION = 1
+PARAMS_METADATA_VERSION = 1
+COMPARE_SCHEMA, COMPARE_VERSION = "granular-backstress/compare", 1
+
+
+def _read_json(path: Path, what: str, make: str) -> dict:
+    try:
+        data = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise PipelineError(f"{path} not found: run `make {make}` first") from None
+    except (OSError, ValueError) as exc:
+        raise PipelineError(f"{path} is not readable JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise PipelineError(f"{path} is not a {what} (not a JSON object)")
+    return data
+
+
+def _fields_of(cls, data: dict, path, what: str, renamed: dict | None = None) -> dict:
+    """``data``'s entries as ``cls``'s fields (``renamed``: file key -> field), the version checked first; a missing
+    or unknown key is a one-line error naming the file."""
+    version = data.get("schema_version", 1)
+    if version != cls.VERSION:
+        raise PipelineError(f"{path} is a {what} of version {version!r}; this code reads version {cls.VERSION}")
+    renamed = renamed or {}
+    given = {renamed.get(k, k): v for k, v in data.items() if k != "schema_version"}
+    names = {f.name for f in dataclasses.fields(cls)}
+    required = {f.name for f in dataclasses.fields(cls)
+                if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING}
+    missing, unknown = sorted(required - set(given)), sorted(set(given) - names)
+    if missing or unknown:
+        raise PipelineError(f"{path} is not a {what} of this version: missing {missing}, unknown {unknown}")
+    return given
+
+
+# ---------------------------------------------------------------- params.json
+@dataclasses.dataclass(frozen=True)
+class ParamsFile:
+    """``params.json``: the model's parameters and, for a fitted set, what fitted it (``metadata``: ``fit``, the
+    ``definitions`` of strain, Phi and p it was fitted in, and the fit's own entries)."""
+
+    params: model.Params
+    metadata: dict | None = None
+
+    @property
+    def definitions(self) -> dict | None:
+        """The definitions of strain, Phi and p the parameters were fitted in (``Definitions``' fields); None for a
+        set without them (Table 2's, or one's own: the paper's)."""
+        return (self.metadata or {}).get("definitions")
+
+
+def write_params(path: Path, params: model.Params, metadata: dict | None = None) -> Path:
+    """``params.json``, atomically; ``metadata`` gets the version."""
+    return io.write_params(path, params, None if metadata is None else
+                           {"schema_version": PARAMS_METADATA_VERSION, **metadata})
+
+
+def read_params(path: Path) -> ParamsFile:
+    """``params.json`` checked: the parameters (``model.Params.from_json``) and metadata of this version; else a
+    one-line error."""
+    params = io.read_params(path)
+    metadata = json.loads(Path(path).read_text()).get("metadata")
+    if metadata is not None and not isinstance(metadata, dict):
+        raise PipelineError(f"{path}: metadata is not a JSON object")
+    version = (metadata or {}).get("schema_version", 1)
+    if version != PARAMS_METADATA_VERSION:
+        raise PipelineError(f"{path}: metadata of version {version!r}; this code reads {PARAMS_METADATA_VERSION}")
+    return ParamsFile(params, metadata)
+
+
+# ---------------------------------------------------------------- fit.json
+@dataclasses.dataclass(frozen=True)
+class FitSummary:
+    """``fit.json``: the calibration of one data set (``make fit``). ``params`` are the fit's; ``global_fit`` the
+    global refinement's estimates, errors and misfit (the file's ``global``); ``identifiability`` what the data fix;
+    ``noise`` the noise model; the rest, the tables ``report.md`` and ``make fit`` print."""
+
+    VERSION = FIT_VERSION
+
+    method: str
+    definitions: dict
+    stress_fitted: str
+    weight: str
+    held: dict
+    fit_from: float
+    persistence_exponent: float
+    jaumann_window_strain: float
+    runs: list
+    estimates: dict
+    sensitivity: dict | None
+    params_stepwise: dict | None
+    params: dict
+    cross_check: list
+    global_fit: dict | None
+    noise: dict | None
+    identifiability: dict | None
+    next_runs: list | None
+    dilatancy: dict | None
+    bootstrap: dict | None
+    jackknife: dict | None
+    global_runs: list | None
+    residual_map: list | None
+    notes: list
+
+    @classmethod
+    def from_dict(cls, data: dict, path="fit.json") -> FitSummary:
+        return cls(**_fields_of(cls, data, path, "fit summary", {"global": "global_fit"}))
+
+    def to_dict(self) -> dict:
+        out = {"schema_version": self.VERSION, **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)}}
+        out["global"] = out.pop("global_fit")
+        return out
+
+
+def write_fit(path: Path, summary: FitSummary) -> None:
+    """``fit.json`` (inside the calibration's atomic set of outputs)."""
+    Path(path).write_text(io.json_text(summary.to_dict()))
+
+
+def read_fit(path: Path) -> FitSummary:
+    return FitSummary.from_dict(_read_json(path, "fit summary", "fit"), path)
+
+
+# ---------------------------------------------------------------- metrics.json
+@dataclasses.dataclass(frozen=True)
+class Metrics:
+    """``metrics.json``: the model against a data set's runs (``make compare``). ``param_sets`` maps a label
+    ("Table 2", "our fit") to its parameters; ``errors`` has a row per run and set, ``components`` names the
+    columns; the rest are the tables of ``report.md`` (None where the data set has no reversal)."""
+
+    VERSION = METRICS_VERSION
+
+    preset: str
+    data_set: str
+    definitions: dict
+    param_sets: dict
+    components: list
+    errors: list
+    seed_spread: list
+    overshoot: list
+    memory: list
+    reversal: dict | None = None
+    second_law: dict | None = None
+    relaxation: dict | None = None
+
+    @classmethod
+    def from_dict(cls, data: dict, path="metrics.json") -> Metrics:
+        given = _fields_of(cls, data, path, "comparison")
+        try:
+            sets = {label: model.Params.from_dict(values, f"{path}: param_sets[{label!r}]")
+                    for label, values in given["param_sets"].items()}
+        except (AttributeError, model.ParameterError) as exc:
+            raise PipelineError(str(exc)) from None
+        return cls(**{**given, "param_sets": sets})
+
+    def to_dict(self) -> dict:
+        out = {"schema_version": self.VERSION}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name == "param_sets":
+                value = {label: p.to_dict() for label, p in value.items()}
+            if value is not None or f.default is dataclasses.MISSING:
+                out[f.name] = value
+        return out
+
+
+def read_metrics(path: Path) -> Metrics:
+    return Metrics.from_dict(_read_json(path, "comparison", "compare"), path)
+
+
+# ---------------------------------------------------------------- compare.h5
+def stamp_compare(f) -> None:
+    """Mark an open ``compare.h5`` (h5py) as this schema and version."""
+    f.attrs.update(schema=COMPARE_SCHEMA, schema_version=COMPARE_VERSION)
+
+
+def check_compare(f, path) -> None:
+    """Refuse an open ``compare.h5`` of another schema or version (one written before versions is version 1)."""
+    schema, version = f.attrs.get("schema"), int(f.attrs.get("schema_version", 1))
+    if schema != COMPARE_SCHEMA or version != COMPARE_VERSION:
+        raise PipelineError(f"{path} is not a comparison of this version (schema {schema!r}, version {version}): "
+                            "run `make compare` again")

@@ -1,0 +1,72 @@
+"""The files the stages hand each other (``pipeline/schema.py``): what the writers write reads back as the same
+typed object, and a file of another version, with a key missing or unknown, or not JSON, is refused in one line."""
+
+import json
+
+import h5py
+import pytest
+
+import model
+from pipeline import schema
+from pipeline.errors import PipelineError
+from tests.helpers import fit_summary
+
+
+def metrics(**extra) -> schema.Metrics:
+    return schema.Metrics(preset="p", data_set="p (yade)", definitions={"strain": "nominal"},
+                          param_sets={"Table 2": model.Params(), "our fit": model.Params().replace(C=-5.0)},
+                          components=["A12"], errors=[{"run": "theta180", "A12": 0.1}], seed_spread=[], overshoot=[],
+                          memory=[], **extra)
+
+
+def test_each_file_reads_back_as_written_and_names_its_version(tmp_path):
+    path = tmp_path / "metrics.json"
+    path.write_text(json.dumps(metrics(reversal={"backstress_share": 0.8}).to_dict()))
+    back = schema.read_metrics(path)
+    assert back == metrics(reversal={"backstress_share": 0.8}) and back.param_sets["our fit"].C == -5.0
+    assert json.loads(path.read_text())["schema_version"] == schema.METRICS_VERSION
+    assert "relaxation" not in json.loads(path.read_text())  # none: not written, as before versions
+    fit = fit_summary(notes=["a note"], global_fit={"misfit": 1.2})
+    schema.write_fit(tmp_path / "fit.json", fit)
+    assert schema.read_fit(tmp_path / "fit.json") == fit and json.loads((tmp_path / "fit.json").read_text())[
+        "global"] == {"misfit": 1.2}
+    schema.write_params(tmp_path / "params.json", model.Params(), {"definitions": {"strain": "bulk"}})
+    found = schema.read_params(tmp_path / "params.json")
+    assert found.params == model.Params() and found.definitions == {"strain": "bulk"}
+    assert found.metadata["schema_version"] == schema.PARAMS_METADATA_VERSION
+    assert model.Params.from_json((tmp_path / "params.json").read_text()) == model.Params()  # what continuum codes read
+
+
+@pytest.mark.parametrize("change, fragment", [
+    (lambda d: {**d, "schema_version": 2}, "is a comparison of version 2; this code reads version 1"),
+    (lambda d: {k: v for k, v in d.items() if k != "errors"}, "missing ['errors']"),
+    (lambda d: {**d, "colour": 1}, "unknown ['colour']"),
+    (lambda d: {**d, "param_sets": {"ours": {"C": 1.0}}}, "param_sets['ours']"),
+    (lambda d: [d], "not a comparison (not a JSON object)"),
+])
+def test_a_damaged_or_foreign_metrics_file_is_refused_in_one_line(tmp_path, change, fragment):
+    path = tmp_path / "metrics.json"
+    path.write_text(json.dumps(change(metrics().to_dict())))
+    with pytest.raises(PipelineError) as err:
+        schema.read_metrics(path)
+    assert fragment in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_file_from_before_versions_reads_as_version_one_and_others_are_refused(tmp_path):
+    old = {k: v for k, v in fit_summary().to_dict().items() if k != "schema_version"}
+    (tmp_path / "fit.json").write_text(json.dumps(old))
+    assert schema.read_fit(tmp_path / "fit.json") == fit_summary()
+    (tmp_path / "fit.json").write_text("{not json")
+    with pytest.raises(PipelineError, match="is not readable JSON"):
+        schema.read_fit(tmp_path / "fit.json")
+    with pytest.raises(PipelineError, match="not found: run `make fit` first"):
+        schema.read_fit(tmp_path / "none.json")
+    schema.write_params(tmp_path / "params.json", model.Params(), {"schema_version": 7})
+    with pytest.raises(PipelineError, match="metadata of version 7"):
+        schema.read_params(tmp_path / "params.json")
+    with h5py.File(tmp_path / "compare.h5", "w") as f:
+        schema.stamp_compare(f)
+        schema.check_compare(f, "compare.h5")
+        f.attrs["schema_version"] = 2
+        with pytest.raises(PipelineError, match="not a comparison of this version"):
+            schema.check_compare(f, "compare.h5")
