@@ -84,11 +84,11 @@ def assert_contact_law(out: dict, spec: dict) -> None:
     from dem.core.contact import contact_constants, pair_reduced_mass, restitution
 
     kn, _, cn, _ = contact_constants(spec)
-    assert out["mean"]["restitution"] == pytest.approx(spec["restitution"], abs=0.02)
+    assert out["mean"]["restitution"] == pytest.approx(spec.restitution, abs=0.02)
     for pair in out.values():
         d = pair["diameter"]
         assert pair["restitution"] == pytest.approx(restitution(kn, cn, pair_reduced_mass(d, d)), abs=0.02)
-        assert pair["kt_over_kn"] == pytest.approx(spec["kt_over_kn"], rel=1e-3)
+        assert pair["kt_over_kn"] == pytest.approx(spec.kt_over_kn, rel=1e-3)
         assert pair["kn_over_design"] == pytest.approx(1.0, rel=1e-3)
-        assert pair["sliding_ratio"] == pytest.approx(np.tan(np.radians(spec["friction_deg"])), rel=1e-3)
+        assert pair["sliding_ratio"] == pytest.approx(np.tan(np.radians(spec.friction_deg)), rel=1e-3)
     assert out["smallest"]["restitution"] < out["mean"]["restitution"] < out["largest"]["restitution"]

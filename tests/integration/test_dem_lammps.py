@@ -27,8 +27,8 @@ pytestmark = pytest.mark.lammps
 def test_lammps_collisions_match_the_contact_law_as_yade_does(tmp_path):
     """Same checks, same tolerances as Yade's (``test_collisions_restitution_stiffness_ratio_and_sliding``):
     restitution of the smallest, mean and largest pairs, k_t/k_n, k_n, and sliding at tan 24 degrees."""
-    spec = run_spec.resolve(90, "paper").to_dict()
-    (tmp_path / "spec.json").write_text(json.dumps(spec))
+    spec = run_spec.resolve(90, "paper")
+    (tmp_path / "spec.json").write_text(json.dumps(spec.to_dict()))
     proc = subprocess.run(["/usr/bin/python3", "-m", "dem.tools.lammps_collision", tmp_path / "spec.json",
                            tmp_path / "out.json"], capture_output=True, text=True, cwd=tmp_path,
                           env=scripts.environment())

@@ -40,8 +40,8 @@ def tiny_run(tmp_path_factory):
 
 
 def test_collisions_restitution_stiffness_ratio_and_sliding(tmp_path):
-    spec = run_spec.resolve(90, "paper").to_dict()
-    (tmp_path / "spec.json").write_text(json.dumps(spec))
+    spec = run_spec.resolve(90, "paper")
+    (tmp_path / "spec.json").write_text(json.dumps(spec.to_dict()))
     subprocess.run(scripts.command("dem.tools.yade_collision", tmp_path / "spec.json", tmp_path / "out.json"),
                    check=True, capture_output=True, cwd=tmp_path, env=scripts.environment())
     assert_contact_law(json.loads((tmp_path / "out.json").read_text()), spec)
