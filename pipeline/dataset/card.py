@@ -72,6 +72,25 @@ def inventory(root: Path) -> str:
     return "\n".join(lines)
 
 
+def in_progress(root: Path) -> list[str]:
+    """A line per run in progress committed under ``root`` (``<folder>/dem/<name>.run/``: spec, checkpoint, the
+    samples so far), with how far it got (its ``status.json``): ``make dem`` with its values takes it up."""
+    lines = []
+    for run_dir in sorted(root.glob("*/dem/*.run")):
+        try:
+            spec = DemSpec.from_dict(json.loads((run_dir / "spec.json").read_text()))
+            status = json.loads((run_dir / "status.json").read_text())
+        except (OSError, ValueError, TypeError) as exc:
+            raise DemFileError(f"{run_dir}: not a run in progress ({exc})") from None
+        given = " ".join(f"{k}={v:g}" for k, v in sorted(spec.overrides.items()))
+        lines.append(f"- `{run_dir.relative_to(root)}/`: {spec.engine}, preset {spec.preset}, θ = {spec.theta_deg:g}"
+                     + (f", {given}" if given else "") + f"; {status.get('percent', 0):g} % done (strain "
+                     f"{status.get('strain', float('nan')):+.3f}): `make dem THETA={spec.theta_deg:g} "
+                     f"PRESET={spec.preset} ENGINE={spec.engine}" + (f' SET="{given}"' if given else "")
+                     + "` goes on from its checkpoint")
+    return ["", "Runs in progress, committed to go on elsewhere:", "", *lines] if lines else []
+
+
 def with_inventory(card: str, table: str, card_path: Path) -> str:
     """``card`` with the text between its markers replaced by ``table``."""
     if card.count(BEGIN) != 1 or card.count(END) != 1 or card.index(BEGIN) > card.index(END):
@@ -92,7 +111,7 @@ def main(argv=None) -> int:
         card = card_path.read_text()
     except OSError as exc:
         raise PipelineError(f"cannot read {card_path}: {exc.strerror}") from None
-    updated = with_inventory(card, inventory(args.root), card_path)
+    updated = with_inventory(card, "\n".join([inventory(args.root), *in_progress(args.root)]), card_path)
     if args.check:
         if updated != card:
             print(f"{card_path}: the inventory is out of date: make data-card", file=sys.stderr)

@@ -28,7 +28,7 @@ from .. import spec as run_spec
 from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import write_h5
 from ..errors import SpecError
-from ..paths import RESULTS_DIR, ROOT
+from ..paths import REFERENCE_DIR, RESULTS_DIR, ROOT
 from . import scripts
 from .state import FAILED
 
@@ -91,11 +91,50 @@ def read_spec_file(path: Path):
         raise SpecError(f"{path} is damaged (not JSON): rerun with FRESH=1 (--fresh) to start the run again") from None
 
 
-def prepare(spec: run_spec.DemSpec, results_dir: Path, fresh: bool) -> Path:
-    """The run folder with its ``spec.json``; refuses to mix a checkpoint with another spec. Call under the lock."""
+def adopt_committed(spec: run_spec.DemSpec, run_dir: Path, reference: Path = REFERENCE_DIR) -> bool:
+    """Copy a committed run in progress of ``spec`` into ``run_dir`` (which has none) so that it resumes from its
+    checkpoint; whether there was one. Its spec must be ``spec``'s."""
+    committed = run_spec.work_dir(spec, reference)
+    if run_dir.exists() or not (committed / "spec.json").is_file():
+        return False
+    if not run_spec.same_spec(read_spec_file(committed / "spec.json"), spec):
+        raise SpecError(f"{committed} holds a run of another spec: move it away, or rerun with FRESH=1")
+    shutil.copytree(committed, run_dir)
+    print(f"{spec.label()}: taking up the run in progress committed in {committed}", flush=True)
+    return True
+
+
+def commit_in_progress(spec: run_spec.DemSpec, results_dir: Path, reference: Path = REFERENCE_DIR) -> Path:
+    """Copy the stopped run's folder (spec, checkpoint, the samples saved beside it, provenance, status; not its
+    logs) to ``data/reference/`` to be committed and taken up on another machine (``adopt_committed``). Taken under
+    the run's lock: a live run is refused."""
+    run_dir = run_spec.work_dir(spec, results_dir)
+    if not (run_dir / "spec.json").is_file() or (run_dir / "raw.npz").exists():
+        raise SpecError(f"{run_dir}: no run in progress here (a finished run's file goes to data/reference/ itself)")
+    fd = lock_run(spec, results_dir)
+    try:
+        target = run_spec.work_dir(spec, reference)
+        tmp = target.with_name(f".{target.name}.tmp")
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir(parents=True)
+        for path in sorted(run_dir.iterdir()):
+            if path.is_file() and path.suffix != ".log" and path.name != "log.txt" and ".tmp" not in path.name:
+                shutil.copy2(path, tmp / path.name)
+        shutil.rmtree(target, ignore_errors=True)
+        tmp.rename(target)
+    finally:
+        os.close(fd)
+    return target
+
+
+def prepare(spec: run_spec.DemSpec, results_dir: Path, fresh: bool, reference: Path = REFERENCE_DIR) -> Path:
+    """The run folder with its ``spec.json``; refuses to mix a checkpoint with another spec. Call under the lock.
+    A run in progress committed under ``data/reference/`` is taken up where no folder exists here."""
     run_dir = run_spec.work_dir(spec, results_dir)
     if fresh and run_dir.exists():
         shutil.rmtree(run_dir)
+    if not fresh:
+        adopt_committed(spec, run_dir, reference)
     run_dir.mkdir(parents=True, exist_ok=True)
     spec_file = run_dir / "spec.json"
     if spec_file.exists() and not run_spec.same_spec(read_spec_file(spec_file), spec):
@@ -254,6 +293,8 @@ def main(argv=None) -> int:
     p.add_argument("--ranks", type=int, default=1, help="MPI ranks of a LAMMPS run (default 1; each rank a core)")
     p.add_argument("--results", type=Path, default=RESULTS_DIR, help="results folder (default: results/)")
     p.add_argument("--print-path", action="store_true", help="print the HDF5 path this run writes, then exit")
+    p.add_argument("--commit", action="store_true", help="copy the stopped run's folder (checkpoint and samples so "
+                   "far) to data/reference/ to be committed; `make dem` on another machine takes it up, then exit")
     args = parser.parse_args(argv)
     spec = run_spec.resolve(args.theta, args.preset, args.rotate_at, run_spec.parse_overrides(args.set),
                             allow_inertial=args.allow_inertial, engine=args.engine)
@@ -263,6 +304,10 @@ def main(argv=None) -> int:
         raise SpecError(f"ranks={args.ranks} must be between 1 and 1024")
     if args.print_path:
         print(run_spec.output_path(spec, args.results))
+        return 0
+    if args.commit:
+        print(f"copied the run in progress to {commit_in_progress(spec, args.results)}: commit it; `make dem` with "
+              "the same values takes it up where no folder of it exists")
         return 0
     try:
         out = run(spec, args.results, args.fresh, args.threads, args.ranks)

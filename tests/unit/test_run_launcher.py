@@ -74,3 +74,26 @@ def test_writing_the_file_holds_off_a_warning_and_then_gives_the_handler_back(tm
     before = signal.getsignal(signal.SIGUSR1)
     assert dem.run(spec, tmp_path).exists()
     assert signal.getsignal(signal.SIGUSR1) is before
+
+
+def test_a_run_in_progress_travels_through_data_and_is_taken_up_where_none_is(tmp_path):
+    """``--commit`` copies a stopped run's folder, its logs left behind, under the reference data; the same run on
+    another machine (another results folder, no folder of its own) starts from it; another spec's is refused."""
+    spec = run_spec.resolve(180, "tiny", engine="lammps")
+    here, there, reference = tmp_path / "here", tmp_path / "there", tmp_path / "data"
+    run_dir = dem.prepare(spec, here, fresh=False, reference=reference)
+    for name, text in (("checkpoint.json", "{}"), ("restart_000000004000.lmp", "state"), ("lammps.log", "log"),
+                       ("log.txt", "log"), ("status.json", '{"percent": 12.5, "strain": 0.1}')):
+        (run_dir / name).write_text(text)
+    committed = dem.commit_in_progress(spec, here, reference)
+    assert sorted(p.name for p in committed.iterdir()) == ["checkpoint.json", "restart_000000004000.lmp", "spec.json",
+                                                            "status.json"]
+    taken = dem.prepare(spec, there, fresh=False, reference=reference)
+    assert (taken / "restart_000000004000.lmp").read_text() == "state"
+    assert dem.prepare(spec, there, fresh=False, reference=reference) == taken  # a folder here: left as it is
+    other = dataclasses.replace(spec, seed=5)
+    (committed / "spec.json").write_text(json.dumps(other.to_dict()))
+    with pytest.raises(SpecError, match="holds a run of another spec"):
+        dem.prepare(spec, tmp_path / "third", fresh=False, reference=reference)
+    with pytest.raises(SpecError, match="no run in progress here"):
+        dem.commit_in_progress(spec, tmp_path / "nowhere", reference)
