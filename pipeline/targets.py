@@ -20,6 +20,8 @@ import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
+from .engines import DEFAULT_ENGINE
+from .engines import ENGINES as ENGINE_REGISTRY
 from .errors import PipelineError
 from .paths import ROOT
 
@@ -128,7 +130,7 @@ class Variables:
         return value
 
 
-ENGINES = ("yade", "lammps")
+ENGINES = tuple(ENGINE_REGISTRY)
 
 
 def lammps_settings(text: str, name: str) -> list[str]:
@@ -163,7 +165,7 @@ def weight_option(v: Variables) -> list[str]:
 
 def dem(v: Variables) -> list[Call]:
     argv = ["run", "--theta", v.number("THETA", "180"), "--preset", v.name("PRESET", "quick"),
-            "--engine", v.choice("ENGINE", ENGINES, "yade"), "--threads", v.whole("THREADS", "1")]
+            "--engine", v.choice("ENGINE", ENGINES, DEFAULT_ENGINE), "--threads", v.whole("THREADS", "1")]
     rotate_at, ranks = v.number("ROTATE_AT"), v.whole("RANKS", "1")
     argv += ["--rotate-at", rotate_at] if rotate_at else []
     argv += [a for s in v.settings("SET") for a in ("--set", s)]
@@ -192,7 +194,7 @@ def sweep(v: Variables) -> list[Call]:
     argv += ["--jobs", jobs] if jobs else []
     argv += ["--ranks", ranks] if ranks != "1" else []
     argv += ["--allow-many"] if v.flag("MANY") else []
-    argv += ["--engine", v.choice("ENGINE", ENGINES, "yade")]
+    argv += ["--engine", v.choice("ENGINE", ENGINES, DEFAULT_ENGINE)]
     from .runs.sweep.plan import plan
 
     plan(argv[2], argv[4], " ".join(rotate_ats), " ".join(seeds), v.settings("SET"), allow_many=v.flag("MANY"),
@@ -215,7 +217,7 @@ def needs(v: Variables, name: str, example: str, check: Callable[[str], str | No
 
 def bench_dem(v: Variables) -> list[Call]:
     presets = v.names("PRESETS") or ["quick", "reduced", "paper"]
-    engines = v.names("ENGINES", ENGINES) or ["yade"]
+    engines = v.names("ENGINES", ENGINES) or [DEFAULT_ENGINE]
     return [Call("pipeline.studies.bench_dem", ("--presets", ",".join(presets), "--engines", ",".join(engines),
                                                 "--out", "results/bench"))]
 
@@ -229,8 +231,8 @@ def bench_lammps_settings(v: Variables) -> list[Call]:
 
 
 def fidelity(v: Variables, run: bool) -> list[Call]:
-    engine = v.choice("ENGINE", ENGINES, "yade")
-    table = "results/fidelity" + ("" if engine == "yade" else f"-{engine}") + "/table.json"
+    engine = v.choice("ENGINE", ENGINES, DEFAULT_ENGINE)
+    table = "results/fidelity" + ("" if engine == DEFAULT_ENGINE else f"-{engine}") + "/table.json"
     study = ("--run", "--jobs", v.whole("JOBS", "2")) if run else ()
     return [Call("pipeline.studies.fidelity", (*study, "--engine", engine)),
             Call("pipeline.figures.fidelity", ("--table", table))]
