@@ -17,6 +17,7 @@ from pipeline.dataset.derived import Definitions, cycle_D_dev
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import CalibrationError, PipelineError
 from pipeline.io import read_params
+from pipeline.schema import read_fit
 from pipeline.spec import resolve
 from tests.helpers import RUNS_AWAY, fit_summary, module_main, synthetic_file, synthetic_run
 
@@ -29,7 +30,7 @@ TRUE = model.Params()
 def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path):
     path = synthetic_file(tmp_path, n_cycles=2)
     assert fit_main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 0
-    report = json.loads((tmp_path / "fit" / "fit.json").read_text())
+    report = read_fit(tmp_path / "fit" / "fit.json")
     est = {k: v["value"] for k, v in report.estimates.items()}
     # the fabric law (Eqs. 9, 12, 13) from the smoothed Jaumann rate
     assert est["b1"] == pytest.approx(TRUE.b1, rel=0.02) and est["b2"] == pytest.approx(TRUE.b2, rel=0.02)
@@ -476,7 +477,7 @@ def test_reversals_alone_leave_the_dilatancy_undetermined_and_say_so(tmp_path, c
 
     runs = [str(ROOT / f"data/reference/{folder}/dem/theta180.h5") for folder in ("reduced", "reduced-df0432d3")]
     assert fit_main(["--runs", *runs, "--out", str(tmp_path / "fit")]) == 0
-    report = json.loads((tmp_path / "fit" / "fit.json").read_text())
+    report = read_fit(tmp_path / "fit" / "fit.json")
     assert report.dilatancy is None
     assert any("c2_coef and Phi_c are not determined" in note for note in report.notes)
     params = read_params(tmp_path / "fit" / "params.json")
