@@ -1,6 +1,6 @@
 # Entry point. `make help` lists the targets. The pipeline is a DAG of files:
 #   results/<D>/dem/*.h5 -> results/<D>/fit/params.json -> results/<D>/compare/metrics.json -> results/<D>/report.md
-# (<D>: the data set's folder, from results/.make/dataset.mk) and each step reruns only when what it reads changed.
+# (<D>: the data set's folder, from results/.make/goals.mk) and each step reruns only when what it reads changed.
 SHELL := /bin/bash
 .DEFAULT_GOAL := help
 .DELETE_ON_ERROR:
