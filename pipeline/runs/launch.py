@@ -187,7 +187,7 @@ def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int
         scripts.require(engine)
     except scripts.EngineMissing as exc:
         raise SpecError(str(exc)) from None
-    env = scripts.environment(threads)
+    env = scripts.environment(threads, ranks)
     with open(run_dir / "log.txt", "a", buffering=1) as log:
         log.write(f"# {dt.datetime.now().isoformat(timespec='seconds')} {' '.join(command)}\n")
         proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,

@@ -52,10 +52,13 @@ def command(module: str, *args) -> list[str]:
     return [engine_python(), "-m", module, *map(str, args)]
 
 
-def environment(threads: int = 1) -> dict[str, str]:
-    """Environment of a script: the project on the path, ``threads`` OpenMP threads, unbuffered output."""
+def environment(threads: int = 1, ranks: int = 1) -> dict[str, str]:
+    """Environment of a script: the project on the path, ``threads`` OpenMP threads, unbuffered output. At one MPI
+    rank, Open MPI's byte transfer is limited to the process itself and shared memory (``OMPI_MCA_btl``, unless the
+    user sets it): its TCP transport would otherwise listen on every interface, with no peer to talk to."""
     path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
-    return {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": str(threads), "PYTHONUNBUFFERED": "1"}
+    one_rank = {"OMPI_MCA_btl": os.environ.get("OMPI_MCA_btl", "self,vader")} if ranks == 1 else {}
+    return {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": str(threads), "PYTHONUNBUFFERED": "1", **one_rank}
 
 
 #: stands for the output file's path in ``run_script``'s arguments

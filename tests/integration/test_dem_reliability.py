@@ -102,8 +102,11 @@ def socket_inodes(pid):
     return inodes
 
 
-def test_a_running_scene_listens_on_no_port(tmp_path):
-    proc = start("--theta", "90", "--preset", "tiny", results=tmp_path)
+@pytest.mark.parametrize("engine", ["yade", "lammps"])
+def test_a_running_scene_listens_on_no_port(tmp_path, engine):
+    """Neither engine's scene (one thread, one rank) opens a listening socket: not Yade's remote consoles, not Open
+    MPI's TCP transport of a one-rank LAMMPS run."""
+    proc = start("--theta", "90", "--preset", "tiny", "--engine", engine, results=tmp_path)
     try:
         for line in proc.stdout:
             if "strain" in line:
