@@ -182,7 +182,8 @@ class DemRun:
         return derived.run_cycle(self)
 
 
-def _check_raw(path: Path, raw: dict, spec: dict, grid: np.ndarray) -> None:
+def _check_raw(path: Path, raw: dict) -> None:
+    """Every field of the schema, of its shape, the basic ones finite, and strain rising sample by sample."""
     fields = sample_fields()
     missing = sorted(set(fields) - set(raw))
     if missing:
@@ -196,6 +197,12 @@ def _check_raw(path: Path, raw: dict, spec: dict, grid: np.ndarray) -> None:
     for key in ("strain", "time", "direction_deg", "fabric", "stress_contact", "stress_kinetic", "packing_fraction"):
         if not np.all(np.isfinite(raw[key])):
             raise DemFileError(f"{path}: /raw/{key} has non-finite values")
+    if np.any(np.diff(raw["strain"]) <= 0):
+        raise DemFileError(f"{path}: /raw/strain does not rise from sample to sample")
+
+
+def _check_cycles(path: Path, raw: dict, spec: DemSpec, grid: np.ndarray) -> None:
+    """The samples on the regular grid make whole cycles of the spec's protocol."""
     try:
         derived.cycle_indices(raw["strain"][grid], spec.period_strain,
                               spec.sample_strain, spec.n_cycles)
@@ -251,6 +258,7 @@ def load(path) -> DemRun:
         raise DemFileError(f"{path}: its spec is not a run spec ({exc})") from None
     if "gamma_dot_nominal" not in params:
         raise DemFileError(f"{path}: the parameters lack gamma_dot_nominal")
+    _check_raw(path, raw)
     grid = grid_samples(raw["strain"], spec)
-    _check_raw(path, raw, spec, grid)
+    _check_cycles(path, raw, spec, grid)
     return DemRun(path, spec, params, prov, {k: v[grid] for k, v in raw.items()}, units, diameters, raw_all=raw)

@@ -19,6 +19,11 @@ def load_of_preset(path: Path, preset: str) -> DemRun:
     if run.spec.preset != preset:
         raise PipelineError(f"{path} is a run of preset {run.spec.preset!r} by its provenance, not of "
                             f"{preset!r}: move it to results/{run.spec.preset}/dem/")
+    filed_as = f"{path.parent.parent.name}/{path.stem}"
+    if filed_as != run.spec.label():
+        raise PipelineError(f"{path} is the run {run.spec.label()} by its provenance, filed as {filed_as}: move it to "
+                            f"{run.spec.folder}/dem/{run.spec.name}.h5 (a file under another run's name would stand "
+                            "for that run)")
     return run
 
 

@@ -19,8 +19,11 @@ RUNS_AWAY = model.PAPER.replace(C=-5.159, c1=5.159, n=0.1663, m=-0.2939, a1=-0.0
 
 
 def synthetic_file(folder, theta=180.0, name="run", **kw):
-    """Write ``folder/<name>.h5`` from the model's cycle (see ``synthetic_raw``); returns its path."""
+    """Write ``folder/<name>.h5`` from the model's cycle (see ``synthetic_raw``); returns its path. Its spec names
+    the run as it is filed: ``<name>`` in the folder above ``dem/`` (else in its preset's)."""
     raw, meta = synthetic_raw(theta, **kw)
+    filed_in = folder.parent.name if folder.name == "dem" else meta["spec"]["folder"]
+    meta["spec"].update(name=name, folder=filed_in)
     write_raw(folder / f"{name}.npz", raw, meta)
     write_h5(folder / f"{name}.npz", folder / f"{name}.h5", {"git_commit": "test", "sessions": []})
     return folder / f"{name}.h5"

@@ -166,3 +166,47 @@ def test_cpu_seconds_count_each_session_s_cores_and_bound_an_older_file_from_abo
     assert run.cpu_seconds == 230.0 and run.sessions == sessions
     older = dataclasses.replace(run, parameters={k: v for k, v in run.parameters.items() if k != "cpu_seconds"})
     assert older.cpu_seconds == 320.0
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda s: s.__setitem__(3, np.nan), "/raw/strain has non-finite values"),
+    (lambda s: s.__setitem__(slice(None), s[::-1].copy()), "/raw/strain does not rise from sample to sample"),
+    (lambda s: s.__setitem__(5, s[4]), "/raw/strain does not rise from sample to sample"),
+])
+def test_a_run_file_whose_strain_is_damaged_is_refused_in_one_line(tmp_path, damage, message):
+    import h5py
+
+    raw, meta = synthetic_raw(180.0, n_cycles=1)
+    write_raw(tmp_path / "raw.npz", raw, meta)
+    write_h5(tmp_path / "raw.npz", tmp_path / "run.h5", {"git_commit": "test", "sessions": []})
+    with h5py.File(tmp_path / "run.h5", "r+") as f:
+        strain = f["raw/strain"][()]
+        damage(strain)
+        f["raw/strain"][...] = strain
+    with pytest.raises(DemFileError) as err:
+        load(tmp_path / "run.h5")
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_run_filed_under_another_runs_name_or_folder_is_refused(tmp_path):
+    """A file stands for the run its provenance names: one copied to another angle's name, or a LAMMPS run copied
+    into the Yade folder of the same preset, is refused rather than read as that run (or silently left out)."""
+    from pipeline.dataset import lookup
+    from pipeline.dataset.selection import DataSet
+    from pipeline.errors import PipelineError
+    from tests.helpers import synthetic_file
+
+    dem = tmp_path / "p" / "dem"
+    dem.mkdir(parents=True)
+    synthetic_file(dem, name="theta180", n_cycles=1, preset="p")
+    assert len(lookup.preset_runs(DataSet("p"), (tmp_path,))) == 1
+    moved = synthetic_file(dem, theta=75.0, name="theta075", n_cycles=1, preset="p")
+    moved.rename(dem / "theta060.h5")
+    with pytest.raises(PipelineError, match=r"is the run p/theta075 by its provenance, filed as p/theta060"):
+        lookup.preset_runs(DataSet("p"), (tmp_path,))
+    (dem / "theta060.h5").unlink()
+    lammps = tmp_path / "p-lammps" / "dem"
+    lammps.mkdir(parents=True)
+    synthetic_file(lammps, name="theta090", n_cycles=1, preset="p", engine="lammps").rename(dem / "theta090.h5")
+    with pytest.raises(PipelineError, match=r"is the run p-lammps/theta090 by its provenance, filed as p/theta090"):
+        lookup.every_seed(DataSet("p"), (tmp_path,))
