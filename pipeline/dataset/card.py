@@ -24,7 +24,48 @@ from .dem_file import cpu_seconds, cpu_seconds_counted, sessions
 BEGIN = "<!-- inventory: written by make data-card from the files themselves; do not edit by hand -->"
 END = "<!-- inventory end -->"
 HEADER = ("| file | engine | θ | rotation | seed | other overrides | cycles | grains | M steps | loop h | CPU h "
-          "| sessions (ranks) | commits | finished | MB |")
+          "| sessions (ranks) | commits | finished | MB | SHA-256 |")
+#: the checksum's hex digits the card keeps: enough to tell a changed file, short enough to read
+SHA_DIGITS = 16
+
+
+def sha256_of(path: Path) -> str:
+    """The first ``SHA_DIGITS`` hex digits of the file's SHA-256."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()[:SHA_DIGITS]
+
+
+def card_checksums(card_path: Path) -> dict[str, str]:
+    """``{file relative to the card's folder: checksum}`` from a data card's inventory (empty without one)."""
+    try:
+        card = card_path.read_text()
+    except OSError:
+        return {}
+    if card.count(BEGIN) != 1 or card.count(END) != 1:
+        return {}
+    rows = card.split(BEGIN)[1].split(END)[0].splitlines()
+    out = {}
+    for row in rows:
+        cells = [c.strip() for c in row.strip().strip("|").split("|")]
+        if len(cells) == HEADER.count("|") - 1 and cells[0].startswith("`"):
+            out[cells[0].strip("`")] = cells[-1].strip("`")
+    return out
+
+
+def check_committed(path: Path) -> None:
+    """A run file under a folder with a data card (``<root>/<folder>/dem/<name>.h5``, ``<root>/README.md``) must
+    have the checksum the card gives it: a committed file changed by hand, or damaged, is a one-line error before it
+    is believed. A file the card does not list is not checked here (``make data-card`` lists it)."""
+    root = path.parents[2]
+    expected = card_checksums(root / "README.md").get(str(path.relative_to(root)))
+    if expected is not None and sha256_of(path) != expected:
+        raise DemFileError(f"{path} does not match its checksum in {root / 'README.md'} ({expected}): it was changed "
+                           "or damaged; restore it (git checkout) or, if the change is meant, make data-card")
 
 
 def describe(path: Path, root: Path) -> dict:
@@ -53,7 +94,8 @@ def describe(path: Path, root: Path) -> dict:
             "cpu_exact": cpu_seconds_counted(params) or len(cores) < 2,
             "sessions": len(runs), "ranks": sorted({int(s.get("ranks", 1)) for s in runs}) or [1],
             "commits": list(dict.fromkeys(c[:7] + ("-dirty" if c.endswith("-dirty") else "") for c in commits)),
-            "finished": str(prov.get("finished", ""))[:10], "megabytes": path.stat().st_size / 1e6}
+            "finished": str(prov.get("finished", ""))[:10], "megabytes": path.stat().st_size / 1e6,
+            "sha256": sha256_of(path)}
 
 
 def inventory(root: Path) -> str:
@@ -68,7 +110,7 @@ def inventory(root: Path) -> str:
                      f"{row['seed']} | {row['overrides']} | {row['cycles']} | {row['grains']} | "
                      f"{row['steps'] / 1e6:.2f} | {row['loop_hours']:.2f} | {cpu} | {row['sessions']} "
                      f"({', '.join(map(str, row['ranks']))}) | {', '.join(row['commits'])} | {row['finished']} | "
-                     f"{row['megabytes']:.1f} |")
+                     f"{row['megabytes']:.1f} | `{row['sha256']}` |")
     return "\n".join(lines)
 
 

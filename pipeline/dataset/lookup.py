@@ -8,6 +8,7 @@ from pathlib import Path
 from .. import spec as run_spec
 from ..errors import PipelineError
 from ..paths import DATA_ROOTS, preset_files
+from .card import check_committed
 from .dem_file import DemRun, load
 from .selection import DataSet
 
@@ -15,6 +16,7 @@ from .selection import DataSet
 def load_of_preset(path: Path, preset: str) -> DemRun:
     """The run at ``path``, which must be a run of ``preset`` by its own provenance (a file copied into
     another preset's folder is refused, not fitted as that preset)."""
+    check_committed(path)
     run = load(path)
     if run.spec.preset != preset:
         raise PipelineError(f"{path} is a run of preset {run.spec.preset!r} by its provenance, not of "

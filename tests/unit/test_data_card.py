@@ -44,3 +44,26 @@ def test_a_card_without_its_markers_is_a_one_line_error(tmp_path):
     result = run_main(card.main, ["--root", str(root)])
     assert result.returncode == 2 and "needs the two markers" in result.stderr and len(result.stderr.splitlines()) == 1
     assert (root / "README.md").read_text() == "# a card with no markers\n"
+
+
+def test_a_committed_run_changed_after_its_card_is_refused_before_it_is_fitted(tmp_path):
+    """The card keeps each file's SHA-256; a data set's file that no longer matches it (ten samples of tau set to
+    37 p, say) is a one-line error when the stages look the data set up, not a fit that silently moves."""
+    import h5py
+    import pytest
+
+    from pipeline.dataset import lookup
+    from pipeline.dataset.selection import DataSet
+    from pipeline.errors import DemFileError
+
+    root = tmp_path / "reference"
+    path = run_file(root / "p" / "dem", name="theta180", n_cycles=2, preset="p")
+    (root / "README.md").write_text(MARKED)
+    assert run_main(card.main, ["--root", str(root)]).returncode == 0
+    assert card.card_checksums(root / "README.md") == {"p/dem/theta180.h5": card.sha256_of(path)}
+    assert len(lookup.preset_runs(DataSet("p"), (root,))) == 1
+    with h5py.File(path, "r+") as f:
+        f["raw/stress_contact"][10:20, 0, 1] = 37.0
+    with pytest.raises(DemFileError) as err:
+        lookup.preset_runs(DataSet("p"), (root,))
+    assert "does not match its checksum" in str(err.value) and "\n" not in str(err.value)
