@@ -23,6 +23,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import sys
 import traceback
 
@@ -313,9 +314,9 @@ class Scene:
         try:
             with open(path) as fh:
                 record = json.load(fh)
-            record["state"], record["restart"]  # noqa: B018 - the keys a checkpoint must have
+            checkpoint_record_problem(record)
         except (OSError, ValueError, KeyError, TypeError) as exc:
-            driver.damaged(f"checkpoint {path} cannot be read ({type(exc).__name__})")
+            driver.damaged(f"checkpoint {path} cannot be read ({type(exc).__name__}: {exc})")
         return record
 
     def reload(self):
@@ -356,6 +357,19 @@ class Scene:
     def meta(self):
         return {"engine": "lammps", "engine_version": self.lmp.version(), "yade_version": "",
                 "n_wall_spheres": self.run.state.n_wall_spheres}
+
+
+#: the name of a restart file the scene writes (``save``): a checkpoint naming another is not the scene's
+RESTART_NAME = re.compile(r"restart_\d{12}\.lmp")
+
+
+def checkpoint_record_problem(record) -> None:
+    """Raise ``ValueError`` unless ``record`` is a checkpoint the scene wrote: a state (a JSON object) and a restart
+    file of its own name in the run folder (not a path elsewhere, which the next checkpoint would delete)."""
+    if not isinstance(record, dict) or not isinstance(record.get("state"), dict):
+        raise ValueError("no state")
+    if not isinstance(record.get("restart"), str) or not RESTART_NAME.fullmatch(record["restart"]):
+        raise ValueError(f"restart {record.get('restart')!r} is not a restart file of the run folder")
 
 
 def file_sha256(path):

@@ -127,6 +127,17 @@ def commit_in_progress(spec: run_spec.DemSpec, results_dir: Path, reference: Pat
     return target
 
 
+def read_provenance(path: Path) -> dict:
+    """A run folder's ``provenance.json`` (its start, commit and sessions); a damaged one is a one-line error."""
+    try:
+        provenance = json.loads(path.read_text())
+        if not isinstance(provenance, dict) or not isinstance(provenance.get("sessions"), list):
+            raise ValueError("no sessions")
+    except (OSError, ValueError) as exc:
+        raise SpecError(f"{path} is damaged ({exc}): rerun with FRESH=1 (--fresh) to start the run again") from None
+    return provenance
+
+
 def prepare(spec: run_spec.DemSpec, results_dir: Path, fresh: bool, reference: Path = REFERENCE_DIR) -> Path:
     """The run folder with its ``spec.json``; refuses to mix a checkpoint with another spec. Call under the lock.
     A run in progress committed under ``data/reference/`` is taken up where no folder exists here."""
@@ -240,7 +251,7 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
     lock_fd = lock_run(spec, results_dir)  # held until this process and the scene have ended
     run_dir = prepare(spec, results_dir, fresh)
     provenance_file = run_dir / "provenance.json"
-    provenance = json.loads(provenance_file.read_text()) if provenance_file.exists() else {
+    provenance = read_provenance(provenance_file) if provenance_file.exists() else {
         "started": dt.datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(), "sessions": []}
     provenance["sessions"].append({"command": " ".join(sys.argv), "at": dt.datetime.now().isoformat(timespec="seconds"),
                                    "threads": threads, "ranks": ranks, "git_commit": git_commit()})

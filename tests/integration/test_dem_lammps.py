@@ -155,20 +155,33 @@ def test_an_interrupted_lammps_run_resumes_bit_identical_to_an_uninterrupted_one
 @pytest.mark.parametrize("damage, fragment", [
     ("restart-truncated", "is missing or damaged"),
     ("record-junk", "checkpoint.json cannot be read"),
+    ("state-null", "checkpoint.json cannot be read (ValueError: no state)"),
+    ("restart-elsewhere", "is not a restart file of the run folder"),
 ])
 def test_a_damaged_lammps_checkpoint_is_a_one_line_error_that_suggests_fresh(tmp_path, damage, fragment):
+    """A checkpoint the scene did not write is refused in one line: a truncated restart file, a record that is no
+    JSON, one without a state, one naming a file outside the run folder (which the next checkpoint would delete:
+    that file is left as it was)."""
     interrupt_at_first_sample(tmp_path)
     run_dir = run_spec.work_dir(tiny_spec("lammps"), tmp_path)
+    record = json.loads((run_dir / "checkpoint.json").read_text())
+    victim = tmp_path / "victim.lmp"
     if damage == "restart-truncated":
         restart = next(run_dir.glob("restart_*.lmp"))
         restart.write_bytes(restart.read_bytes()[:1000])
-    else:
+    elif damage == "record-junk":
         (run_dir / "checkpoint.json").write_text("{junk")
+    elif damage == "state-null":
+        (run_dir / "checkpoint.json").write_text(json.dumps({**record, "state": None}))
+    else:
+        victim.write_bytes((run_dir / record["restart"]).read_bytes())
+        (run_dir / "checkpoint.json").write_text(json.dumps({**record, "restart": "../../victim.lmp"}))
     again = run_launcher(*TINY, "--engine", "lammps", results=tmp_path)
     text = again.stdout + again.stderr
     errors = [line for line in text.splitlines() if "error:" in line]
     assert again.returncode == 2 and "Traceback" not in text
     assert len(errors) == 1 and fragment in errors[0] and "FRESH=1" in errors[0], text
+    assert damage != "restart-elsewhere" or victim.exists()
 
 
 def test_the_engines_benchmark_times_both_engines_on_one_preset(tmp_path):

@@ -97,3 +97,12 @@ def test_a_run_in_progress_travels_through_data_and_is_taken_up_where_none_is(tm
         dem.prepare(spec, tmp_path / "third", fresh=False, reference=reference)
     with pytest.raises(SpecError, match="no run in progress here"):
         dem.commit_in_progress(spec, tmp_path / "nowhere", reference)
+
+
+def test_a_damaged_provenance_is_one_line_before_the_scene_starts(tmp_path):
+    spec = run_spec.resolve(90, "tiny")
+    run_dir = dem.prepare(spec, tmp_path, fresh=False)
+    for text in ("{bad", "null", '{"sessions": 3}'):
+        (run_dir / "provenance.json").write_text(text)
+        with pytest.raises(SpecError, match=r"provenance.json is damaged .*: rerun with FRESH=1"):
+            dem.run(spec, tmp_path)
