@@ -101,8 +101,8 @@ def test_a_run_in_progress_travels_through_data_and_is_taken_up_where_none_is(tm
 
 def test_a_damaged_provenance_is_one_line_before_the_scene_starts(tmp_path):
     spec = run_spec.resolve(90, "tiny")
-    run_dir = dem.prepare(spec, tmp_path, fresh=False)
-    for text in ("{bad", "null", '{"sessions": 3}'):
+    for k, text in enumerate(("{bad", "null", '{"sessions": 3}')):
+        run_dir = dem.prepare(spec, tmp_path / str(k), fresh=False)
         (run_dir / "provenance.json").write_text(text)
         with pytest.raises(SpecError, match=r"provenance.json is damaged .*: rerun with FRESH=1"):
-            dem.run(spec, tmp_path)
+            dem.run(spec, tmp_path / str(k))
