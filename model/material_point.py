@@ -15,6 +15,7 @@ so tau/p and S are NaN and ``Update.stationary`` says so.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numba
@@ -37,7 +38,7 @@ _PROBLEMS = {
     _BAD_SYM: "A[{i}] is not symmetric (asymmetry {value:.3g} > fabric_tol)",
     _BAD_TRACE: "A[{i}] is not traceless (trace {value:.3g} > fabric_tol)",
     _BAD_PHI: "phi[{i}]={value!r} must lie in (0, 1)",
-    _BAD_L: "L[{i}] has non-finite entries",
+    _BAD_L: "L[{i}] is not finite or too large: the sum of its squared entries is {value:.3g}",
     _BAD_DT: "dt[{i}]={value!r} must be finite and >= 0",
 }
 
@@ -89,7 +90,7 @@ def _check_inputs(A, phi, L, dt, fabric_tol):
         total = 0.0
         for j in range(3):
             for k in range(3):
-                total += L[i, j, k]
+                total += L[i, j, k] * L[i, j, k]  # overflows where |L| is too large to integrate
         if not math.isfinite(total):
             return _BAD_L, i, total
     for i in range(dt.shape[0]):
@@ -274,6 +275,32 @@ def _out(out, n: int) -> Update:
     return out
 
 
+#: the outputs that may be their input itself, for an update in place
+IN_PLACE = {("A", "A"), ("phi", "phi")}
+
+
+def _check_overlaps(inputs: dict, out: Update) -> None:
+    """No two outputs share memory, and no output shares memory with an input, but ``out.A`` and ``out.phi`` each
+    with its own input when it is that very array: the kernels read a point's input after writing other points'
+    outputs, so an overlap would return wrong numbers without a word."""
+    outs = {name: getattr(out, name) for name in ("A", "phi", "tau_over_p", "S", "substeps", "stationary")}
+    names = list(outs)
+    for k, a in enumerate(names):
+        for b in names[k + 1:]:
+            if np.may_share_memory(outs[a], outs[b]):
+                raise SolverError(f"out.{a} and out.{b} share memory: give each output an array of its own")
+        for name, given in inputs.items():
+            same = (a, name) in IN_PLACE and _same_memory(outs[a], given)
+            if not same and np.may_share_memory(outs[a], given):
+                raise SolverError(f"out.{a} overlaps the input {name}" + (" without being it (an update in place "
+                                  f"passes {name} itself)" if (a, name) in IN_PLACE else ""))
+
+
+def _same_memory(a: np.ndarray, b: np.ndarray) -> bool:
+    return (a.__array_interface__["data"][0] == b.__array_interface__["data"][0] and a.shape == b.shape
+            and a.strides == b.strides)
+
+
 def update(A, phi, L, dt, params: Params | None = None, out: Update | None = None, *,
            rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL, s_ref: float = DEFAULT_S_REF,
            fabric_tol: float = FABRIC_TOL, threads: int = 1) -> Update:
@@ -306,14 +333,19 @@ def update(A, phi, L, dt, params: Params | None = None, out: Update | None = Non
     L = _array("L", L, ((3, 3), (n, 3, 3))).reshape(-1, 3, 3)
     dt = _array("dt", dt, ((), (n,))).reshape(-1)
     for name, value in (("rtol", rtol), ("atol", atol), ("s_ref", s_ref), ("fabric_tol", fabric_tol)):
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        if not (isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+                and value > 0):
             raise SolverError(f"{name}={value!r} must be a finite number > 0")
-    if not (isinstance(threads, int) and 1 <= threads <= numba.config.NUMBA_NUM_THREADS):
+    rtol, atol, s_ref, fabric_tol = float(rtol), float(atol), float(s_ref), float(fabric_tol)
+    if not (isinstance(threads, numbers.Integral) and not isinstance(threads, bool)
+            and 1 <= threads <= numba.config.NUMBA_NUM_THREADS):
         raise SolverError(f"threads={threads!r} must be an integer in 1..{numba.config.NUMBA_NUM_THREADS}")
+    threads = int(threads)
     code, index, value = _check_inputs(A, phi, L, dt, fabric_tol)
     if code:
         raise SolverError(_PROBLEMS[code].format(i=index, value=float(value)))
     out = _out(out, n)
+    _check_overlaps({"A": A, "phi": phi, "L": L, "dt": dt}, out)
     lam_ref = s_ref ** p[K_PERSIST]
     arrays = (out.A, out.phi, out.tau_over_p, out.S, out.substeps, out.stationary)
     if threads == 1:

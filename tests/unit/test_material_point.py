@@ -203,7 +203,8 @@ GOOD = {"A": np.zeros((2, 3, 3)), "phi": [0.6, 0.6], "L": shear_velocity_gradien
     ({"phi": [0.6, 1.0]}, r"phi\[1\]=1.0 must lie in \(0, 1\)"),
     ({"phi": [0.6]}, r"phi has shape \(1,\), expected \(2,\)"),
     ({"L": np.zeros((3, 3, 3))}, r"L has shape \(3, 3, 3\), expected \(3, 3\) or \(2, 3, 3\)"),
-    ({"L": np.full((3, 3), np.inf)}, r"L\[0\] has non-finite entries"),
+    ({"L": np.full((3, 3), np.inf)}, r"L\[0\] is not finite or too large"),
+    ({"L": np.full((3, 3), 1e200)}, r"L\[0\] is not finite or too large: the sum of its squared entries is inf"),
     ({"dt": [0.01, -0.01]}, r"dt\[1\]=-0.01 must be finite and >= 0"),
     ({"dt": "soon"}, r"dt must be an array of numbers"),
     ({"rtol": 0.0}, r"rtol=0.0 must be a finite number > 0"),
@@ -215,6 +216,28 @@ def test_bad_input_is_one_line_naming_the_value(change, message):
     with pytest.raises(SolverError, match=message) as info:
         update(**{**GOOD, **change})
     assert "\n" not in str(info.value)
+
+
+def test_numpy_scalars_are_numbers_and_outputs_that_overlap_are_refused():
+    """numpy's integers and floats pass where Python's do; an output array that shares memory with another output,
+    or with an input other than its own in place, is refused before any point is touched (it would return wrong
+    numbers without a word); out.A and out.phi may still be A and phi themselves."""
+    base = update(**GOOD)
+    assert update(**GOOD, threads=np.int64(1), rtol=np.float32(1e-6)).A.shape == (2, 3, 3)
+    out = Update.empty(2)
+    out.S = out.phi
+    with pytest.raises(SolverError, match="out.phi and out.S share memory"):
+        update(**GOOD, out=out)
+    block = np.zeros((3, 3, 3))
+    A, out = block[:2], Update.empty(2)
+    out.A = block[1:]
+    with pytest.raises(SolverError, match="out.A overlaps the input A without being it"):
+        update(**{**GOOD, "A": A}, out=out)
+    A, phi = np.zeros((2, 3, 3)), np.array([0.6, 0.6])
+    out = Update.empty(2)
+    out.A, out.phi = A, phi
+    in_place = update(A, phi, GOOD["L"], GOOD["dt"], out=out)
+    assert in_place.A is A and np.array_equal(A, base.A) and np.array_equal(phi, base.phi)
 
 
 def test_the_documented_layer_example_runs_and_each_point_follows_its_own_history():
