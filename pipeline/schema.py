@@ -23,15 +23,17 @@ PARAMS_METADATA_VERSION = 1
 COMPARE_SCHEMA, COMPARE_VERSION = "granular-backstress/compare", 1
 
 
-def _read_json(path: Path, what: str, make: str) -> dict:
+def read_json_object(path: Path, what: str, make: str, kind: type = dict):
+    """A JSON object (or ``kind``: a list of rows) from ``path``; missing, unreadable or of another kind is a
+    one-line error naming the make target that writes it."""
     try:
         data = json.loads(Path(path).read_text())
     except FileNotFoundError:
         raise PipelineError(f"{path} not found: run `make {make}` first") from None
     except (OSError, ValueError) as exc:
         raise PipelineError(f"{path} is not readable JSON ({exc})") from None
-    if not isinstance(data, dict):
-        raise PipelineError(f"{path} is not a {what} (not a JSON object)")
+    if not isinstance(data, kind):
+        raise PipelineError(f"{path} is not a {what} (not a JSON {'object' if kind is dict else 'list'})")
     return data
 
 
@@ -137,7 +139,7 @@ def write_fit(path: Path, summary: FitSummary) -> None:
 
 
 def read_fit(path: Path) -> FitSummary:
-    return FitSummary.from_dict(_read_json(path, "fit summary", "fit"), path)
+    return FitSummary.from_dict(read_json_object(path, "fit summary", "fit"), path)
 
 
 # ---------------------------------------------------------------- metrics.json
@@ -184,7 +186,7 @@ class Metrics:
 
 
 def read_metrics(path: Path) -> Metrics:
-    return Metrics.from_dict(_read_json(path, "comparison", "compare"), path)
+    return Metrics.from_dict(read_json_object(path, "comparison", "compare"), path)
 
 
 # ---------------------------------------------------------------- compare.h5

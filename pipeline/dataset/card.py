@@ -7,6 +7,7 @@ table between the card's two markers, or with ``--check`` exits 1 when the table
 
 from __future__ import annotations
 
+import functools
 import json
 import sys
 from pathlib import Path
@@ -41,20 +42,26 @@ def sha256_of(path: Path) -> str:
 
 
 def card_checksums(card_path: Path) -> dict[str, str]:
-    """``{file relative to the card's folder: checksum}`` from a data card's inventory (empty without one)."""
+    """``{file relative to the card's folder: checksum}`` from a data card's inventory (empty without one); read
+    once per version of the card (its modification time), not once per run file."""
     try:
-        card = card_path.read_text()
+        return dict(_checksums(str(card_path), card_path.stat().st_mtime_ns))
     except OSError:
         return {}
+
+
+@functools.lru_cache(maxsize=8)
+def _checksums(card_path: str, _mtime_ns: int) -> tuple:
+    try:
+        card = Path(card_path).read_text()
+    except OSError:
+        return ()
     if card.count(BEGIN) != 1 or card.count(END) != 1:
-        return {}
+        return ()
     rows = card.split(BEGIN)[1].split(END)[0].splitlines()
-    out = {}
-    for row in rows:
-        cells = [c.strip() for c in row.strip().strip("|").split("|")]
-        if len(cells) == HEADER.count("|") - 1 and cells[0].startswith("`"):
-            out[cells[0].strip("`")] = cells[-1].strip("`")
-    return out
+    cells = ([c.strip() for c in row.strip().strip("|").split("|")] for row in rows)
+    return tuple((c[0].strip("`"), c[-1].strip("`")) for c in cells
+                 if len(c) == HEADER.count("|") - 1 and c[0].startswith("`"))
 
 
 def check_committed(path: Path) -> None:

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import h5py
@@ -11,15 +10,6 @@ import h5py
 from .. import io, schema
 from ..errors import PipelineError
 from . import cycles, laws, memory, profiles, report, reversal
-
-
-def read_json(path: Path) -> dict:
-    try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
-        raise PipelineError(f"{path} not found: run `make fit-profile` or `make fit-from` first") from None
-    except (OSError, ValueError) as exc:
-        raise PipelineError(f"{path} is not readable JSON ({exc})") from None
 
 
 def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
@@ -55,7 +45,7 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
             made.append(reversal.work_figure(reversal_runs, "our fit", figures / "fig9_work_rates.png"))
         n_runs = len(runs)
     if (fit_dir / "profiles.json").exists():
-        result = read_json(fit_dir / "profiles.json")
+        result = schema.read_json_object(fit_dir / "profiles.json", "profile", "fit-profile")
         if profiles.belongs_to(result, fit):
             made.append(profiles.plot(result, paper, figures / "profiles.png"))
         else:
@@ -64,7 +54,8 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     if fit_h5.exists():
         made.append(laws.fabric_law(fit_h5, fitted, paper, figures / "fig3_fabric_law.png"))
         made.append(laws.flow_rule(fit_h5, fitted, paper, figures / "fig4_flow_rule.png"))
-    fit_from = read_json(fit_dir / "fit_from.json") if (fit_dir / "fit_from.json").exists() else None
+    fit_from = (schema.read_json_object(fit_dir / "fit_from.json", "fit-from table", "fit-from", list)
+                if (fit_dir / "fit_from.json").exists() else None)
     if fit_from and not report.same_weighting(fit_from, fit):
         print(f"{fit_dir / 'fit_from.json'} weighs the runs otherwise than fit.json: left out of the report "
               "(make fit-from with the fit's WEIGHT)")
