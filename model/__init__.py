@@ -3,28 +3,31 @@
 Rojas & Kamrin, Soft Matter (2025), Sections 3.2, 3.3 and 5; conventions in ``model.kinematics``.
 """
 
-from .equations import hardening_variable_stack
-from .kinematics import (
-    PERIOD_STRAIN,
-    ROTATE_AT_STRAIN,
-    History,
-    HistoryError,
-    Segment,
-    deviator,
-    modulus,
-    periodic_cycle,
-    reversal,
-    rotation_about_e2,
-    shear_direction,
-    shear_segment,
-    shear_velocity_gradient,
-    spin,
-    steady_shear,
-    stretching,
-)
-from .material_point import Update, update
-from .params import PAPER, ParameterError, Params
-from .solver import Result, SolverError, integrate, periodic, predict, reversal_start_rate, steady_state
+from .kernel_cache import keyed_by_sources
+
+with keyed_by_sources():
+    from .equations import hardening_variable_stack
+    from .kinematics import (
+        PERIOD_STRAIN,
+        ROTATE_AT_STRAIN,
+        History,
+        HistoryError,
+        Segment,
+        deviator,
+        modulus,
+        periodic_cycle,
+        reversal,
+        rotation_about_e2,
+        shear_direction,
+        shear_segment,
+        shear_velocity_gradient,
+        spin,
+        steady_shear,
+        stretching,
+    )
+    from .material_point import Update, update
+    from .params import PAPER, ParameterError, Params
+    from .solver import Result, SolverError, integrate, periodic, predict, reversal_start_rate, steady_state
 
 __all__ = [
     "PAPER", "PERIOD_STRAIN", "ROTATE_AT_STRAIN", "History", "HistoryError", "ParameterError", "Params", "Result",

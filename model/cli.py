@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .kinematics import ROTATE_AT_STRAIN, HistoryError
-from .params import ParameterError, Params
+from .params import VARIANTS, ParameterError, Params
 from .solver import SolverError, predict
 
 COMPONENTS = ((0, 0, "11"), (0, 1, "12"), (0, 2, "13"), (1, 1, "22"), (1, 2, "23"), (2, 2, "33"))
@@ -158,6 +158,9 @@ def build_parser() -> argparse.ArgumentParser:
     par = sub.add_parser("params", help="print the default parameters (Table 2) as JSON",
                          description="Print the default parameters (paper Table 2, Sec. 5) as JSON, or "
                                      "write them with --out, ready to edit and pass to --params.")
+    par.add_argument("--variant", choices=list(VARIANTS), default="rk2025",
+                     help="the fabric law (default rk2025, Eq. 13); its added parameters start at 0, where it is "
+                          "Eq. 13")
     par.add_argument("--out", type=Path, metavar="FILE.json", help="write to this file instead of stdout")
     return parser
 
@@ -168,10 +171,11 @@ def main(argv=None) -> int:
         if args.out:
             check_output(args.out)
         if args.command == "params":
+            chosen = Params(variant=args.variant)
             if args.out:
-                save_params(Params(), args.out)
+                save_params(chosen, args.out)
             else:
-                sys.stdout.write(Params().to_json())
+                sys.stdout.write(chosen.to_json())
             return 0
         params = load_params(args.params) if args.params else Params()
         result = predict(args.theta, rotate_at=args.rotate_at, params=params, times=args.times)

@@ -14,7 +14,9 @@ import numba
 import numpy as np
 
 # indices into Params.as_array()
-C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C = range(13)
+C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C, VARIANT, CHI = range(15)
+# values of p[VARIANT]: the index of the fabric law in model.params.VARIANTS
+RK2025, LOADING = 0.0, 1.0
 
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
@@ -69,11 +71,38 @@ def dilatancy_c2(S, p):
 
 
 @jit
+def loading_removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, chi):
+    """The part of A that the "loading" law removes: R = A - 2 chi (A - Q), Q = dev(E A + A E), E = Dh Dh.
+
+    In the frame of a simple shear's D' (tensile t, compressive c, neutral v directions) Q keeps the t-c part of
+    A, halves the parts that couple v to t or c (which D' neither compresses nor stretches) and keeps a third of
+    dev(v v): R removes them by the factors 1, 1 - chi and 1 - 4 chi / 3. Returns R packed (11, 22, 12, 13, 23).
+    """
+    a33 = -a11 - a22
+    e11 = d11 * d11 + d12 * d12 + d13 * d13
+    e22 = d12 * d12 + d22 * d22 + d23 * d23
+    e33 = d13 * d13 + d23 * d23 + d33 * d33
+    e12 = d11 * d12 + d12 * d22 + d13 * d23
+    e13 = d11 * d13 + d12 * d23 + d13 * d33
+    e23 = d12 * d13 + d22 * d23 + d23 * d33
+    x = a11 * e11 + a22 * e22 + a33 * e33 + 2.0 * (a12 * e12 + a13 * e13 + a23 * e23)
+    q11 = 2.0 * (e11 * a11 + e12 * a12 + e13 * a13) - 2.0 * x / 3.0
+    q22 = 2.0 * (e12 * a12 + e22 * a22 + e23 * a23) - 2.0 * x / 3.0
+    q12 = e11 * a12 + e12 * a22 + e13 * a23 + a11 * e12 + a12 * e22 + a13 * e23
+    q13 = e11 * a13 + e12 * a23 + e13 * a33 + a11 * e13 + a12 * e23 + a13 * e33
+    q23 = e12 * a13 + e22 * a23 + e23 * a33 + a12 * e13 + a22 * e23 + a23 * e33
+    f = 2.0 * chi
+    return (a11 - f * (a11 - q11), a22 - f * (a22 - q22), a12 - f * (a12 - q12), a13 - f * (a13 - q13),
+            a23 - f * (a23 - q23))
+
+
+@jit
 def fabric_rates(y, Dh, Wn, p):
     """Rates per unit |D'| t of the packed fabric and the two dilatancy integrals.
 
     Returns (n11, n22, n12, n13, n23, lam, g, c2) with
-    Lambda(S) dA/d(|D'|t) = (n11, ..., n23) (Eqs. 13/23 with the Jaumann rate A_dot + A W - W A),
+    Lambda(S) dA/d(|D'|t) = (n11, ..., n23) (Eqs. 13/23 with the Jaumann rate A_dot + A W - W A; with the
+    "loading" variant, beta2 removes ``loading_removal``'s R in place of A),
     g = c1 A:Dh + c2 (phi_c + c3) and c2, from which (Eq. 18, with u = 1/Phi)
     du/d(|D'|t) = -g u + c2.
     """
@@ -85,6 +114,9 @@ def fabric_rates(y, Dh, Wn, p):
     lam = persistence(S, p)
     beta1 = p[A1] + p[B1] * S
     beta2 = p[A2] + p[B2] * S
+    r11, r22, r12, r13, r23 = a11, a22, a12, a13, a23
+    if p[VARIANT] == LOADING:
+        r11, r22, r12, r13, r23 = loading_removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p[CHI])
     # W A - A W = 2 sym(W A) for symmetric A, antisymmetric W
     m00 = w12 * a12 + w13 * a13
     m01 = w12 * a22 + w13 * a23
@@ -94,11 +126,11 @@ def fabric_rates(y, Dh, Wn, p):
     m12 = -w12 * a13 + w23 * a33
     m20 = -w13 * a11 - w23 * a12
     m21 = -w13 * a12 - w23 * a22
-    n11 = beta1 * d11 + beta2 * a11 + lam * 2.0 * m00
-    n22 = beta1 * d22 + beta2 * a22 + lam * 2.0 * m11
-    n12 = beta1 * d12 + beta2 * a12 + lam * (m01 + m10)
-    n13 = beta1 * d13 + beta2 * a13 + lam * (m02 + m20)
-    n23 = beta1 * d23 + beta2 * a23 + lam * (m12 + m21)
+    n11 = beta1 * d11 + beta2 * r11 + lam * 2.0 * m00
+    n22 = beta1 * d22 + beta2 * r22 + lam * 2.0 * m11
+    n12 = beta1 * d12 + beta2 * r12 + lam * (m01 + m10)
+    n13 = beta1 * d13 + beta2 * r13 + lam * (m02 + m20)
+    n23 = beta1 * d23 + beta2 * r23 + lam * (m12 + m21)
     c2 = dilatancy_c2(S, p)
     g = p[C1] * double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23) + c2 * (p[PHI_C] + p[C3])
     return n11, n22, n12, n13, n23, lam, g, c2

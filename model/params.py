@@ -7,6 +7,9 @@ Every parameter is dimensionless. Names follow the paper:
                                      beta_i = a_i + b_i S,  Lambda = S**persistence_exponent
 - dilatancy (Eq. 18):                dPhi/dt / Phi = c1 A:D' + c2(S) (phi_c - Phi + c3) |D'|,
                                      c2(S) = c2_coef * S**c2_exponent
+
+A parameter set names its fabric law, ``variant`` (``VARIANTS``): ``rk2025`` is Eq. 13 as written; every other
+adds at most two parameters, and reduces to Eq. 13 where they are zero (``docs/model.md``, "Variants").
 """
 
 from __future__ import annotations
@@ -21,6 +24,16 @@ import numpy as np
 
 class ParameterError(ValueError):
     """Invalid model parameters; the message names every bad value."""
+
+
+#: the fabric laws: name -> the parameters it adds to Eq. 13 (each law is Eq. 13 where they are zero)
+VARIANTS = {
+    "rk2025": (),  # Eq. 13 (paper Table 1)
+    "loading": ("chi",),  # removal weighted by how D' loads each part of A (docs/model.md)
+}
+DEFAULT_VARIANT = "rk2025"
+#: the range of each added parameter in which the law keeps A bounded (docs/model.md)
+EXTRA_RANGES = {"chi": (-0.5, 0.75)}
 
 
 @dataclass(frozen=True)
@@ -40,10 +53,17 @@ class Params:
     c2_exponent: float = 1.0 / 3.0
     c3: float = 0.14
     phi_c: float = 0.652  # critical packing fraction
+    variant: str = DEFAULT_VARIANT  # the fabric law (VARIANTS)
+    chi: float = 0.0  # "loading": the removal of a part of A that D' does not load, less by this fraction
 
     def __post_init__(self):
         problems = []
+        if self.variant not in VARIANTS:
+            raise ParameterError(f"invalid model parameters: variant={self.variant!r:.40} is not one of "
+                                 f"{', '.join(VARIANTS)}")
         for f in fields(self):
+            if f.name == "variant":
+                continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 problems.append(f"{f.name}={value!r:.40} is not a number")
@@ -64,33 +84,62 @@ class Params:
                 problems.append(f"c2_exponent={self.c2_exponent} must be >= 0")
             if not 0 < self.phi_c < 1:
                 problems.append(f"phi_c={self.phi_c} must lie in (0, 1)")
+            for name in self.extra_names():
+                low, high = EXTRA_RANGES[name]
+                value = getattr(self, name)
+                if name not in VARIANTS[self.variant] and value != 0:
+                    problems.append(f"{name}={value} belongs to another variant than {self.variant}")
+                elif not low <= value < high:
+                    problems.append(f"{name}={value} must lie in [{low}, {high})")
         if problems:
             raise ParameterError("invalid model parameters: " + "; ".join(problems))
-        array = np.array([getattr(self, name) for name in self.names()], dtype=float)
+        values = [getattr(self, name) for name in self.names()]
+        values += [list(VARIANTS).index(self.variant)] + [getattr(self, name) for name in self.extra_names()]
+        array = np.array(values, dtype=float)
         array.setflags(write=False)
         object.__setattr__(self, "_array", array)
 
     @classmethod
     def names(cls) -> tuple[str, ...]:
-        return tuple(f.name for f in fields(cls))
+        """The parameters of Eq. 13's model (Tables 1-2, Sec. 5), every variant's."""
+        return tuple(f.name for f in fields(cls) if f.name != "variant" and f.name not in cls.extra_names())
+
+    @staticmethod
+    def extra_names() -> tuple[str, ...]:
+        """Every parameter a variant adds, in declaration order."""
+        return tuple(name for names in VARIANTS.values() for name in names)
+
+    def own_names(self) -> tuple[str, ...]:
+        """The parameters of this set's variant: Eq. 13's, then its additions."""
+        return self.names() + VARIANTS[self.variant]
 
     def as_array(self) -> np.ndarray:
-        """Parameters in declaration order, as the compiled kernels expect them (read-only)."""
+        """As the compiled kernels expect them (read-only): ``names()`` in order, the variant's index in
+        ``VARIANTS``, then ``extra_names()``."""
         return self._array
 
     def replace(self, **changes) -> Params:
         return dataclasses.replace(self, **changes)
 
-    def to_dict(self) -> dict[str, float]:
-        return {name: getattr(self, name) for name in self.names()}
+    def to_dict(self) -> dict:
+        """The values by name; a variant other than the default adds its name and its parameters."""
+        values = {name: getattr(self, name) for name in self.names()}
+        if self.variant != DEFAULT_VARIANT:
+            values.update(variant=self.variant, **{name: getattr(self, name) for name in VARIANTS[self.variant]})
+        return values
 
     @classmethod
     def from_dict(cls, values: dict, source: str = "parameters") -> Params:
-        """Build from a complete mapping; unknown or missing keys are an error."""
+        """Build from a complete mapping (``variant`` may be left out: the default); unknown or missing keys are an
+        error."""
         if not isinstance(values, dict):
             raise ParameterError(f"{source}: expected a JSON object of parameters, got {type(values).__name__}")
-        unknown = sorted(set(values) - set(cls.names()))
-        missing = [name for name in cls.names() if name not in values]
+        variant = values.get("variant", DEFAULT_VARIANT)
+        if not isinstance(variant, str) or variant not in VARIANTS:
+            raise ParameterError(f"{source}: variant={variant!r:.40} is not one of {', '.join(VARIANTS)}")
+        expected = (*cls.names(), *VARIANTS[variant])
+        unknown = sorted(set(values) - set(expected) - {"variant"})
+        missing = [name for name in expected if name not in values]
         problems = []
         if unknown:
             problems.append("unknown keys " + ", ".join(unknown))

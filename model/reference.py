@@ -13,7 +13,7 @@ from .params import Params
 
 
 def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params) -> np.ndarray:
-    """dA/dt from Eq. 13 with the Jaumann rate A_dot + A W - W A."""
+    """dA/dt from Eq. 13 (or its variant, ``removed``) with the Jaumann rate A_dot + A W - W A."""
     D = 0.5 * (L + L.T)
     W = 0.5 * (L - L.T)
     Dd = D - np.trace(D) * np.eye(3) / 3
@@ -21,7 +21,17 @@ def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params) -> np.ndarray:
     S = np.linalg.norm(A) - np.sum(A * Dd) / nD
     beta1 = params.a1 + params.b1 * S
     beta2 = params.a2 + params.b2 * S
-    return (beta1 * Dd + beta2 * nD * A) / S**params.persistence_exponent - A @ W + W @ A
+    return (beta1 * Dd + beta2 * nD * removed(A, Dd / nD, params)) / S**params.persistence_exponent - A @ W + W @ A
+
+
+def removed(A: np.ndarray, Dh: np.ndarray, params: Params) -> np.ndarray:
+    """What beta2 |D'| removes: A in Eq. 13; A - 2 chi (A - dev(E A + A E)), E = Dh Dh, in the "loading" law."""
+    if params.variant == "rk2025":
+        return A
+    E = Dh @ Dh
+    Q = E @ A + A @ E
+    Q -= np.trace(Q) * np.eye(3) / 3
+    return A - 2 * params.chi * (A - Q)
 
 
 def packing_rate(A: np.ndarray, phi: float, L: np.ndarray, params: Params) -> float:

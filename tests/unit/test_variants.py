@@ -1,0 +1,143 @@
+"""The fabric-law variants beyond Eq. 13 (``model.params.VARIANTS``): each is Eq. 13 where its added parameters
+vanish, agrees with the independent reference, and is objective, rate independent, bounded and dissipative."""
+
+import numpy as np
+import pytest
+
+import model
+from model import PAPER, History, Params, Segment, integrate, periodic, periodic_cycle, predict, reference, update
+from model.equations import fabric_rates
+from model.kinematics import deviator, rotation_about_e2, shear_direction, shear_velocity_gradient
+from tests.unit.test_model_properties import ANGLES, random_rotation
+
+#: one parameter set per variant and sign of its added parameters, Table 2's otherwise
+VARIANT_SETS = [Params(variant="loading", chi=0.4), Params(variant="loading", chi=-0.3)]
+IDS = [f"{p.variant}-chi{p.chi:+g}" for p in VARIANT_SETS]
+
+
+def test_a_variant_with_its_parameters_at_zero_is_eq13_bit_for_bit():
+    for theta in (180, 150):
+        paper = predict(theta)
+        zero = predict(theta, params=Params(variant="loading"))
+        assert np.array_equal(zero.A, paper.A) and np.array_equal(zero.tau, paper.tau)
+        tiny = predict(theta, params=Params(variant="loading", chi=1e-13))
+        assert 0 < np.max(np.abs(tiny.A - paper.A)) < 1e-12
+
+
+@pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
+@pytest.mark.parametrize("theta", [180, 150, 90])
+def test_agrees_with_independent_reference(params, theta):
+    cycle = predict(theta, params=params)
+    A, phi, _ = reference.solve(periodic_cycle(theta), cycle.A[0], cycle.packing_fraction[0], params, cycle.strain)
+    assert np.max(np.abs(A - cycle.A)) < 1e-9
+    assert np.max(np.abs(phi - cycle.packing_fraction)) < 1e-9
+    change = np.max(np.abs(cycle.A - predict(theta).A))
+    # a reversal keeps A in the plane of D', which "loading" treats as Eq. 13 does; a turn does not
+    assert change < 1e-14 if theta == 180 else change > 1e-3
+
+
+@pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
+def test_the_fabric_law_is_an_isotropic_function(params):
+    """Objectivity of a Jaumann-rate law: the rate at (R A R^T, R D R^T) is R (rate at A, D) R^T."""
+    rng = np.random.default_rng(11)
+    p = params.as_array()
+    pack = lambda a: np.array([a[0, 0], a[1, 1], a[0, 1], a[0, 2], a[1, 2]])  # noqa: E731
+    unpack = lambda n: np.array([[n[0], n[2], n[3]], [n[2], n[1], n[4]], [n[3], n[4], -n[0] - n[1]]])  # noqa: E731
+    for _ in range(20):
+        A = deviator(0.5 * (x := rng.normal(scale=0.05, size=(3, 3))) + 0.5 * x.T)
+        D = deviator(0.5 * (x := rng.normal(size=(3, 3))) + 0.5 * x.T)
+        D /= np.linalg.norm(D)
+        R = random_rotation(rng)
+        rate = lambda a, d: unpack(np.array(fabric_rates(  # noqa: E731
+            pack(a), np.array([d[0, 0], d[1, 1], d[2, 2], d[0, 1], d[0, 2], d[1, 2]]), np.zeros(3), p)[:5]))
+        base, rotated = rate(A, D), rate(R @ A @ R.T, R @ D @ R.T)
+        np.testing.assert_allclose(rotated, R @ base @ R.T, atol=1e-12)
+
+
+@pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
+def test_objective_under_a_superposed_rotation(params):
+    base = predict(120, params=params)
+    history = periodic_cycle(120)
+    for R in (rotation_about_e2(37.0), random_rotation(np.random.default_rng(3))):
+        rotated = integrate(history.rotated(R), A0=R @ base.A[0] @ R.T, packing_fraction0=base.packing_fraction[0],
+                            params=params, times=base.strain)
+        np.testing.assert_allclose(rotated.A, R @ base.A @ R.T, atol=1e-9)
+        np.testing.assert_allclose(rotated.tau, R @ base.tau @ R.T, atol=1e-8)
+
+
+@pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
+def test_rate_independent(params):
+    strains = np.linspace(0, 1.4, 57)
+    slow = predict(150, params=params, times=strains)
+    fast = periodic(periodic_cycle(150, shear_rate=250.0), params=params, times=strains)
+    np.testing.assert_allclose(fast.A, slow.A, atol=1e-10)
+    np.testing.assert_allclose(fast.tau, slow.tau, atol=1e-9)
+
+
+@pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
+def test_bounded_on_long_random_histories(params):
+    rng = np.random.default_rng(5)
+    for _ in range(6):
+        segments = tuple(Segment(rng.uniform(0.05, 0.5), rng.normal(size=(3, 3))) for _ in range(12))
+        result = integrate(History(segments), params=params,
+                           times=np.linspace(0, sum(s.duration for s in segments), 400))
+        assert np.all(result.S >= 0)
+        eig = np.linalg.eigvalsh(result.A)
+        assert eig.min() >= -1 / 3 and eig.max() <= 2 / 3
+
+
+@pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
+@pytest.mark.parametrize("theta, rotate_at", [(t, 0.7) for t in ANGLES] + [(90, 0.1), (90, 0.2)])
+def test_second_law_and_own_reversal(params, theta, rotate_at):
+    cycle = predict(theta, rotate_at=rotate_at, params=params)  # its own reversal (theta = 180) runs
+    assert cycle.w_total.min() >= 0  # Eq. 19 with c1 = -C: the variant changes no work term
+    assert np.all(cycle.packing_fraction <= params.phi_c + params.c3)
+
+
+def test_loading_keeps_the_part_the_new_shear_does_not_load_longer():
+    """After a turn of 150 deg, the part of A along the wall-plane direction normal to the new shear (t e2 + e2 t)
+    decays more slowly with chi > 0 and faster with chi < 0 than in Eq. 13."""
+    t_dir = shear_direction(150.0 + 90.0)
+    N = (np.outer(t_dir, [0, 1, 0]) + np.outer([0, 1, 0], t_dir)) / np.sqrt(2)
+    after = np.array([0.8, 0.9, 1.0])
+    kept = {}
+    for chi in (-0.3, 0.0, 0.4):
+        cycle = predict(150, params=Params(variant="loading", chi=chi), times=np.concatenate([[0.7], after]))
+        part = np.einsum("kij,ij->k", cycle.A, N)
+        kept[chi] = part[1:] / part[0]
+    assert np.all(kept[0.4] > kept[0.0]) and np.all(kept[0.0] > kept[-0.3])
+
+
+@pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
+def test_the_material_point_update_takes_the_variant(params):
+    cycle = predict(150, params=params, times=np.arange(281) * 0.005, rtol=1e-12, atol=1e-14)
+    history = periodic_cycle(150)
+    A, phi = cycle.A[:1].copy(), cycle.packing_fraction[:1].copy()
+    for k in range(280):
+        segment = history.segments[history.segment_index(np.array([(k + 0.5) * 0.005]))[0]]
+        result = update(A, phi, segment.L, 0.005, params=params)
+        A, phi = result.A.copy(), result.phi.copy()
+        assert np.max(np.abs(A[0] - cycle.A[k + 1])) < 1e-6
+
+
+@pytest.mark.parametrize("values, message", [
+    ({"variant": "loading"}, "missing keys chi"),
+    ({"chi": 0.1}, "unknown keys chi"),
+    ({"variant": "loading", "chi": 0.9}, r"chi=0.9 must lie in \[-0.5, 0.75\)"),
+    ({"variant": "other"}, "variant='other' is not one of rk2025, loading"),
+])
+def test_a_parameter_file_names_its_variant_and_only_its_parameters(values, message):
+    with pytest.raises(model.ParameterError, match=message):
+        Params.from_dict({**PAPER.to_dict(), **values})
+
+
+def test_parameters_of_another_variant_are_refused_and_files_round_trip():
+    with pytest.raises(model.ParameterError, match="chi=0.2 belongs to another variant than rk2025"):
+        Params(chi=0.2)
+    chosen = Params(variant="loading", chi=0.25)
+    assert Params.from_json(chosen.to_json()) == chosen
+    assert "variant" not in PAPER.to_dict()  # Eq. 13's files are as they were
+    assert chosen.own_names() == (*PAPER.names(), "chi")
+    assert not np.array_equal(chosen.as_array(), PAPER.as_array())
+    L = shear_velocity_gradient(0.0)
+    assert model.steady_state(L, chosen)[0].shape == (3, 3)
