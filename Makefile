@@ -19,8 +19,8 @@ MODEL_DIR := results/model
 # which `check` stops on before anything is installed or run), with the data set's folder and runs that the file
 # rules of fit, compare and figures need; `python -m pipeline.targets TARGET` then runs the target's stages with
 # argument lists (`--plan TARGET` prints them).
-USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM \
-	STRESS WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR
+USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM STRESS \
+	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS
 $(foreach v,$(USER_VARIABLES),$(eval override $(v) := $$(value $(v))))
 export $(USER_VARIABLES)
 TARGETS := $(PY) -m pipeline.targets
@@ -30,7 +30,7 @@ LAMMPS_IF_ASKED := $(if $(filter lammps,$(ENGINE) $(subst $(comma), ,$(ENGINES))
 ENGINE_SYSTEM := $(if $(filter lammps,$(ENGINE)),system-lammps,system)
 STAGES := dem sweep runs sweep-status sweep-collect fit-bootstrap fit-jackknife fit-angles fit-definitions fit-from \
 	fit-profile fidelity fidelity-table profile-dem bench-dem bench-lammps-settings engines data-card versus cells jump \
-	stability
+	stability models
 CHECKED_GOALS := $(filter $(STAGES) fit compare compare-seed figures,$(MAKECMDGOALS))
 ifneq ($(CHECKED_GOALS),)
 include results/.make/goals.mk
@@ -132,6 +132,7 @@ versus: venv ## any two data sets, seed against seed: A=preset[/engine][/key=val
 cells: venv ## the reduced cell against the paper's (its data set, config/datasets.toml), seed against seed -> results/cells/cells.md
 jump: venv ## the reversal jump: fabric and wall stress right after each change of direction, every run -> results/jump/
 stability: system venv ## the DEM on stiff and extreme cases, small cells (about 15 min) -> results/fidelity/stability.md
+models: venv ## every fabric law fitted and judged on runs it was not fitted on [PRESET] [ACROSS=reduced] -> results/<data set>/models/
 $(STAGES): check
 	$(TARGETS) $@
 
@@ -148,8 +149,7 @@ demo-dem-%: | $(VENV_STAMP)
 	$(PY) -m pipeline.runs run --theta $* --preset quick
 
 # ---------------------------------------------------------------- the data set's files: fit -> compare -> figures
-fit: $(FIT_DIR)/params.json ## calibrate on the data set's runs [PRESET=...] [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] -> results/<data set>/fit/
-
+fit: $(FIT_DIR)/params.json ## calibrate on the data set's runs [PRESET=...] [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] [VARIANT=loading] -> results/<data set>/fit/
 # the options of the last fit: a fit with other options is a new fit
 $(FIT_DIR)/options.txt: FORCE
 	@python3 -m pipeline.targets fit-options $@

@@ -114,6 +114,10 @@ class Variables:
             raise PipelineError(f"{name}={self.text(name)!r} is not a comma-separated list of {', '.join(choices)}")
         return words
 
+    def presets_engines(self, name: str) -> list[str]:
+        pattern = re.compile(_NAME.pattern + "(:(" + "|".join(map(re.escape, ENGINES)) + "))?")
+        return self._many(name, pattern, f"a list of PRESET[:ENGINE] (engines: {', '.join(ENGINES)})")
+
     def data_set(self, name: str) -> str | None:
         return self._one(name, _DATA_SET, "a data set (preset[/engine][/key=value...])", None)
 
@@ -151,11 +155,18 @@ def data_args(v: Variables) -> list[str]:
 
 
 def fit_options(v: Variables) -> list[str]:
-    """``make fit``'s options: FIT_FROM, STRESS, WEIGHT (the stage checks their values against its choices)."""
+    """``make fit``'s options: FIT_FROM, STRESS, WEIGHT, VARIANT (the stage checks their values against its
+    choices)."""
     fit_from, stress = v.number("FIT_FROM"), v.choice("STRESS", ("shear", "all"))
-    weight = v.choice("WEIGHT", ("runs", "angles"))
+    weight, variant = v.choice("WEIGHT", ("runs", "angles")), v.name("VARIANT")
     return ([*(["--fit-from", fit_from] if fit_from else []), *(["--stress", stress] if stress else []),
-             *(["--weight", weight] if weight else [])])
+             *(["--weight", weight] if weight else []), *(["--variant", variant] if variant else [])])
+
+
+def across_args(v: Variables) -> list[str]:
+    """``make models``' ACROSS: the other data sets (``PRESET[:ENGINE]``, space-separated) to predict and be
+    predicted by."""
+    return [a for item in v.presets_engines("ACROSS") for a in ("--across", item)]
 
 
 def weight_option(v: Variables) -> list[str]:
@@ -298,6 +309,8 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
     "cells": lambda v: [Call("pipeline.studies.versus", ("--a", "reduced", "--b", "paper", "--out", "results/cells"))],
     "data-card": lambda v: [Call("pipeline.dataset.card")],
     "jump": lambda v: [Call("pipeline.studies.jump")],
+    "models": lambda v: [Call("pipeline.comparison.models", (*data_args(v), *across_args(v))),
+                         Call("pipeline.figures.models", data_args(v))],
     "stability": lambda v: [Call("pipeline.studies.stability")],
 }
 

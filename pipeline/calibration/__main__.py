@@ -13,6 +13,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import model
+
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.dem_file import load
@@ -49,6 +51,9 @@ def main(argv=None) -> int:
                         help="the components of tau/p fitted: shear (12, 32: tau:D'; the paper's, default) or all "
                              "(the diagonal too, which carries normal-stress differences the model does not give)")
     add_weight_argument(parser)
+    parser.add_argument("--variant", default=model.params.DEFAULT_VARIANT, choices=list(model.params.VARIANTS),
+                        help="the fabric law fitted: rk2025 (Eq. 13, default) or a variant beyond it (docs/model.md); "
+                             "its added parameters are fitted with the others")
     parser.add_argument("--angles", nargs="+", type=float, metavar="THETA",
                         help="fit only the data set's runs at these angles (degrees, 180 among them); the outputs "
                              "go to results/<data set>/fit-angles-<thetas>[-from<STRAIN>][-<stress>]/")
@@ -58,7 +63,8 @@ def main(argv=None) -> int:
     if args.bootstrap is not None and args.bootstrap < 2:
         raise CalibrationError(f"bootstrap={args.bootstrap}: a bootstrap needs at least 2 resamples")
     settings = Settings(args.window, definitions_from(args), parse_hold(args.hold), args.fit_from,
-                        args.persistence_exponent, args.bootstrap or 0, args.jackknife, args.stress, args.weight)
+                        args.persistence_exponent, args.bootstrap or 0, args.jackknife, args.stress, args.weight,
+                        args.variant)
     if args.runs and args.angles:
         raise CalibrationError("--angles chooses among a data set's runs: give it without --runs")
     if args.runs:

@@ -37,7 +37,17 @@ class Settings:
     parameters held (name -> value), the restart strain of the global fit past each change of direction, the
     persistence exponent k (held), the optional bootstrap (resamples), and the optional jackknife, leaving
     out one reversal seed ("seeds") or one angle with all its runs ("angles") at a time, the components of tau/p
-    fitted, and how a protocol's runs share the fit (``global_fit.WEIGHTS``)."""
+    fitted, how a protocol's runs share the fit (``global_fit.WEIGHTS``), and the fabric law (its variant)."""
+
+    @property
+    def free(self) -> tuple[str, ...]:
+        """The parameters refined: ``global_fit.FREE`` and the variant's own, less those held."""
+        return tuple(n for n in global_fit.free_names(self.variant) if n not in self.hold)
+
+    def start(self) -> model.Params:
+        """Where the global fit starts: Table 2, the variant's parameters at 0, the held ones at their values."""
+        return model.Params(variant=self.variant).replace(persistence_exponent=self.persistence_exponent,
+                                                          **self.hold)
 
     window: float = 0.05
     definitions: Definitions = PAPER_DEFINITIONS
@@ -48,8 +58,12 @@ class Settings:
     jackknife: str = ""  # "", or what to leave out one at a time: JACKKNIFE_OVER
     stress: str = global_fit.STRESS_DEFAULT  # the components of tau/p fitted (global_fit.STRESS_FITS)
     weight: str = global_fit.WEIGHT_DEFAULT  # each run counts once, or each protocol (global_fit.WEIGHTS)
+    variant: str = model.params.DEFAULT_VARIANT  # the fabric law fitted (model.params.VARIANTS)
 
     def __post_init__(self):
+        if self.variant not in model.params.VARIANTS:
+            raise CalibrationError(f"variant={self.variant!r}: the fabric law is one of "
+                                   f"{', '.join(model.params.VARIANTS)}")
         global_fit.check_stress(self.stress)
         global_fit.check_weight(self.weight)
         if not math.isfinite(self.window) or self.window <= 0:
@@ -148,9 +162,10 @@ def check_window(window: float, runs: list) -> None:
 
 def check_settings(settings: Settings, reversals: list, cross_runs: tuple) -> None:
     """Every refusal before any long work, each a one-line ``CalibrationError``."""
-    unknown = sorted(set(settings.hold) - set(global_fit.FREE))
+    free = global_fit.free_names(settings.variant)
+    unknown = sorted(set(settings.hold) - set(free))
     if unknown:
-        raise CalibrationError(f"cannot hold {', '.join(unknown)}: only {', '.join(global_fit.FREE)} can be held")
+        raise CalibrationError(f"cannot hold {', '.join(unknown)}: only {', '.join(free)} can be held")
     if not reversals:
         raise CalibrationError("no reversal run found (theta = 180): run `make dem THETA=180 PRESET=...` first")
     not_reversals = [f"{r.path} (theta = {r.spec.theta_deg})" for r in reversals if not r.is_reversal]
@@ -204,8 +219,7 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
     reversals = [r.with_definitions(settings.definitions) for r in reversals]
     cross_runs = tuple(r.with_definitions(settings.definitions) for r in cross_runs)
     check_settings(settings, reversals, cross_runs)
-    start = model.Params().replace(persistence_exponent=settings.persistence_exponent, **hold)
-    free = tuple(n for n in global_fit.FREE if n not in hold)
+    start, free = settings.start(), settings.free
     window = settings.window
     per_run_full = [calibrate_run(run, window=window) for run in reversals]
     cross_full = [cross_check_run(run, window=window) for run in cross_runs]

@@ -33,6 +33,11 @@ from .noise import COMPONENTS, QUANTITIES
 FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")
 
 
+def free_names(variant: str = model.params.DEFAULT_VARIANT) -> tuple[str, ...]:
+    """The parameters refined for the fabric law ``variant``: ``FREE`` and the parameters it adds."""
+    return FREE + model.params.VARIANTS[variant]
+
+
 #: the components of tau/p each choice fits (A is fitted over every one of ``COMPONENTS``). "shear", the default,
 #: is the paper's (Sec. 4): C from tau12 (Eq. 15), Y from tau:D' (Eq. 16), whose D' has only the 12 and 32
 #: components (the gradient along e2), the fabric law from every component of A (Eq. 9). The others carry the DEM's

@@ -29,6 +29,7 @@ def refusal(target: str, **variables: str) -> str:
     ({"PRESET": "paper", "ENGINE": "yade"}, "--preset paper --engine yade"),
     ({"PRESET": "reduced", "FIT_FROM": "0.005", "WEIGHT": "angles"},
      "--preset reduced --fit-from 0.005 --weight angles"),
+    ({"PRESET": "paper", "VARIANT": "loading"}, "--preset paper --variant loading"),
 ])
 def test_make_fit_hands_the_stage_the_data_set_and_the_fits_options(variables, words):
     assert plan("fit", **variables) == [f"python -m pipeline.calibration {words}"]
@@ -55,6 +56,8 @@ def test_the_include_file_names_the_data_sets_folder_and_its_runs(tmp_path):
     (["dem"], {"PRESET": "giant"}, "unknown preset 'giant'"),
     (["compare-seed"], {"PRESET": "paper"}, "SEED is empty"),
     (["runs", "versus"], {"A": "reduced yade", "B": "paper"}, "A='reduced yade' is not a data set"),
+    (["fit"], {"VARIANT": "loading;touch x"}, "VARIANT='loading;touch x' is not a name"),
+    (["models"], {"ACROSS": "reduced:gromacs"}, "ACROSS='reduced:gromacs' is not a list of PRESET[:ENGINE]"),
 ])
 def test_a_bad_value_becomes_one_make_line_that_expands_to_the_text_given(goals, variables, message):
     """CHECK_ERROR holds the message with ``$`` and ``#`` escaped, so that Make prints the value as given."""
