@@ -14,9 +14,9 @@ import numba
 import numpy as np
 
 # indices into Params.as_array()
-C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C, VARIANT, CHI = range(15)
+C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C, VARIANT, CHI, MEMORY_SHARE, MEMORY_RATE = range(17)
 # values of p[VARIANT]: the index of the fabric law in model.params.VARIANTS
-RK2025, LOADING = 0.0, 1.0
+RK2025, LOADING, MEMORY = 0.0, 1.0, 2.0
 
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
@@ -71,6 +71,14 @@ def dilatancy_c2(S, p):
 
 
 @jit
+def stretching_square(d11, d22, d33, d12, d13, d23):
+    """E = Dh Dh packed (11, 22, 33, 12, 13, 23); for a simple shear's D', 2E projects on the plane of the shear
+    (its tensile and compressive directions)."""
+    return (d11 * d11 + d12 * d12 + d13 * d13, d12 * d12 + d22 * d22 + d23 * d23, d13 * d13 + d23 * d23 + d33 * d33,
+            d11 * d12 + d12 * d22 + d13 * d23, d11 * d13 + d12 * d23 + d13 * d33, d12 * d13 + d22 * d23 + d23 * d33)
+
+
+@jit
 def loading_removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, chi):
     """The part of A that the "loading" law removes: R = A - 2 chi (A - Q), Q = dev(E A + A E), E = Dh Dh.
 
@@ -79,12 +87,7 @@ def loading_removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, chi):
     dev(v v): R removes them by the factors 1, 1 - chi and 1 - 4 chi / 3. Returns R packed (11, 22, 12, 13, 23).
     """
     a33 = -a11 - a22
-    e11 = d11 * d11 + d12 * d12 + d13 * d13
-    e22 = d12 * d12 + d22 * d22 + d23 * d23
-    e33 = d13 * d13 + d23 * d23 + d33 * d33
-    e12 = d11 * d12 + d12 * d22 + d13 * d23
-    e13 = d11 * d13 + d12 * d23 + d13 * d33
-    e23 = d12 * d13 + d22 * d23 + d23 * d33
+    e11, e22, e33, e12, e13, e23 = stretching_square(d11, d22, d33, d12, d13, d23)
     x = a11 * e11 + a22 * e22 + a33 * e33 + 2.0 * (a12 * e12 + a13 * e13 + a23 * e23)
     q11 = 2.0 * (e11 * a11 + e12 * a12 + e13 * a13) - 2.0 * x / 3.0
     q22 = 2.0 * (e12 * a12 + e22 * a22 + e23 * a23) - 2.0 * x / 3.0
@@ -97,12 +100,41 @@ def loading_removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, chi):
 
 
 @jit
+def neutral_part(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23):
+    """N = A - dev(P A P), P = 2 Dh Dh: for a simple shear's D', the part of A outside the plane of the shear (the
+    couplings of the neutral direction v with the plane, and two thirds of dev(v v)), which D' neither compresses
+    nor stretches; zero for a fabric in that plane (a reversal's). Packed (11, 22, 12, 13, 23)."""
+    a33 = -a11 - a22
+    e11, e22, e33, e12, e13, e23 = stretching_square(d11, d22, d33, d12, d13, d23)
+    p11, p22, p33, p12, p13, p23 = 2.0 * e11, 2.0 * e22, 2.0 * e33, 2.0 * e12, 2.0 * e13, 2.0 * e23
+    b00 = a11 * p11 + a12 * p12 + a13 * p13
+    b01 = a11 * p12 + a12 * p22 + a13 * p23
+    b02 = a11 * p13 + a12 * p23 + a13 * p33
+    b10 = a12 * p11 + a22 * p12 + a23 * p13
+    b11 = a12 * p12 + a22 * p22 + a23 * p23
+    b12 = a12 * p13 + a22 * p23 + a23 * p33
+    b20 = a13 * p11 + a23 * p12 + a33 * p13
+    b21 = a13 * p12 + a23 * p22 + a33 * p23
+    b22 = a13 * p13 + a23 * p23 + a33 * p33
+    m11 = p11 * b00 + p12 * b10 + p13 * b20
+    m22 = p12 * b01 + p22 * b11 + p23 * b21
+    m33 = p13 * b02 + p23 * b12 + p33 * b22
+    m12 = p11 * b01 + p12 * b11 + p13 * b21
+    m13 = p11 * b02 + p12 * b12 + p13 * b22
+    m23 = p12 * b02 + p22 * b12 + p23 * b22
+    third = (m11 + m22 + m33) / 3.0
+    return a11 - (m11 - third), a22 - (m22 - third), a12 - m12, a13 - m13, a23 - m23
+
+
+@jit
 def fabric_rates(y, Dh, Wn, p):
     """Rates per unit |D'| t of the packed fabric and the two dilatancy integrals.
 
     Returns (n11, n22, n12, n13, n23, lam, g, c2) with
     Lambda(S) dA/d(|D'|t) = (n11, ..., n23) (Eqs. 13/23 with the Jaumann rate A_dot + A W - W A; with the
-    "loading" variant, beta2 removes ``loading_removal``'s R in place of A),
+    "loading" variant, beta2 removes ``loading_removal``'s R in place of A; with "memory", beta2 removes
+    A - memory_share N and the neutral part N (``neutral_part``) is removed at memory_share * memory_rate per
+    unit |D'| t besides),
     g = c1 A:Dh + c2 (phi_c + c3) and c2, from which (Eq. 18, with u = 1/Phi)
     du/d(|D'|t) = -g u + c2.
     """
@@ -126,11 +158,19 @@ def fabric_rates(y, Dh, Wn, p):
     m12 = -w12 * a13 + w23 * a33
     m20 = -w13 * a11 - w23 * a12
     m21 = -w13 * a12 - w23 * a22
-    n11 = beta1 * d11 + beta2 * r11 + lam * 2.0 * m00
-    n22 = beta1 * d22 + beta2 * r22 + lam * 2.0 * m11
-    n12 = beta1 * d12 + beta2 * r12 + lam * (m01 + m10)
-    n13 = beta1 * d13 + beta2 * r13 + lam * (m02 + m20)
-    n23 = beta1 * d23 + beta2 * r23 + lam * (m12 + m21)
+    j11, j22, j12, j13, j23 = 2.0 * m00, 2.0 * m11, m01 + m10, m02 + m20, m12 + m21
+    if p[VARIANT] == MEMORY:
+        share, rate = p[MEMORY_SHARE], p[MEMORY_SHARE] * p[MEMORY_RATE]
+        q11, q22, q12, q13, q23 = neutral_part(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
+        r11, r22, r12, r13, r23 = a11 - share * q11, a22 - share * q22, a12 - share * q12, a13 - share * q13, \
+            a23 - share * q23
+        j11, j22, j12, j13, j23 = j11 - rate * q11, j22 - rate * q22, j12 - rate * q12, j13 - rate * q13, \
+            j23 - rate * q23
+    n11 = beta1 * d11 + beta2 * r11 + lam * j11
+    n22 = beta1 * d22 + beta2 * r22 + lam * j22
+    n12 = beta1 * d12 + beta2 * r12 + lam * j12
+    n13 = beta1 * d13 + beta2 * r13 + lam * j13
+    n23 = beta1 * d23 + beta2 * r23 + lam * j23
     c2 = dilatancy_c2(S, p)
     g = p[C1] * double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23) + c2 * (p[PHI_C] + p[C3])
     return n11, n22, n12, n13, n23, lam, g, c2

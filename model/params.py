@@ -30,10 +30,12 @@ class ParameterError(ValueError):
 VARIANTS = {
     "rk2025": (),  # Eq. 13 (paper Table 1)
     "loading": ("chi",),  # removal weighted by how D' loads each part of A (docs/model.md)
+    "memory": ("memory_share", "memory_rate"),  # the part of A that D' does not load, removed at its own rate
 }
 DEFAULT_VARIANT = "rk2025"
-#: the range of each added parameter in which the law keeps A bounded (docs/model.md)
-EXTRA_RANGES = {"chi": (-0.5, 0.75)}
+#: the closed range of each added parameter: where the law keeps A bounded (chi < 3/4, docs/model.md), and a
+#: memory rate up to a removal within 0.001 strain
+EXTRA_RANGES = {"chi": (-0.5, 0.7), "memory_share": (0.0, 1.0), "memory_rate": (0.0, 1e3)}
 
 
 @dataclass(frozen=True)
@@ -55,6 +57,8 @@ class Params:
     phi_c: float = 0.652  # critical packing fraction
     variant: str = DEFAULT_VARIANT  # the fabric law (VARIANTS)
     chi: float = 0.0  # "loading": the removal of a part of A that D' does not load, less by this fraction
+    memory_share: float = 0.0  # "memory": the share of that part taken from beta2's removal ...
+    memory_rate: float = 0.0  # ... and removed instead at this rate per unit |D'| t
 
     def __post_init__(self):
         problems = []
@@ -89,8 +93,8 @@ class Params:
                 value = getattr(self, name)
                 if name not in VARIANTS[self.variant] and value != 0:
                     problems.append(f"{name}={value} belongs to another variant than {self.variant}")
-                elif not low <= value < high:
-                    problems.append(f"{name}={value} must lie in [{low}, {high})")
+                elif not low <= value <= high:
+                    problems.append(f"{name}={value} must lie in [{low}, {high}]")
         if problems:
             raise ParameterError("invalid model parameters: " + "; ".join(problems))
         values = [getattr(self, name) for name in self.names()]

@@ -21,13 +21,27 @@ def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params) -> np.ndarray:
     S = np.linalg.norm(A) - np.sum(A * Dd) / nD
     beta1 = params.a1 + params.b1 * S
     beta2 = params.a2 + params.b2 * S
-    return (beta1 * Dd + beta2 * nD * removed(A, Dd / nD, params)) / S**params.persistence_exponent - A @ W + W @ A
+    lam = S**params.persistence_exponent
+    rate = (beta1 * Dd + beta2 * nD * removed(A, Dd / nD, params)) / lam - A @ W + W @ A
+    if params.variant == "memory":
+        rate -= params.memory_share * params.memory_rate * nD * neutral(A, Dd / nD)
+    return rate
+
+
+def neutral(A: np.ndarray, Dh: np.ndarray) -> np.ndarray:
+    """A - dev(P A P), P = 2 Dh Dh: the part of A outside the plane of a simple shear's D'."""
+    P = 2 * Dh @ Dh
+    M = P @ A @ P
+    return A - (M - np.trace(M) * np.eye(3) / 3)
 
 
 def removed(A: np.ndarray, Dh: np.ndarray, params: Params) -> np.ndarray:
-    """What beta2 |D'| removes: A in Eq. 13; A - 2 chi (A - dev(E A + A E)), E = Dh Dh, in the "loading" law."""
+    """What beta2 |D'| removes: A in Eq. 13; A - 2 chi (A - dev(E A + A E)), E = Dh Dh, in the "loading" law;
+    A - memory_share N (``neutral``) in the "memory" law."""
     if params.variant == "rk2025":
         return A
+    if params.variant == "memory":
+        return A - params.memory_share * neutral(A, Dh)
     E = Dh @ Dh
     Q = E @ A + A @ E
     Q -= np.trace(Q) * np.eye(3) / 3

@@ -45,9 +45,9 @@ class Settings:
         return tuple(n for n in global_fit.free_names(self.variant) if n not in self.hold)
 
     def start(self) -> model.Params:
-        """Where the global fit starts: Table 2, the variant's parameters at 0, the held ones at their values."""
-        return model.Params(variant=self.variant).replace(persistence_exponent=self.persistence_exponent,
-                                                          **self.hold)
+        """Where the global fit starts: Table 2, the variant's parameters at ``global_fit.VARIANT_START``, the held
+        ones at their values."""
+        return global_fit.start_of(self.variant, persistence_exponent=self.persistence_exponent, **self.hold)
 
     window: float = 0.05
     definitions: Definitions = PAPER_DEFINITIONS

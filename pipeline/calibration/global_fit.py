@@ -38,6 +38,24 @@ def free_names(variant: str = model.params.DEFAULT_VARIANT) -> tuple[str, ...]:
     return FREE + model.params.VARIANTS[variant]
 
 
+#: where a variant's added parameters start a fit: inside their range, where each one moves the model (at
+#: memory_share = 0 the memory rate does nothing); the others start at 0, which is Eq. 13
+VARIANT_START = {"memory_share": 0.5, "memory_rate": 5.0}
+
+
+def start_of(variant: str, **given) -> model.Params:
+    """Table 2 with ``variant``'s added parameters at ``VARIANT_START`` (else 0) and ``given`` on top."""
+    extras = {n: VARIANT_START.get(n, 0.0) for n in model.params.VARIANTS[variant]}
+    return model.Params(variant=variant, **extras).replace(**given)
+
+
+def bounds_of(names) -> tuple[np.ndarray, np.ndarray]:
+    """The fit's bounds: a variant's added parameters within their range (``model.params.EXTRA_RANGES``), the
+    others free."""
+    ranges = [model.params.EXTRA_RANGES.get(n, (-np.inf, np.inf)) for n in names]
+    return np.array([lo for lo, _ in ranges]), np.array([hi for _, hi in ranges])
+
+
 #: the components of tau/p each choice fits (A is fitted over every one of ``COMPONENTS``). "shear", the default,
 #: is the paper's (Sec. 4): C from tau12 (Eq. 15), Y from tau:D' (Eq. 16), whose D' has only the 12 and 32
 #: components (the gradient along e2), the fabric law from every component of A (Eq. 9). The others carry the DEM's
@@ -314,8 +332,9 @@ def refine(data: list[FitCycle], start: model.Params, names=FREE, max_nfev: int 
     if not data:
         raise CalibrationError("no run to fit")
     x0 = np.array([getattr(start, n) for n in names])
-    sol = least_squares(residuals, x0, args=(data, start, names), x_scale=np.maximum(np.abs(x0), 1e-2),
-                        max_nfev=max_nfev, method="trf")
+    lower, upper = bounds_of(names)
+    sol = least_squares(residuals, np.clip(x0, lower, upper), args=(data, start, names),
+                        x_scale=np.maximum(np.abs(x0), 1e-2), max_nfev=max_nfev, method="trf", bounds=(lower, upper))
     if not sol.success or not np.all(np.isfinite(sol.x)):
         raise CalibrationError(f"the global fit did not converge ({sol.message})")
     chi2 = float(2 * sol.cost)

@@ -11,17 +11,22 @@ from model.kinematics import deviator, rotation_about_e2, shear_direction, shear
 from tests.unit.test_model_properties import ANGLES, random_rotation
 
 #: one parameter set per variant and sign of its added parameters, Table 2's otherwise
-VARIANT_SETS = [Params(variant="loading", chi=0.4), Params(variant="loading", chi=-0.3)]
-IDS = [f"{p.variant}-chi{p.chi:+g}" for p in VARIANT_SETS]
+VARIANT_SETS = [Params(variant="loading", chi=0.4), Params(variant="loading", chi=-0.3),
+                Params(variant="memory", memory_share=1.0, memory_rate=3.0),
+                Params(variant="memory", memory_share=0.5, memory_rate=40.0)]
+IDS = ["loading+", "loading-", "memory-slow", "memory-half-fast"]
 
 
-def test_a_variant_with_its_parameters_at_zero_is_eq13_bit_for_bit():
+@pytest.mark.parametrize("variant, tiny", [("loading", {"chi": 1e-13}),
+                                           ("memory", {"memory_share": 1e-13, "memory_rate": 5.0})])
+def test_a_variant_with_its_parameters_at_zero_is_eq13_bit_for_bit(variant, tiny):
     for theta in (180, 150):
         paper = predict(theta)
-        zero = predict(theta, params=Params(variant="loading"))
+        zero = predict(theta, params=Params(variant=variant))
         assert np.array_equal(zero.A, paper.A) and np.array_equal(zero.tau, paper.tau)
-        tiny = predict(theta, params=Params(variant="loading", chi=1e-13))
-        assert 0 < np.max(np.abs(tiny.A - paper.A)) < 1e-12
+        near = predict(theta, params=Params(variant=variant, **tiny))
+        assert np.max(np.abs(near.A - paper.A)) < 1e-12
+        assert np.max(np.abs(near.A - paper.A)) >= (1e-20 if theta == 150 else 0)
 
 
 @pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
@@ -108,6 +113,20 @@ def test_loading_keeps_the_part_the_new_shear_does_not_load_longer():
     assert np.all(kept[0.4] > kept[0.0]) and np.all(kept[0.0] > kept[-0.3])
 
 
+def test_memory_removes_the_part_the_new_shear_does_not_load_at_its_own_rate():
+    """With memory_share = 1 the neutral part of A after a turn decays as exp(-memory_rate |D'| t), |D'| t = the shear
+    strain over sqrt(2), whatever S does (up to the spin's slow turn of it, cos(strain / 2))."""
+    t_dir = shear_direction(150.0 + 90.0)
+    N = (np.outer(t_dir, [0, 1, 0]) + np.outer([0, 1, 0], t_dir)) / np.sqrt(2)
+    after = np.array([0.05, 0.1, 0.2, 0.3])
+    for rate in (3.0, 8.0):
+        cycle = predict(150, params=Params(variant="memory", memory_share=1.0, memory_rate=rate),
+                        times=np.concatenate([[0.7], 0.7 + after]))
+        part = np.einsum("kij,ij->k", cycle.A, N)
+        np.testing.assert_allclose(part[1:] / part[0], np.exp(-rate * after / np.sqrt(2)) * np.cos(after / 2),
+                                   rtol=0.02)
+
+
 @pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
 def test_the_material_point_update_takes_the_variant(params):
     cycle = predict(150, params=params, times=np.arange(281) * 0.005, rtol=1e-12, atol=1e-14)
@@ -123,8 +142,9 @@ def test_the_material_point_update_takes_the_variant(params):
 @pytest.mark.parametrize("values, message", [
     ({"variant": "loading"}, "missing keys chi"),
     ({"chi": 0.1}, "unknown keys chi"),
-    ({"variant": "loading", "chi": 0.9}, r"chi=0.9 must lie in \[-0.5, 0.75\)"),
-    ({"variant": "other"}, "variant='other' is not one of rk2025, loading"),
+    ({"variant": "loading", "chi": 0.9}, r"chi=0.9 must lie in \[-0.5, 0.7\]"),
+    ({"variant": "memory", "memory_share": 1.5, "memory_rate": 1.0}, r"memory_share=1.5 must lie in \[0.0, 1.0\]"),
+    ({"variant": "other"}, "variant='other' is not one of rk2025, loading, memory"),
 ])
 def test_a_parameter_file_names_its_variant_and_only_its_parameters(values, message):
     with pytest.raises(model.ParameterError, match=message):
