@@ -14,9 +14,10 @@ import numba
 import numpy as np
 
 # indices into Params.as_array()
-C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C, VARIANT, CHI, MEMORY_SHARE, MEMORY_RATE = range(17)
+(C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C, VARIANT, CHI, MEMORY_SHARE, MEMORY_RATE,
+ JUMP_FABRIC) = range(18)
 # values of p[VARIANT]: the index of the fabric law in model.params.VARIANTS
-RK2025, LOADING, MEMORY = 0.0, 1.0, 2.0
+RK2025, LOADING, MEMORY, JUMP = 0.0, 1.0, 2.0, 3.0
 
 jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
@@ -173,12 +174,22 @@ def fabric_rates(y, Dh, Wn, p):
     n23 = beta1 * d23 + beta2 * r23 + lam * j23
     c2 = dilatancy_c2(S, p)
     g = p[C1] * double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23) + c2 * (p[PHI_C] + p[C3])
+    if p[VARIANT] == JUMP:
+        g += p[C1] * p[JUMP_FABRIC]  # Eq. 18 on the fabric A + kappa Dh: (A + kappa Dh):Dh = A:Dh + kappa
     return n11, n22, n12, n13, n23, lam, g, c2
 
 
 @jit
+def jump_part(p):
+    """kappa of the "jump" variant (the fabric is the state A plus kappa D'/|D'|), 0 for every other law."""
+    return p[JUMP_FABRIC] if p[VARIANT] == JUMP else 0.0
+
+
+@jit
 def observables_into(A, Dh, p, S, tau, w_shear, w_vol_base):
-    """Fill S, tau/p (Eq. 14), tau:D'/(p |D'|) and c1 A:Dh for stacks A, Dh = D'/|D'| (n, 3, 3)."""
+    """Fill S, tau/p (Eq. 14), tau:D'/(p |D'|) and c1 A:Dh for stacks of states A and Dh = D'/|D'| (n, 3, 3); with
+    the "jump" variant the fabric in Eqs. 14 and 18 is A + kappa Dh (``jump_part``), S that of A."""
+    kappa = jump_part(p)
     for i in range(A.shape[0]):
         a = A[i]
         d = Dh[i]
@@ -189,8 +200,9 @@ def observables_into(A, Dh, p, S, tau, w_shear, w_vol_base):
         x = 0.0
         for j in range(3):
             for k in range(3):
-                tau[i, j, k] = p[C] * a[j, k] + y * d[j, k]
+                tau[i, j, k] = p[C] * (a[j, k] + kappa * d[j, k]) + y * d[j, k]
                 x += a[j, k] * d[j, k]
+        x += kappa
         w_shear[i] = p[C] * x + y  # tau:D'/(p |D'|) = C A:Dh + Y   (Eq. 17, first term)
         w_vol_base[i] = p[C1] * x  # c1 A:Dh; the Phi-dependent part is added by the caller
 

@@ -31,11 +31,12 @@ VARIANTS = {
     "rk2025": (),  # Eq. 13 (paper Table 1)
     "loading": ("chi",),  # removal weighted by how D' loads each part of A (docs/model.md)
     "memory": ("memory_share", "memory_rate"),  # the part of A that D' does not load, removed at its own rate
+    "jump": ("jump_fabric",),  # a part of the fabric, kappa D'/|D'|, that follows D' at once
 }
 DEFAULT_VARIANT = "rk2025"
 #: the closed range of each added parameter: where the law keeps A bounded (chi < 3/4, docs/model.md), and a
 #: memory rate up to a removal within 0.001 strain
-EXTRA_RANGES = {"chi": (-0.5, 0.7), "memory_share": (0.0, 1.0), "memory_rate": (0.0, 1e3)}
+EXTRA_RANGES = {"chi": (-0.5, 0.7), "memory_share": (0.0, 1.0), "memory_rate": (0.0, 1e3), "jump_fabric": (-0.1, 0.1)}
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,7 @@ class Params:
     chi: float = 0.0  # "loading": the removal of a part of A that D' does not load, less by this fraction
     memory_share: float = 0.0  # "memory": the share of that part taken from beta2's removal ...
     memory_rate: float = 0.0  # ... and removed instead at this rate per unit |D'| t
+    jump_fabric: float = 0.0  # "jump": the fabric is the state A plus this times D'/|D'|
 
     def __post_init__(self):
         problems = []

@@ -48,23 +48,33 @@ def removed(A: np.ndarray, Dh: np.ndarray, params: Params) -> np.ndarray:
     return A - 2 * params.chi * (A - Q)
 
 
+def jump(L: np.ndarray, params: Params) -> np.ndarray:
+    """kappa D'/|D'|, the part of the "jump" variant's fabric beyond its state (zero for every other law)."""
+    if params.variant != "jump":
+        return np.zeros((3, 3))
+    D = 0.5 * (L + L.T)
+    Dd = D - np.trace(D) * np.eye(3) / 3
+    return params.jump_fabric * Dd / np.linalg.norm(Dd)
+
+
 def packing_rate(A: np.ndarray, phi: float, L: np.ndarray, params: Params) -> float:
-    """dPhi/dt from Eq. 18."""
+    """dPhi/dt from Eq. 18, on the fabric A + ``jump`` (S from the state A)."""
     D = 0.5 * (L + L.T)
     Dd = D - np.trace(D) * np.eye(3) / 3
     nD = np.linalg.norm(Dd)
     S = np.linalg.norm(A) - np.sum(A * Dd) / nD
     c2 = params.c2_coef * S**params.c2_exponent
-    return phi * (params.c1 * np.sum(A * Dd) + c2 * (params.phi_c - phi + params.c3) * nD)
+    return phi * (params.c1 * np.sum((A + jump(L, params)) * Dd) + c2 * (params.phi_c - phi + params.c3) * nD)
 
 
 def solve(history: History, A0: np.ndarray, phi0: float, params: Params, strains: np.ndarray,
           rtol: float = 1e-13, atol: float = 1e-15, method: str = "DOP853"):
-    """Fabric (n, 3, 3), packing fraction (n,) and the number of right-hand-side calls."""
+    """Fabric (n, 3, 3), packing fraction (n,) and the number of right-hand-side calls. The "jump" variant's state
+    is the fabric less ``jump`` of the segment acting (``A0``: of the first)."""
     t_out = np.asarray(strains, dtype=float) / history.shear_rate
     A_out = np.full((t_out.size, 3, 3), np.nan)
     phi_out = np.full(t_out.size, np.nan)
-    y = np.concatenate([np.asarray(A0, float).ravel(), [phi0]])
+    y = np.concatenate([(np.asarray(A0, float) - jump(history.segments[0].L, params)).ravel(), [phi0]])
     bounds = history.boundaries
     nfev = 0
     for k, seg in enumerate(history.segments):
@@ -82,7 +92,7 @@ def solve(history: History, A0: np.ndarray, phi0: float, params: Params, strains
             raise RuntimeError(f"reference solver failed: {sol.message}")
         nfev += sol.nfev
         if mask.any():
-            A_out[mask] = sol.y[:9].T.reshape(-1, 3, 3)
+            A_out[mask] = sol.y[:9].T.reshape(-1, 3, 3) + jump(seg.L, params)
             phi_out[mask] = sol.y[9]
         end = solve_ivp(rhs, (t0, t1), y, method=method, rtol=rtol, atol=atol, t_eval=[t1]) if sol.t[-1] != t1 else sol
         y = end.y[:, -1]

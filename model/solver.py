@@ -100,6 +100,14 @@ def unpack_fabric(y: np.ndarray) -> np.ndarray:
     return A
 
 
+def jump_offset(params: Params, D_unit) -> np.ndarray:
+    """kappa D'/|D'| (3, 3): what the "jump" variant adds to its state to give the fabric under the unit stretching
+    ``D_unit`` (packed 11, 22, 33, 12, 13, 23); zero for every other law."""
+    d = np.asarray(D_unit, dtype=float)
+    kappa = params.jump_fabric if params.variant == "jump" else 0.0
+    return kappa * np.array([[d[0], d[3], d[4]], [d[3], d[1], d[5]], [d[4], d[5], d[2]]])
+
+
 def _initial_state(A: np.ndarray) -> np.ndarray:
     """Kernel state at t = 0: packed fabric, G = v = 0 (see ``model.integrator``)."""
     y0 = np.zeros(integrator.N_STATE)
@@ -237,7 +245,8 @@ def integrate(
     Parameters
     ----------
     history : the shear history (segments of constant velocity gradient).
-    A0 : (3, 3) initial fabric; default isotropic (A = 0, where S = 0).
+    A0 : (3, 3) initial fabric; default isotropic (A = 0, where S = 0). With the "jump" variant, the fabric at
+        the start of the first segment (its state is A0 less kappa D'/|D'|); the isotropic default is a state of 0.
     packing_fraction0 : initial Phi; default ``params.phi_c``.
     times : output strains t*gamma_dot in [0, total strain]; default every 0.005.
     method : 'dop853' (adaptive, regularised; default) or 'euler' (the paper's fixed-step baseline,
@@ -247,7 +256,9 @@ def integrate(
     params = _params(params)
     _check_tolerances(rtol, atol)
     p = params.as_array()
-    A0 = np.zeros((3, 3)) if A0 is None else _check_fabric(A0)
+    # the "jump" variant's state is the fabric less kappa D'/|D'| of the first segment; an isotropic start is a
+    # state of zero, before any shear
+    A0 = np.zeros((3, 3)) if A0 is None else _check_fabric(A0) - jump_offset(params, history.packed.D_unit[0])
     phi0 = params.phi_c if packing_fraction0 is None else float(packing_fraction0)
     if not (math.isfinite(phi0) and 0 < phi0 < 1):
         raise SolverError(f"packing_fraction0={packing_fraction0!r} must lie in (0, 1)")
@@ -283,7 +294,13 @@ def steady_state(L, params: Params | None = None, tol: float = 1e-13) -> tuple[n
     Found by integrating from the isotropic state until A changes by less than ``tol`` over a
     strain |D'| t = 1; Phi then solves Eq. 18 with Phi_dot = 0.
     """
-    params = _params(params)
+    A, phi = _steady_state(L, _params(params), tol)
+    L = np.ascontiguousarray(L, dtype=float)
+    return A + jump_offset(_params(params), History((Segment(1.0, L),)).packed.D_unit[0]), phi
+
+
+def _steady_state(L, params: Params, tol: float = 1e-13) -> tuple[np.ndarray, float]:
+    """The steady state (the model's state: for the "jump" variant, the fabric less kappa D'/|D'|) and Phi."""
     L = np.ascontiguousarray(L, dtype=float)
     A, phi = _steady_state_cached(L.tobytes(), params.as_array().tobytes(), tol)
     return A.copy(), phi
@@ -296,7 +313,7 @@ def reversal_start_rate(params: Params | None = None) -> float:
     direction, S stays near 0 where Lambda = S^k vanishes, and the model's own reversal can run away (Table 2:
     +3e-5, on the edge)."""
     params = _params(params)
-    A, _ = steady_state(shear_velocity_gradient(0.0), params)
+    A, _ = _steady_state(shear_velocity_gradient(0.0), params)
     return float(params.a1 + params.a2 * modulus(A))
 
 
@@ -350,7 +367,7 @@ def _off_table2(params: Params) -> str:
 
 def _periodic(history, params, strains, rtol, atol, cycle_tol, max_periods, s_ref) -> Result:
     p = params.as_array()
-    A_start, _ = steady_state(history.segments[-1].L, params)
+    A_start, _ = _steady_state(history.segments[-1].L, params)
     residual = math.inf
     no_output = np.empty(0)
     nfev = nsteps = nrejected = periods = 0
