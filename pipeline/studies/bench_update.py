@@ -5,8 +5,9 @@
 - Speed: point-updates per second for N points (default 1e5) whose phases are spread over the
   theta = 90 deg cycle (so reversal-adjacent steps come in their true share), 0.005 strain per update,
   each on its own velocity gradient; the best of repeated runs of ``STEPS`` updates.
-- Work-precision: both for several tolerances; threads: the default tolerance on 1..cores threads;
-  and the same points advanced by ``model.integrate`` one at a time, all measured side by side.
+- Work-precision: both for several tolerances; threads: the default tolerance on 1..cores threads (at most
+  numba's thread count); each fabric-law variant (``VARIANT_PARAMS``) on one thread on its own cycle's points; and
+  the same points advanced by ``model.integrate`` one at a time, all measured side by side.
 
 Writes results/bench/update.json and update.md.
 """
@@ -19,9 +20,10 @@ import platform
 import time
 from pathlib import Path
 
+import numba
 import numpy as np
 
-from model import PAPER, History, Segment, Update, integrate, periodic_cycle, predict, update
+from model import PAPER, History, Params, Segment, Update, integrate, periodic_cycle, predict, update
 from model.equations import observables
 from model.material_point import DEFAULT_RTOL
 
@@ -32,15 +34,19 @@ STEPS = 10  # updates per timed run
 RTOLS = (1e-4, 1e-6, DEFAULT_RTOL, 1e-10)
 ACCURACY_ANGLES = (90.0, 180.0)
 SPEED_ANGLE = 90.0
+#: each variant timed beside Eq. 13, at parameters where its added terms act (about the paper cell's fits)
+VARIANT_PARAMS = (PAPER, Params(variant="loading", chi=0.45),
+                  Params(variant="memory", memory_share=0.45, memory_rate=5.0),
+                  Params(variant="jump", jump_fabric=-0.013))
 
 
-def cycle_steps(theta: float):
+def cycle_steps(theta: float, params: Params = PAPER):
     """The velocity gradient of each 0.005-strain step of one period, and the predicted cycle."""
     history = periodic_cycle(theta)
     n = int(round(history.duration / STRAIN_STEP))
     segments = history.segment_index((np.arange(n) + 0.5) * STRAIN_STEP)
     L = np.array([history.segments[i].L for i in segments])
-    cycle = predict(theta, times=np.arange(n + 1) * STRAIN_STEP, rtol=1e-12, atol=1e-14)
+    cycle = predict(theta, params=params, times=np.arange(n + 1) * STRAIN_STEP, rtol=1e-12, atol=1e-14)
     return L, cycle
 
 
@@ -61,16 +67,17 @@ def worst_error(rtol: float) -> float:
     return worst
 
 
-def spread_points(n: int):
+def spread_points(n: int, params: Params = PAPER):
     """n points at phases spread over the theta = 90 deg cycle: their states and each step's L."""
-    L, cycle = cycle_steps(SPEED_ANGLE)
+    L, cycle = cycle_steps(SPEED_ANGLE, params)
     phase = np.arange(n) % len(L)
     return cycle.A[phase].copy(), cycle.packing_fraction[phase].copy(), L, phase
 
 
-def updates_per_second(n: int, rtol: float, threads: int, repeats: int = 3) -> tuple[float, float]:
+def updates_per_second(n: int, rtol: float, threads: int, repeats: int = 3,
+                       params: Params = PAPER) -> tuple[float, float]:
     """(point-updates per second, mean substeps) for ``STEPS`` updates of n spread points; best of repeats."""
-    A0, phi0, L, phase = spread_points(n)
+    A0, phi0, L, phase = spread_points(n, params)
     gradients = [np.ascontiguousarray(L[(phase + k) % len(L)]) for k in range(STEPS)]
     state = Update.empty(n)
     best, substeps = np.inf, 0.0
@@ -79,7 +86,8 @@ def updates_per_second(n: int, rtol: float, threads: int, repeats: int = 3) -> t
         start = time.perf_counter()
         total = 0
         for Lk in gradients:
-            update(state.A, state.phi, Lk, STRAIN_STEP, out=state, rtol=rtol, atol=rtol * 1e-2, threads=threads)
+            update(state.A, state.phi, Lk, STRAIN_STEP, params=params, out=state, rtol=rtol, atol=rtol * 1e-2,
+                   threads=threads)
             total += int(state.substeps.sum())
         best = min(best, time.perf_counter() - start)
         substeps = total / (n * STEPS)
@@ -108,6 +116,10 @@ def markdown(data: dict) -> str:
     lines += ["", "| threads | updates/s | speed-up |", "|---|---|---|"]
     base = data["threads"][0]["per_second"]
     lines += [f"| {r['threads']} | {r['per_second']:.3g} | {r['per_second'] / base:.2f}x |" for r in data["threads"]]
+    lines += ["", "| fabric law | updates/s, 1 thread | against Eq. 13 | substeps per update |", "|---|---|---|---|"]
+    first = data["variants"][0]["per_second"]
+    lines += [f"| {r['variant']} | {r['per_second']:.3g} | {r['per_second'] / first:.2f}x | {r['substeps']:.3f} |"
+              for r in data["variants"]]
     lines += ["", f"`model.integrate` one point at a time: {data['integrate_per_second']:.3g} updates/s; "
               f"`model.update` (default rtol, 1 thread) is {base / data['integrate_per_second']:.0f}x that.", ""]
     return "\n".join(lines)
@@ -121,10 +133,11 @@ def main(argv=None) -> int:
     if args.points < 1:
         parser.error(f"--points={args.points} must be >= 1")
     args.out.mkdir(parents=True, exist_ok=True)
-    cores = os.cpu_count() or 1
+    cores = min(os.cpu_count() or 1, numba.config.NUMBA_NUM_THREADS)
     A, phi, L, _ = spread_points(4)
     for threads in range(1, cores + 1):
-        update(A, phi, L[:4], STRAIN_STEP, threads=threads)  # compile / load before timing
+        for params in VARIANT_PARAMS:
+            update(A, phi, L[:4], STRAIN_STEP, params=params, threads=threads)  # compile / load before timing
     rows = []
     for rtol in RTOLS:
         print(f"update: rtol {rtol:g} ...", flush=True)
@@ -132,8 +145,12 @@ def main(argv=None) -> int:
         rows.append(dict(rtol=rtol, error=worst_error(rtol), per_second=rate, substeps=substeps))
     threads = [dict(threads=t, per_second=updates_per_second(args.points, DEFAULT_RTOL, t)[0])
                for t in range(1, cores + 1)]
+    variants = []
+    for params in VARIANT_PARAMS:
+        rate, substeps = updates_per_second(args.points, DEFAULT_RTOL, 1, params=params)
+        variants.append(dict(variant=params.variant, params=params.to_dict(), per_second=rate, substeps=substeps))
     data = dict(machine=f"{platform.processor() or platform.machine()}, {cores} cores", points=args.points,
-                strain_step=STRAIN_STEP, work_precision=rows, threads=threads,
+                strain_step=STRAIN_STEP, work_precision=rows, threads=threads, variants=variants,
                 integrate_per_second=integrate_per_second(min(args.points, 2000)))
     path = write_table(args.out, "update", data, markdown(data))
     print(path.read_text())
