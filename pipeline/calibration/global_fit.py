@@ -187,7 +187,7 @@ def directions(covariance: np.ndarray, values: np.ndarray, names) -> tuple[dict,
     return tuple(sorted(out, key=lambda d: -d["relative_step"]))
 
 
-def _scaled(d: FitCycle, pred, pick=slice(None)) -> tuple[np.ndarray, np.ndarray]:
+def scaled_residuals(d: FitCycle, pred, pick=slice(None)) -> tuple[np.ndarray, np.ndarray]:
     """(A, tau) residuals ``(samples, components)`` of ``pred`` against the samples ``pick`` of ``d``, over the
     noise scale."""
     i, j = np.array(COMPONENTS).T
@@ -212,11 +212,11 @@ def _restarted_residuals(d: FitCycle, params: model.Params) -> tuple[np.ndarray,
     parts_A, parts_tau = [], []
     for k in range(len(d.restarts)):
         pick = d.segment_mask(k)
-        r_A, r_tau = _scaled(d, d.segment_prediction(params, k), pick)
+        r_A, r_tau = scaled_residuals(d, d.segment_prediction(params, k), pick)
         base = np.concatenate([r_A.ravel(), r_tau.ravel()])
         columns = []
         for E in TRACELESS_BASIS:
-            e_A, e_tau = _scaled(d, d.segment_prediction(params, k, RESTART_STEP * E), pick)
+            e_A, e_tau = scaled_residuals(d, d.segment_prediction(params, k, RESTART_STEP * E), pick)
             columns.append((np.concatenate([e_A.ravel(), e_tau.ravel()]) - base) / RESTART_STEP)
         sensitivity = np.stack(columns, axis=1)
         offset, *_ = np.linalg.lstsq(sensitivity, -base, rcond=None)
@@ -233,7 +233,7 @@ def residuals(values: np.ndarray, data: list[FitCycle], base: model.Params, name
     out = []
     for d in data:
         try:
-            r_A, r_tau = _restarted_residuals(d, params) if d.restarts else _scaled(d, d.prediction(params))
+            r_A, r_tau = _restarted_residuals(d, params) if d.restarts else scaled_residuals(d, d.prediction(params))
         except (model.SolverError, model.ParameterError):
             return np.full(sum(2 * len(x.strain) * len(COMPONENTS) for x in data), 1e3)
         root = np.sqrt(d.weight)

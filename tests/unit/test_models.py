@@ -64,3 +64,39 @@ def test_the_fit_recovers_a_variants_known_parameters(tmp_path, added):
         for name, value, se in zip(fit.names[-len(added):], fit.values[-len(added):],
                                    fit.standard_errors[-len(added):], strict=True):
             assert abs(value - added[name]) < 3 * se, name
+
+
+def test_the_held_out_comparison_tells_the_truth_from_a_wrong_law_and_is_antisymmetric(tmp_path):
+    """On runs made by Table 2 with noise, Table 2 predicts them better than a law with another b2 by many standard
+    deviations of the noise; a law against itself is no better; swapping the two flips the sign."""
+    runs = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=2, noise=0.003, seed=int(t))
+            for t in (180.0, 90.0)]
+    _, noise = global_fit.prepare(runs)
+    truth = [models.held_out(r, model.PAPER, noise, global_fit.STRESS_DEFAULT, {}) for r in runs]
+    wrong = [models.held_out(r, model.PAPER.replace(b2=-30.0), noise, global_fit.STRESS_DEFAULT, {}) for r in runs]
+    assert models.compared(truth, wrong) > models.BEYOND_NOISE_Z
+    assert models.compared(wrong, truth) == pytest.approx(-models.compared(truth, wrong))
+    assert models.compared(truth, truth) == 0.0
+
+
+@pytest.mark.slow
+def test_the_comparisons_z_is_a_unit_normal_about_its_noise_free_value(tmp_path):
+    """Runs made by Table 2 with correlated noise (three cycles, so the noise model is measured), judged by two laws
+    (b2 -34 and -36): over 24 noise draws, the z of one against the other less its value on the same runs without
+    noise (where the laws' own difference alone sets it) has mean about 0 and spread about 1, so |z| > 2 means what
+    it says."""
+    clean = [synthetic_run(tmp_path, theta=t, name=f"clean-{int(t)}", n_cycles=3) for t in (180.0, 90.0)]
+    laws = [model.PAPER.replace(b2=b2) for b2 in (-34.0, -36.0)]
+    shifts = []
+    for draw in range(24):
+        runs = [synthetic_run(tmp_path, theta=t, name=f"d{draw}-{int(t)}", n_cycles=3, seed=1000 * draw + int(t),
+                              noise=0.01, correlation_strain=0.03, a_tau_correlation=-0.5) for t in (180.0, 90.0)]
+        _, noise = global_fit.prepare(runs)
+        z = {}
+        for label, judged in (("noisy", runs), ("clean", clean)):
+            one, two = ([models.held_out(r, law, noise, global_fit.STRESS_DEFAULT, {}) for r in judged] for law in laws)
+            z[label] = models.compared(one, two)
+        shifts.append(z["noisy"] - z["clean"])
+        for r in runs:
+            r.path.unlink()
+    assert abs(np.mean(shifts)) < 0.6 and 0.6 < np.std(shifts, ddof=1) < 1.5, shifts
