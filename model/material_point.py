@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import threading
 from dataclasses import dataclass
 
 import numba
@@ -350,9 +351,10 @@ def update(A, phi, L, dt, params: Params | None = None, out: Update | None = Non
     _check_overlaps({"A": A, "phi": phi, "L": L, "dt": dt}, out)
     lam_ref = s_ref ** p[K_PERSIST]
     arrays = (out.A, out.phi, out.tau_over_p, out.S, out.substeps, out.stationary)
-    if threads == 1:
+    if threads == 1 and (n < CHUNK or threading.current_thread() is not threading.main_thread()):
+        # a few points, or a caller's own thread (numba's workqueue pool takes one caller at a time): no pool
         failures, first, status = _update_serial(A, phi, L, dt, p, lam_ref, rtol, atol, *arrays)
-    else:
+    else:  # the pool's kernel, on one thread too: compiled as a parallel loop it runs about 15 % faster per thread
         previous = numba.get_num_threads()
         numba.set_num_threads(threads)
         try:

@@ -9,7 +9,18 @@ import pytest
 from scipy.linalg import expm
 
 import model
-from model import PAPER, History, Segment, SolverError, Update, integrate, periodic_cycle, predict, update
+from model import (
+    PAPER,
+    History,
+    Segment,
+    SolverError,
+    Update,
+    integrate,
+    material_point,
+    periodic_cycle,
+    predict,
+    update,
+)
 from model.equations import observables
 from model.kinematics import shear_velocity_gradient
 
@@ -135,6 +146,33 @@ def test_threads_agree_bit_for_bit():
     batch, parallel = update(A, phi, L, dt), update(A, phi, L, dt, threads=2)
     for name in ("A", "phi", "tau_over_p", "S", "substeps", "stationary"):
         assert np.array_equal(getattr(parallel, name), getattr(batch, name), equal_nan=name != "substeps"), name
+
+
+def test_one_thread_from_callers_own_threads_at_once_agrees_with_the_main_threads():
+    """On the main thread a batch goes through numba's pool (on one thread); from a caller's own threads, which the
+    pool would refuse at once, through the kernel without it: the same numbers, and no crash."""
+    import threading
+
+    A, phi, L, dt = random_batch()
+    assert len(A) >= material_point.CHUNK
+    expected = update(A, phi, L, dt)
+    results, errors = {}, []
+
+    def work(k):
+        try:
+            for _ in range(3):
+                results[k] = update(A, phi, L, dt)
+        except Exception as exc:  # noqa: BLE001 - reported below
+            errors.append(exc)
+
+    workers = [threading.Thread(target=work, args=(k,)) for k in range(3)]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    assert not errors and len(results) == 3
+    for result in results.values():
+        assert np.array_equal(result.A, expected.A) and np.array_equal(result.phi, expected.phi)
 
 
 def test_in_place_update_and_broadcast_forms():
