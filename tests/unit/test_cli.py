@@ -24,6 +24,21 @@ def test_predict_writes_the_cycle_as_csv(tmp_path):
     assert not list(tmp_path.rglob("*.tmp"))
 
 
+@pytest.mark.parametrize("umask, mode", [(0o022, 0o644), (0o002, 0o664), (0o077, 0o600)])
+def test_files_written_get_the_umasks_permissions(tmp_path, umask, mode):
+    """As a plain open() would: a group that may read the folder may read the cycle and the parameters."""
+    import os
+
+    before = os.umask(umask)
+    try:
+        assert main(["predict", "--theta", "90", "--times", "0,1.4", "--out", str(tmp_path / "c.csv")]) == 0
+        assert main(["params", "--out", str(tmp_path / "p.json")]) == 0
+    finally:
+        os.umask(before)
+    for name in ("c.csv", "p.json"):
+        assert (tmp_path / name).stat().st_mode & 0o777 == mode, name
+
+
 def test_params_file_round_trip(tmp_path):
     path = tmp_path / "p.json"
     assert main(["params", "--out", str(path)]) == 0
