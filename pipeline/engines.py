@@ -3,8 +3,8 @@
 An engine is a package under ``dem/`` that implements the adapter contract of ``dem/core/contract.py`` plus one
 entry of ``ENGINES`` here: the module its scene runs as (``python3 -m <scene> RUN_DIR``, Debian's python3), the files
 of its checkpoint, its own log (where it writes the errors it stops on), the make target that installs it and the
-code that fails where it cannot start, whether it runs on MPI ranks, and the starts of the lines it prints that
-are not the scene's. The first entry is the reference, the default everywhere. Standard library
+code that fails where it cannot start, whether it runs on MPI ranks or on threads, and the starts of the lines it
+prints that are not the scene's. The first entry is the reference, the default everywhere. Standard library
 only: the Makefile's checks read it before anything is installed.
 """
 
@@ -27,6 +27,7 @@ class Engine:
     start_check: str
     log: str | None = None
     mpi: bool = False
+    threads: bool = False  # the scene uses OpenMP threads (THREADS=)
     noise: tuple[str, ...] = ()
 
     def last_error(self, run_dir: Path) -> str:
@@ -39,13 +40,14 @@ class Engine:
 
 
 ENGINES: dict[str, Engine] = {e.name: e for e in (
-    Engine("yade", "dem.yade.scene", ("checkpoint.yade.gz",), "system", "import dem.yade.lib",
+    Engine("yade", "dem.yade.scene", ("checkpoint.yade.gz",), "system", "import dem.yade.lib", threads=True,
            noise=("Using python version",)),
     Engine("lammps", "dem.lammps.scene", ("restart_*.lmp",), "system-lammps",
            "from dem.lammps.lib import new_lammps; new_lammps().close()", log="lammps.log", mpi=True),
 )}
-#: the engines that run on MPI ranks, as a message names them
+#: the engines that run on MPI ranks, and those that run on threads, as a message names them
 MPI_ENGINES = " or ".join(e.name for e in ENGINES.values() if e.mpi)
+THREADED_ENGINES = " or ".join(e.name for e in ENGINES.values() if e.threads)
 #: the reference engine: the default of every run and data set, and the one whose runs' folders carry no suffix
 DEFAULT_ENGINE = next(iter(ENGINES))
 

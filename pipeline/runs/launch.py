@@ -240,6 +240,9 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
     if ranks != 1 and not engines.ENGINES[spec.engine].mpi:
         raise SpecError(f"ranks={ranks}: MPI ranks are for ENGINE={engines.MPI_ENGINES} ({spec.engine} runs on "
                         "threads: THREADS=)")
+    if threads != 1 and not engines.ENGINES[spec.engine].threads:
+        raise SpecError(f"threads={threads}: threads are for ENGINE={engines.THREADED_ENGINES} ({spec.engine} runs "
+                        "on MPI ranks: RANKS=)")
     out = run_spec.output_path(spec, results_dir)
     if out.exists() and not fresh:
         stored = stored_spec(out)

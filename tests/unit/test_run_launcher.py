@@ -106,3 +106,14 @@ def test_a_damaged_provenance_is_one_line_before_the_scene_starts(tmp_path):
         (run_dir / "provenance.json").write_text(text)
         with pytest.raises(SpecError, match=r"provenance.json is damaged .*: rerun with FRESH=1"):
             dem.run(spec, tmp_path / str(k))
+
+
+@pytest.mark.parametrize("engine, options, message", [
+    ("lammps", {"threads": 2}, "threads=2: threads are for ENGINE=yade (lammps runs on MPI ranks: RANKS=)"),
+    ("yade", {"ranks": 2}, "ranks=2: MPI ranks are for ENGINE=lammps (yade runs on threads: THREADS=)"),
+])
+def test_an_option_the_engine_would_ignore_is_refused_before_anything_runs(tmp_path, engine, options, message):
+    spec = run_spec.resolve(180.0, "tiny", None, {}, engine=engine)
+    with pytest.raises(SpecError) as refused:
+        dem.run(spec, tmp_path, **options)
+    assert str(refused.value) == message and not any(tmp_path.iterdir())

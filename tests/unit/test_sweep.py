@@ -83,6 +83,8 @@ def test_a_lammps_sweep_on_slurm_asks_one_task_per_rank_and_bounds_checkpoints_a
         slurm.check_slurm(config, plan("paper", "180", results=tmp_path), cluster["throughput"])
     with pytest.raises(SpecError, match="ranks_per_run=0 must be between 1 and 256"):
         slurm.check_slurm(slurm.apply_overrides(config, ["ranks_per_run=0"], "slurm"), sweep, cluster["throughput"])
+    with pytest.raises(SpecError, match="threads_per_run=2: threads are for ENGINE=yade \\(lammps runs on MPI ranks"):
+        slurm.check_slurm(slurm.apply_overrides(config, ["threads_per_run=2"], "slurm"), sweep, cluster["throughput"])
 
 
 def test_a_plan_with_runs_outside_results_or_too_many_runs_is_refused(tmp_path):

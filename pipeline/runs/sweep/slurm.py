@@ -71,6 +71,9 @@ def check_slurm(config: dict, sweep: Sweep, throughput: dict) -> None:
     if config["ranks_per_run"] > 1 and not engines.ENGINES[spec.engine].mpi:
         raise SpecError(f"slurm ranks_per_run={config['ranks_per_run']}: MPI ranks are for "
                         f"ENGINE={engines.MPI_ENGINES} ({spec.engine} runs on threads: threads_per_run)")
+    if config["threads_per_run"] > 1 and not engines.ENGINES[spec.engine].threads:
+        raise SpecError(f"slurm threads_per_run={config['threads_per_run']}: threads are for "
+                        f"ENGINE={engines.THREADED_ENGINES} ({spec.engine} runs on MPI ranks: ranks_per_run)")
     limit = time_limit_seconds(config["time_limit"])
     lead = config["signal_lead_seconds"]
     rates = throughput[spec.engine]
