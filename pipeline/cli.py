@@ -1,13 +1,27 @@
 """What every pipeline command line shares: argparse with one-line errors."""
 
 import argparse
+from pathlib import Path
+
+
+def given_path(text: str) -> Path:
+    """A path option's value; an empty one would be the current folder, which no option means."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"{text!r} is empty: give a path")
+    return Path(text)
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse whose errors are one line (no usage dump) with exit status 2."""
+    """argparse whose errors are one line (no usage dump) with exit status 2; every ``type=Path`` option refuses an
+    empty value (``given_path``)."""
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+    def add_argument(self, *args, **kwargs):
+        if kwargs.get("type") is Path:
+            kwargs["type"] = given_path
+        return super().add_argument(*args, **kwargs)
 
 
 def one_line_errors(main):

@@ -9,7 +9,6 @@ in one run. Writes results/bench/{work_precision.csv, work_precision.png, report
 
 from __future__ import annotations
 
-import argparse
 import platform
 import time
 from pathlib import Path
@@ -29,6 +28,7 @@ from model import (
 )
 from model.equations import observables
 
+from ..cli import Parser
 from ..figures.output import save
 
 CASES = {
@@ -146,7 +146,7 @@ def plot(df: pd.DataFrame, path: Path) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pipeline.studies.bench_model", description=__doc__)
+    parser = Parser(prog="python -m pipeline.studies.bench_model", description=__doc__)
     parser.add_argument("--out", type=Path, default=Path("results/bench"), help="output folder")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)

@@ -14,7 +14,6 @@ Writes results/bench/update.json and update.md.
 
 from __future__ import annotations
 
-import argparse
 import os
 import platform
 import time
@@ -27,6 +26,7 @@ from model import PAPER, History, Params, Segment, Update, integrate, periodic_c
 from model.equations import observables
 from model.material_point import DEFAULT_RTOL
 
+from ..cli import Parser
 from ..io import write_table
 
 STRAIN_STEP = 0.005
@@ -126,7 +126,7 @@ def markdown(data: dict) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m pipeline.studies.bench_update", description=__doc__)
+    parser = Parser(prog="python -m pipeline.studies.bench_update", description=__doc__)
     parser.add_argument("--out", type=Path, default=Path("results/bench"), help="output folder")
     parser.add_argument("--points", type=int, default=100_000, help="points per update (default 1e5)")
     args = parser.parse_args(argv)

@@ -320,3 +320,20 @@ def test_the_lammps_settings_benchmark_refuses(tmp_path, folder, extra, fragment
                                  "atom_modify sort 1000 0.0", *extra, "--out", str(out)])
     assert_refused(proc, fragment)
     assert not out.exists()
+
+
+# ---------------------------------------------------------------- an empty path is no path
+@pytest.mark.parametrize("module, argv", [
+    ("pipeline.calibration", ["--preset", "reduced", "--out", ""]),
+    ("pipeline.comparison.models", ["--preset", "reduced", "--out", " "]),
+    ("pipeline.figures", ["--preset", "reduced", "--out", ""]),
+    ("pipeline.runs", ["run", "--theta", "90", "--preset", "tiny", "--results", ""]),
+    ("pipeline.studies.bench_update", ["--out", ""]),
+])
+def test_an_empty_path_is_refused_not_taken_as_the_current_folder(tmp_path, monkeypatch, module, argv):
+    """Every pipeline command line's path options (``pipeline.cli.Parser``): '' would be '.', and a fit or a run
+    would land among the user's own files."""
+    monkeypatch.chdir(tmp_path)
+    proc = run_main(module_main(module), argv)
+    assert proc.returncode == 2 and "is empty: give a path" in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and not any(tmp_path.iterdir())
