@@ -7,6 +7,15 @@ LMP_STYLE_GLOBAL, LMP_STYLE_LOCAL = 0, 2
 LMP_TYPE_VECTOR, LMP_TYPE_ARRAY = 1, 2
 
 
+def quoted(path) -> str:
+    """``path`` as one argument of a LAMMPS command, whatever spaces or characters it holds (LAMMPS splits its
+    commands at white space; triple quotes keep an argument whole)."""
+    text = str(path)
+    if '"""' in text:
+        raise ValueError(f"{text!r}: a path with three double quotes in a row cannot be given to LAMMPS")
+    return f'"""{text}"""'
+
+
 def new_lammps(ranks_comm=None, log=None):
     """A LAMMPS instance that writes nothing to the screen and appends its log to ``log`` (none by default); a
     one-line ImportError naming the packages when LAMMPS is missing.
@@ -26,6 +35,6 @@ def new_lammps(ranks_comm=None, log=None):
     except OSError as exc:
         raise ImportError(f"LAMMPS's library cannot be loaded ({exc}): apt-get install liblammps-dev") from None
     if log:
-        lmp.command(f"log {log} append")
+        lmp.command(f"log {quoted(log)} append")
     return lmp
 

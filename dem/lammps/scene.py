@@ -36,7 +36,7 @@ from dem.core.rawfile import sync
 from dem.core.spec import read_spec, same_spec
 from dem.core.state import RunState
 from dem.lammps.contact import pair_commands
-from dem.lammps.lib import LMP_STYLE_GLOBAL, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY, LMP_TYPE_VECTOR, new_lammps
+from dem.lammps.lib import LMP_STYLE_GLOBAL, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY, LMP_TYPE_VECTOR, new_lammps, quoted
 
 #: MPI ranks of this run (``mpirun -np N``, ``RANKS=N``): each drives the same protocol on data gathered from all
 RANKS = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))
@@ -214,9 +214,12 @@ class Scene:
     """The LAMMPS scene of one run folder (``driver.run_scene``'s scene)."""
 
     def __init__(self, run_dir, continued=False):
-        self.run_dir = run_dir
+        # LAMMPS's input parser mangles non-ASCII characters: its files are named relative to the run folder, the
+        # working folder of every rank
+        self.run_dir = os.path.abspath(run_dir)
+        os.chdir(self.run_dir)
         self.continued = continued
-        self.spec = read_spec(os.path.join(run_dir, "spec.json"))
+        self.spec = read_spec(os.path.join(self.run_dir, "spec.json"))
         self.lmp = None
         self.run = None
         self.stop = {"count": 0, "signal": 0}  # the driver's (``stop_on_signals``) from the first ``advance``
@@ -240,7 +243,7 @@ class Scene:
 
     def new_lammps(self):
         with driver.stop_signals_held():  # at one rank LAMMPS starts MPI here, and its threads
-            self.lmp = new_lammps(COMM, log=os.path.join(self.run_dir, "lammps.log"))
+            self.lmp = new_lammps(COMM, log="lammps.log")
         return self.lmp
 
     def attach(self, state, restarted):
@@ -287,7 +290,7 @@ class Scene:
         name = f"restart_{run.iteration():012d}.lmp"
         path = os.path.join(self.run_dir, name)
         self.lmp.command("run 0 post no")  # atoms back in the box, neighbour lists and contact history current
-        self.lmp.command(f"write_restart {path} noinit")
+        self.lmp.command(f"write_restart {quoted(name)} noinit")
         if not run.writer:
             return
         sync(path)
@@ -348,7 +351,7 @@ class Scene:
         lmp = self.new_lammps()
         for command in DOMAIN:
             lmp.command(command)
-        lmp.command(f"read_restart {restart}")
+        lmp.command(f"read_restart {quoted(record['restart'])}")
         try:
             return self.attach(RunState.from_dict(record["state"]), restarted=True)
         except (OSError, ValueError, KeyError, TypeError, EOFError) as exc:

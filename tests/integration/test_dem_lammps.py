@@ -136,17 +136,21 @@ def test_a_lammps_run_needs_no_yade(both_engines, tmp_path):
 
 def test_an_interrupted_lammps_run_resumes_bit_identical_to_an_uninterrupted_one(both_engines, tmp_path):
     """SIGINT stops the scene at its next checkpoint (exit 130); the same command resumes it; every sample equals
-    the uninterrupted run's, bit for bit (each run reads each of its checkpoints back in a new process)."""
-    results, runs = both_engines
-    status, rest = interrupt_at_first_sample(tmp_path)
+    the uninterrupted run's, bit for bit (each run reads each of its checkpoints back in a new process). The
+    results folder's name holds a space and a non-ASCII character, which LAMMPS's input parser would split or
+    mangle."""
+    _, runs = both_engines
+    results = tmp_path / "a folder ü"
+    status, rest = interrupt_at_first_sample(results)
     assert status == 130, rest
     assert "rerun the same command to resume" in rest
-    run_dir = run_spec.work_dir(tiny_spec("lammps"), tmp_path)
+    run_dir = run_spec.work_dir(tiny_spec("lammps"), results)
     assert (run_dir / "checkpoint.json").exists() and list(run_dir.glob("restart_*.lmp"))
-    again = run_launcher(*TINY, "--engine", "lammps", results=tmp_path)
+    assert (run_dir / "lammps.log").stat().st_size > 0
+    again = run_launcher(*TINY, "--engine", "lammps", results=results)
     assert again.returncode == 0, again.stdout + again.stderr
     assert "resumed from checkpoint" in again.stdout
-    resumed = load(run_spec.output_path(tiny_spec("lammps"), tmp_path))
+    resumed = load(run_spec.output_path(tiny_spec("lammps"), results))
     for key, value in runs["lammps"].raw_all.items():
         np.testing.assert_array_equal(resumed.raw_all[key], value, err_msg=key)
     assert not list(run_dir.glob("restart_*")) and not (run_dir / "checkpoint.json").exists()
