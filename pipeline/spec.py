@@ -79,6 +79,9 @@ def _relation_problems(v: DemSpec) -> list[str]:
         problems.append(f"width_d={v.width_d!r} must be an even integer (the wall pattern repeats every 2d)")
     if v.diameter_min_d >= v.diameter_max_d:
         problems.append(f"diameter_min_d={v.diameter_min_d!r} must be < diameter_max_d")
+    if v.diameter_max_d >= v.width_d / 2:
+        problems.append(f"diameter_max_d={v.diameter_max_d!r} must be < width_d/2 = {v.width_d / 2:g}: a grain of half "
+                        "the periodic cell or more meets its own image")
     if 2 * v.region_margin_d >= v.gap_d:
         problems.append(f"region_margin_d={v.region_margin_d!r} leaves no central region")
     if v.restitution >= 1:

@@ -58,6 +58,8 @@ DEM_CASES = [
     (["--theta", "90", "--set", "fill_packing_fraction=0.001"], "fill_packing_fraction=0.001 gives 1 grains"),
     (["--theta", "90", "--set", "overlap_ratio=0.9"], "overlap_ratio=0.9 is not a small overlap"),
     (["--theta", "90", "--set", "width_d=7"], "width_d=7.0 must be an even integer"),
+    (["--theta", "90", "--preset", "tiny", "--set", "diameter_min_d=1.8", "--set", "diameter_max_d=2.0"],
+     "diameter_max_d=2.0 must be < width_d/2 = 2: a grain of half the periodic cell or more meets its own image"),
     (["--theta", "90", "--set", "restitution=1.5"], "restitution=1.5 must be < 1"),
     (["--theta", "90", "--set", "friction_deg=95"], "friction_deg=95.0 must be < 90"),
     (["--theta", "90", "--set", "diameter_min_d=2"], "diameter_min_d=2.0 must be < diameter_max_d"),
