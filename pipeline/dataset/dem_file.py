@@ -27,7 +27,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from dem.core.protocol import on_grid
+from dem.core.protocol import on_grid, sample_strains
 from dem.core.schema import sample_fields
 from dem.core.spec import LEGACY_ENGINE, DemSpec
 
@@ -108,8 +108,15 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
 
 def grid_samples(strain, spec) -> np.ndarray:
     """Mask of the samples on the regular grid (every ``sample_strain``); the others are the dense samples
-    after each change of direction (``dense_sample_strain``, ``dem.core.protocol.sample_strains``)."""
-    return np.array([on_grid(float(s), spec) for s in strain], dtype=bool)
+    after each change of direction (``dense_sample_strain``). The scene takes one sample per target of
+    ``dem.core.protocol.sample_strains``, in order, so the k-th sample is the k-th target's, however late within its
+    controller interval it landed (a coarse time step can put it further from its target than the dense spacing);
+    samples beyond the targets are told by their strain (``on_grid``)."""
+    step = spec.sample_strain
+    targets = sample_strains(spec)
+    by_target = [abs((t + spec.pre_strain) / step - round((t + spec.pre_strain) / step)) < 1e-6
+                 for t in targets[:len(strain)]]
+    return np.array(by_target + [on_grid(float(s), spec) for s in strain[len(targets):]], dtype=bool)
 
 
 @dataclass(frozen=True)

@@ -210,3 +210,20 @@ def test_a_run_filed_under_another_runs_name_or_folder_is_refused(tmp_path):
     synthetic_file(lammps, name="theta090", n_cycles=1, preset="p", engine="lammps").rename(dem / "theta090.h5")
     with pytest.raises(PipelineError, match=r"is the run p-lammps/theta090 by its provenance, filed as p/theta090"):
         lookup.every_seed(DataSet("p"), (tmp_path,))
+
+
+def test_samples_that_land_late_in_a_coarse_step_are_still_told_grid_from_dense():
+    """A coarse time step lands a sample up to one controller interval past its target, which can be more than half
+    the dense spacing: each sample is its target's (one per target, in order), not whichever grid point is near."""
+    from dem.core.protocol import on_grid, sample_strains
+    from pipeline import spec as run_spec
+    from pipeline.dataset.dem_file import grid_samples
+
+    spec = run_spec.resolve(180.0, "tiny")
+    targets = np.array(sample_strains(spec))
+    truth = np.isclose(((targets + spec.pre_strain) / spec.sample_strain) % 1, 0, atol=1e-6) | np.isclose(
+        ((targets + spec.pre_strain) / spec.sample_strain) % 1, 1, atol=1e-6)
+    landed = targets + 0.0004  # later than half the dense spacing (0.00025) past every target
+    assert not np.array_equal([on_grid(float(s), spec) for s in landed], truth)  # the strain alone misleads
+    assert np.array_equal(grid_samples(landed, spec), truth)
+    assert np.array_equal(grid_samples(landed[:50], spec), truth[:50])  # a run in progress
