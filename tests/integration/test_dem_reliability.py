@@ -123,6 +123,26 @@ def test_a_running_scene_listens_on_no_port(tmp_path, engine):
     assert "auth cookie" not in (next(tmp_path.rglob("log.txt"))).read_text()
 
 
+def test_two_local_lammps_ranks_listen_on_no_port(tmp_path):
+    """At two ranks on this machine the ranks talk through shared memory: neither opens a listening socket (Open
+    MPI's TCP transport would listen on every interface). ``mpirun`` itself keeps its runtime's listener
+    (Open MPI 4.1 binds it to every interface whatever ``oob_tcp_if_include`` says; docs/sweeps.md)."""
+    proc = start("--theta", "90", "--preset", "tiny", "--engine", "lammps", "--ranks", "2", results=tmp_path)
+    try:
+        for line in proc.stdout:
+            if "strain" in line:
+                break
+        launchers = children(proc.pid)
+        ranks = [pid for mpirun in launchers for pid in children(mpirun)]
+        assert len(ranks) == 2, (launchers, ranks)
+        listening = set(listening_inodes())
+        for pid in ranks:
+            assert not socket_inodes(pid) & listening, "a rank listens on a port"
+    finally:
+        proc.communicate()
+    assert proc.returncode == 0
+
+
 def test_fresh_on_a_live_run_is_refused_and_the_live_run_completes(tmp_path):
     proc = start("--theta", "90", "--preset", "tiny", results=tmp_path)
     for line in proc.stdout:
