@@ -23,6 +23,14 @@ def test_a_time_step_past_the_limit_stops_with_the_diagnostic_and_exit_status_3(
         run_spec.resolve(180, "tiny", overrides={"dt_safety": 2.0})
 
 
+def test_a_coarse_time_step_at_the_bound_runs_to_its_verdict(tmp_path):
+    """``dt0.5`` (the time step at the spec's bound) lands its samples up to a controller interval past their
+    targets, more than half the dense spacing: its file is still written and the case judged (``make stability``
+    stopped on it with a traceback when samples were told grid or dense by their strain)."""
+    row = stability.run_case(next(c for c in stability.CASES if c.label == "dt0.5"), tmp_path)
+    assert row["outcome"] == "passed", row
+
+
 @pytest.fixture(scope="module")
 def baseline(tmp_path_factory):
     """The tiny preset as it is, run and checked once (its energy balance is the scale the blow-up is judged by)."""
