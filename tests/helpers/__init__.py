@@ -2,6 +2,8 @@
 in-process as if from a shell, and a fabric law whose own reversal runs away."""
 
 import contextlib
+import importlib
+import importlib.util
 import io
 import runpy
 import subprocess
@@ -65,6 +67,10 @@ def module_main(module: str):
         saved = sys.argv
         sys.argv = [module, *argv]
         try:
+            if importlib.util.find_spec(module).submodule_search_locations is None:
+                # a module, not a package: `python -m` runs its main(); runpy would run it a second time beside the
+                # copy already imported (and warn)
+                return importlib.import_module(module).main(list(argv)) or 0
             runpy.run_module(module, run_name="__main__", alter_sys=True)
         except SystemExit as exc:
             if isinstance(exc.code, str):
