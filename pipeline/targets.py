@@ -49,6 +49,10 @@ class Call:
         return shlex.join(["python", "-m", self.module, *self.argv])
 
 
+#: the longest value a make variable may hold (a long list of seeds or settings stays far below)
+MAX_VALUE = 1000
+
+
 class Variables:
     """The user's make variables (an environment), each read with the check of its kind; an empty one is not given."""
 
@@ -57,6 +61,11 @@ class Variables:
 
     def text(self, name: str) -> str | None:
         value = self._environ.get(name, "")
+        if len(value) > MAX_VALUE:
+            raise PipelineError(f"{name}={value[:20]!r}... is {len(value)} characters long: no value needs more than "
+                                f"{MAX_VALUE}")
+        if "\n" in value or "\r" in value:
+            raise PipelineError(f"{name}={value!r} holds a line break: give it on one line")
         return value if value.strip() else None
 
     def _one(self, name: str, pattern: re.Pattern, what: str, default: str | None) -> str | None:

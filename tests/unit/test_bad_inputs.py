@@ -87,12 +87,12 @@ def test_make_dem_refuses(tmp_path, args, fragment):
 MAKE_CASES = [
     ("THETA=180; touch INJECTED", "THETA='180; touch INJECTED' is not a number"),
     ("PRESET=quick; touch INJECTED", "PRESET='quick; touch INJECTED' is not a name"),
-    ("PRESET=tiny\ntouch INJECTED\ntrue", "PRESET='tiny\\ntouch INJECTED\\ntrue' is not a name"),
+    ("PRESET=tiny\ntouch INJECTED\ntrue", "PRESET='tiny\\ntouch INJECTED\\ntrue' holds a line break"),
     ("SET=seed=2 $$(touch INJECTED)", "SET='seed=2 $$(touch INJECTED)' is not a list of key=value"),
     ("THETA=$(shell touch INJECTED)", "THETA='$(shell touch INJECTED)' is not a number"),
     ("THREADS=1 && touch INJECTED", "THREADS='1 && touch INJECTED' is not a whole number"),
     ("ROTATE_AT=`touch INJECTED`", "ROTATE_AT='`touch INJECTED`' is not a number"),
-    ("RANKS=1\n2", "RANKS='1\\n2' is not a whole number"),
+    ("RANKS=1\n2", "RANKS='1\\n2' holds a line break"),
     ("ENGINE=lammps;touch INJECTED", "ENGINE='lammps;touch INJECTED' is not yade or lammps"),
 ]
 OTHER_CASES = [
@@ -103,7 +103,7 @@ OTHER_CASES = [
     ("bench-lammps-settings", "RUN_DIR=results/x.run&&touch INJECTED", "is not a run folder"),
     ("versus", "A=reduced;touch INJECTED;true", "A='reduced;touch INJECTED;true' is not a data set"),
     ("compare-seed", "SEED=2$$(touch INJECTED)", "SEED='2$$(touch INJECTED)' is not a whole number"),
-    ("sweep-status", "SWEEP=x\ntouch INJECTED", "is not a name"),
+    ("sweep-status", "SWEEP=x\ntouch INJECTED", "holds a line break"),
 ]
 MAKE_TARGETS = [("dem", a, f) for a, f in MAKE_CASES] + OTHER_CASES
 

@@ -52,7 +52,7 @@ def test_the_include_file_names_the_data_sets_folder_and_its_runs(tmp_path):
 @pytest.mark.parametrize("goals, variables, message", [
     (["dem"], {"THETA": "$(shell touch x) # y"}, "THETA='$$(shell touch x) \\# y' is not a number"),
     (["fit"], {"WEIGHT": "angles;touch x"}, "WEIGHT='angles;touch x' is not runs or angles"),
-    (["dem"], {"RANKS": "1\n2"}, "RANKS='1\\n2' is not a whole number"),
+    (["dem"], {"RANKS": "1\n2"}, "RANKS='1\\n2' holds a line break"),
     (["dem"], {"PRESET": "giant"}, "unknown preset 'giant'"),
     (["compare-seed"], {"PRESET": "paper"}, "SEED is empty"),
     (["runs", "versus"], {"A": "reduced yade", "B": "paper"}, "A='reduced yade' is not a data set"),
@@ -111,3 +111,33 @@ def test_the_include_file_is_written_by_the_standard_library_alone(tmp_path):
                           cwd=ROOT, capture_output=True, text=True, env={"PRESET": "reduced", "THETA": "90"})
     assert proc.returncode == 0, proc.stderr
     assert "DATA_SET := reduced\n" in path.read_text() and "CHECK_ERROR" not in path.read_text()
+
+
+#: a target that reads each user variable (every one the Makefile exports: ``USER_VARIABLES``)
+READER = {"THETA": "dem", "PRESET": "dem", "ENGINE": "dem", "RANKS": "dem", "ROTATE_AT": "dem", "SET": "dem",
+          "FRESH": "dem", "THREADS": "dem", "ALLOW_INERTIAL": "dem", "PRESETS": "bench-dem", "ENGINES": "bench-dem",
+          "FIT_FROM": "fit", "STRESS": "fit", "WEIGHT": "fit", "VARIANT": "fit", "ANGLES": "fit-angles",
+          "OVER": "fit-jackknife", "BOOT": "fit-bootstrap", "STRAIN": "fit-profile", "PHI": "fit-profile",
+          "THETAS": "sweep", "ROTATE_ATS": "sweep", "SEEDS": "sweep", "LAUNCH": "sweep", "SLURM": "sweep",
+          "JOBS": "sweep", "MANY": "sweep", "SWEEP": "sweep-status", "SEED": "compare-seed", "A": "versus",
+          "B": "versus", "RUN_DIR": "bench-lammps-settings", "ACROSS": "models"}
+PAYLOADS = ("$(shell touch INJECTED)", "x;touch INJECTED", "x\ntouch INJECTED", "`touch INJECTED`",
+            "$(touch INJECTED)", "x' \"y", "x" * 5000, "ü→∞")
+
+
+def test_every_user_variable_has_a_reader_and_a_check_that_refuses_every_payload_in_one_line():
+    """Every variable the Makefile exports is read by some target, which refuses each payload (shell and Make
+    syntax, quotes, a very long value, Unicode) in one line naming it, before anything runs."""
+    text = (ROOT / "Makefile").read_text()
+    declared = text.split("USER_VARIABLES :=", 1)[1].split("\n$(foreach", 1)[0].replace("\\", " ").split()
+    assert sorted(declared) == sorted(READER)
+    for name, target in READER.items():
+        base = {"PRESET": "paper", "A": "paper", "B": "reduced", "RUN_DIR": "results/x.run", "THETAS": "90",
+                "ANGLES": "180 90", "SEED": "2"}
+        if target == "bench-lammps-settings":
+            base.update(A="neighbor 0.2 bin", B="neigh_modify every 1")
+        for payload in PAYLOADS:
+            variables = targets.Variables({**base, name: payload})
+            text = targets.goals_makefile(variables, [target])
+            error = [line for line in text.splitlines() if line.startswith("CHECK_ERROR := ")]
+            assert len(error) == 1 and name in error[0], (name, payload[:30], text[-300:])
