@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from dem.core import checks, contract, measure, protocol, schema
+from dem.core import checks, contract, measure, protocol, schema, watchdog
 from dem.core.rawfile import DISK_ERRORS, DISK_FULL, DiskError, require_free, save_npz, stack, write_raw, write_status
 from dem.core.state import RunState
 
@@ -75,6 +75,7 @@ class Experiment:
     # the controller: every control_every_steps steps
     def control(self):
         tic = time.perf_counter()
+        watchdog.beat()
         st = self.state
         err = self.wall_stress() - 1.0
         vy = self.gain * err
@@ -336,8 +337,11 @@ def run_scene(scene):
     run then resumes correctly but not bit-identically). ``scene`` is a ``dem.core.contract.EngineScene``."""
     if not isinstance(scene, contract.EngineScene):
         raise TypeError(f"{type(scene).__name__} does not implement dem.core.contract.EngineScene")
+    with stop_signals_held():  # its thread never takes a stop signal
+        watchdog.start(STOP_SIGNALS)
     stop = stop_on_signals(lambda: next_stop(scene))
     run = scene.start()
+    watchdog.doing("running")
     if not (isinstance(run, Experiment) and isinstance(run, contract.EngineRun)):
         raise TypeError(f"{type(run).__name__} is not an Experiment implementing dem.core.contract.EngineRun")
     run_dir = run.run_dir
@@ -363,12 +367,15 @@ def run_scene(scene):
         regular = run.iteration() == run.state.next_checkpoint
         if regular:
             run.state.next_checkpoint += run.spec.checkpoint_steps
+        watchdog.doing("writing a checkpoint")
         checkpoint(run, scene)
         if not regular:
             print(f"interrupted: checkpoint at iteration {run.iteration()} (off the regular checkpoints: "
                   "the resumed run will not be bit-identical)", flush=True)
             sys.exit(128 + scene.agreed_stop(stop)["signal"])
+        watchdog.doing(watchdog.LOADING)
         run = scene.reload()
+        watchdog.doing("running")
         asked = scene.agreed_stop(stop)
         if asked["count"] >= 1:
             print(f"interrupted: checkpoint at iteration {run.iteration()}; rerun the same command to resume",

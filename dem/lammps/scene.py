@@ -29,7 +29,7 @@ import traceback
 
 import numpy as np
 
-from dem.core import driver, protocol
+from dem.core import driver, protocol, watchdog
 from dem.core.cell import ROUGH_HEIGHT, WALL_RADIUS, Y_BOTTOM, initial_cloud, wall_centres
 from dem.core.contact import contact_constants
 from dem.core.rawfile import sync
@@ -291,13 +291,14 @@ class Scene:
         path = os.path.join(self.run_dir, name)
         self.lmp.command("run 0 post no")  # atoms back in the box, neighbour lists and contact history current
         self.lmp.command(f"write_restart {quoted(name)} noinit")
+        digest = atoms_sha256(self.lmp)  # every rank: the atoms are gathered
         if not run.writer:
             return
         sync(path)
         previous = self.checkpoint_record().get("restart") if os.path.exists(
             os.path.join(self.run_dir, CHECKPOINT)) else None
         record = {"spec": self.spec.to_dict(), "state": run.state.to_dict(), "restart": name,
-                  "bytes": os.path.getsize(path), "sha256": file_sha256(path)}
+                  "bytes": os.path.getsize(path), "sha256": file_sha256(path), "atoms_sha256": digest}
         tmp = os.path.join(self.run_dir, f"{CHECKPOINT}.tmp{os.getpid()}")
         try:
             with open(tmp, "w") as fh:
@@ -341,6 +342,7 @@ class Scene:
 
     def read_checkpoint(self):
         """A LAMMPS instance from the checkpoint, checked first: its spec, the restart file's size and hash."""
+        watchdog.doing(watchdog.LOADING)
         record = self.checkpoint_record()
         if not same_spec(record.get("spec"), self.spec):
             driver.damaged(f"checkpoint {os.path.join(self.run_dir, CHECKPOINT)} belongs to another spec")
@@ -352,6 +354,8 @@ class Scene:
         for command in DOMAIN:
             lmp.command(command)
         lmp.command(f"read_restart {quoted(record['restart'])}")
+        if "atoms_sha256" in record and atoms_sha256(lmp) != record["atoms_sha256"]:  # every rank: collective
+            driver.damaged(f"restart file {restart} does not hold the atoms it was written with")
         try:
             return self.attach(RunState.from_dict(record["state"]), restarted=True)
         except (OSError, ValueError, KeyError, TypeError, EOFError) as exc:
@@ -373,6 +377,21 @@ def checkpoint_record_problem(record) -> None:
         raise ValueError("no state")
     if not isinstance(record.get("restart"), str) or not RESTART_NAME.fullmatch(record["restart"]):
         raise ValueError(f"restart {record.get('restart')!r} is not a restart file of the run folder")
+    if not isinstance(record.get("atoms_sha256", ""), str):
+        raise ValueError("atoms_sha256 is not a digest")
+
+
+#: what each atom's state is read back as: the restart file's atoms, compared after reading with the digest taken
+#: when it was written (a file damaged before its own hash was taken reads as other grains, or as none)
+ATOM_FIELDS = ("type", "mask", "image", "x", "v", "omega", "radius", "rmass")
+
+
+def atoms_sha256(lmp):
+    """SHA-256 of every atom's ``ATOM_FIELDS``, in atom-id order (the same on every rank)."""
+    digest = hashlib.sha256()
+    for array in atoms(lmp, *ATOM_FIELDS):
+        digest.update(np.ascontiguousarray(array).tobytes())
+    return digest.hexdigest()
 
 
 def file_sha256(path):

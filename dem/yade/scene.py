@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from dem.core import driver, protocol
+from dem.core import driver, protocol, watchdog
 from dem.core.cell import ROUGH_HEIGHT, WALL_RADIUS, Y_BOTTOM, initial_cloud, wall_centres
 from dem.core.contact import contact_constants, contact_engines, contact_material
 from dem.core.rawfile import DiskError, complete_gzip, sync
@@ -173,6 +173,7 @@ class Scene:
     def start(self):
         """Resume from the checkpoint (refusing one that is damaged or of another spec), else build."""
         if os.path.exists(self.checkpoint):
+            watchdog.doing(watchdog.LOADING)
             try:
                 O.load(self.checkpoint)
                 same_spec = DemSpec.from_dict(json.loads(O.tags["spec"])) == self.spec

@@ -158,6 +158,8 @@ def prepare(spec: run_spec.DemSpec, results_dir: Path, fresh: bool, reference: P
     return run_dir
 
 
+#: the scene's line once it has read its checkpoint
+RESUMED = "resumed from checkpoint"
 #: signals passed on to the scene: each stops it at its next checkpoint (SIGUSR1: a scheduler's warning
 #: before a time limit); a second SIGINT/SIGTERM stops it within two steps
 FORWARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
@@ -215,12 +217,14 @@ def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int
 
         previous = {s: signal.signal(s, forward) for s in FORWARDED}
         error = ""
+        loading = any(run_dir.glob("checkpoint*"))  # until the scene says it resumed
         try:
             for line in proc.stdout:
                 log.write(line)
-                if line.startswith("error:"):
+                loading = loading and not line.startswith(RESUMED)
+                if line.startswith("error:"):  # said once the scene has ended (what it means may change)
                     error = line.strip()
-                if line.strip() and not line.startswith(engines.engine(engine).noise):
+                elif line.strip() and not line.startswith(engines.engine(engine).noise):
                     print(f"{label}: {line}", end="", flush=True)
             status = proc.wait()
         finally:
@@ -228,8 +232,14 @@ def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int
                 signal.signal(s, handler)
         if status != 0 and not error:
             error = engines.engine(engine).last_error(run_dir)
-            if error:
-                print(f"{label}: {error}", flush=True)
+        if loading and status not in (0, 2) and status - 128 not in FORWARDED and -status not in FORWARDED:
+            died = f"died by signal {-status} ({signal.Signals(-status).name})" if status < 0 else "failed"
+            why = f" ({error.removeprefix('error: ')})" if error else ""
+            error = (f"error: the scene {died} loading its checkpoint{why}: the checkpoint is damaged; rerun with "
+                     "FRESH=1 (--fresh) to start the run again")
+            status = 2
+        if error:
+            print(f"{label}: {error}", flush=True)
         return status, error
 
 

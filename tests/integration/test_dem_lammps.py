@@ -1,10 +1,12 @@
 """Debian's LAMMPS (python3-lammps, in Debian's python3): the contact law matched to Yade's, and the Couette scene
 behind the same driver, spec and files as Yade's."""
 
+import hashlib
 import json
 import os
 import re
 import signal
+import struct
 import subprocess
 import sys
 import time
@@ -15,6 +17,7 @@ import numpy as np
 import pytest
 
 from dem.core import driver
+from dem.core.cell import WALL_RADIUS
 from pipeline import spec as run_spec
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
@@ -161,11 +164,14 @@ def test_an_interrupted_lammps_run_resumes_bit_identical_to_an_uninterrupted_one
     ("record-junk", "checkpoint.json cannot be read"),
     ("state-null", "checkpoint.json cannot be read (ValueError: no state)"),
     ("restart-elsewhere", "is not a restart file of the run folder"),
+    ("header-rehashed", "the scene failed loading its checkpoint (lammps: ERROR"),
+    ("wall-sphere-rehashed", "does not hold the atoms it was written with"),
 ])
 def test_a_damaged_lammps_checkpoint_is_a_one_line_error_that_suggests_fresh(tmp_path, damage, fragment):
     """A checkpoint the scene did not write is refused in one line: a truncated restart file, a record that is no
     JSON, one without a state, one naming a file outside the run folder (which the next checkpoint would delete:
-    that file is left as it was)."""
+    that file is left as it was), and restart files damaged before their size and hash were taken (the record
+    matches them): a header LAMMPS refuses, and a wall sphere 1 % larger, which LAMMPS reads without a word."""
     interrupt_at_first_sample(tmp_path)
     run_dir = run_spec.work_dir(tiny_spec("lammps"), tmp_path)
     record = json.loads((run_dir / "checkpoint.json").read_text())
@@ -177,9 +183,20 @@ def test_a_damaged_lammps_checkpoint_is_a_one_line_error_that_suggests_fresh(tmp
         (run_dir / "checkpoint.json").write_text("{junk")
     elif damage == "state-null":
         (run_dir / "checkpoint.json").write_text(json.dumps({**record, "state": None}))
-    else:
+    elif damage == "restart-elsewhere":
         victim.write_bytes((run_dir / record["restart"]).read_bytes())
         (run_dir / "checkpoint.json").write_text(json.dumps({**record, "restart": "../../victim.lmp"}))
+    else:
+        restart = run_dir / record["restart"]
+        data = bytearray(restart.read_bytes())
+        if damage == "header-rehashed":
+            data[100:104] = b"\x7f" * 4
+        else:
+            at = data.index(struct.pack("<d", WALL_RADIUS))
+            data[at:at + 8] = struct.pack("<d", 1.01 * WALL_RADIUS)
+        restart.write_bytes(data)
+        (run_dir / "checkpoint.json").write_text(json.dumps(
+            {**record, "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}))
     again = run_launcher(*TINY, "--engine", "lammps", results=tmp_path)
     text = again.stdout + again.stderr
     errors = [line for line in text.splitlines() if "error:" in line]
@@ -266,6 +283,7 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
 RANK_0_ALONE = """
 import errno, os, signal, sys
 from dem.core import driver
+from dem.core.cell import WALL_RADIUS
 from dem.lammps import scene as lammps_scene
 
 mark = os.path.join(sys.argv[1], "faulted")
