@@ -20,7 +20,8 @@ MODEL_DIR := results/model
 # rules of fit, compare and figures need; `python -m pipeline.targets TARGET` then runs the target's stages with
 # argument lists (`--plan TARGET` prints them).
 USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM STRESS \
-	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS
+	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS \
+	SKIP_CYCLES
 $(foreach v,$(USER_VARIABLES),$(eval override $(v) := $$(value $(v))))
 export $(USER_VARIABLES)
 TARGETS := $(PY) -m pipeline.targets
@@ -149,7 +150,7 @@ demo-dem-%: | $(VENV_STAMP)
 	$(PY) -m pipeline.runs run --theta $* --preset quick
 
 # ---------------------------------------------------------------- the data set's files: fit -> compare -> figures
-fit: $(FIT_DIR)/params.json ## calibrate on the data set's runs [PRESET=...] [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] [VARIANT=loading] -> results/<data set>/fit/
+fit: $(FIT_DIR)/params.json ## calibrate on the data set's runs [PRESET=...] [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] [VARIANT=loading] [SKIP_CYCLES=1] -> results/<data set>/fit/
 # the options of the last fit: a fit with other options is a new fit
 $(FIT_DIR)/options.txt: FORCE
 	@python3 -m pipeline.targets fit-options $@

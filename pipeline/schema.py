@@ -147,7 +147,8 @@ def read_fit(path: Path) -> FitSummary:
 class Metrics:
     """``metrics.json``: the model against a data set's runs (``make compare``). ``param_sets`` maps a label
     ("Table 2", "our fit") to its parameters; ``errors`` has a row per run and set, ``components`` names the
-    columns; the rest are the tables of ``report.md`` (None where the data set has no reversal)."""
+    columns; the rest are the tables of ``report.md`` (None where the data set has no reversal; ``drift``: a row
+    per run, ``pipeline.dataset.drift``)."""
 
     VERSION = METRICS_VERSION
 
@@ -163,6 +164,7 @@ class Metrics:
     reversal: dict | None = None
     second_law: dict | None = None
     relaxation: dict | None = None
+    drift: list | None = None
 
     @classmethod
     def from_dict(cls, data: dict, path="metrics.json") -> Metrics:

@@ -158,9 +158,9 @@ def lammps_settings(text: str, name: str) -> list[str]:
 
 def data_args(v: Variables) -> list[str]:
     """The data set of a stage: ``--preset``, ``--engine``, ``--set`` as given (the stage picks the default)."""
-    preset, engine = v.name("PRESET"), v.choice("ENGINE", ENGINES)
+    preset, engine, skip = v.name("PRESET"), v.choice("ENGINE", ENGINES), v.whole("SKIP_CYCLES")
     return ([*(["--preset", preset] if preset else []), *(["--engine", engine] if engine else [])]
-            + [a for s in v.settings("SET") for a in ("--set", s)])
+            + [a for s in v.settings("SET") for a in ("--set", s)] + (["--skip-cycles", skip] if skip else []))
 
 
 def fit_options(v: Variables) -> list[str]:
@@ -349,7 +349,8 @@ def goals_makefile(v: Variables, goals: list[str]) -> str:
             if goal not in DATA_GOALS:
                 TARGETS[goal](v)
         if set(goals) & set(DATA_GOALS):
-            fit_options(v)
+            fit_options_text(v)
+            data_args(v)
             if "compare-seed" in goals:
                 compare_seed(v)
             chosen = data_set_of(v)
@@ -364,7 +365,8 @@ def goals_makefile(v: Variables, goals: list[str]) -> str:
 def fit_options_text(v: Variables) -> str:
     """The options of ``make fit`` as one line (``results/<data set>/fit/options.txt``): a fit with other options
     is a new fit."""
-    return " ".join(fit_options(v)) + "\n"
+    skip = v.whole("SKIP_CYCLES")
+    return " ".join(fit_options(v) + (["--skip-cycles", skip] if skip else [])) + "\n"
 
 
 def write_if_changed(path: Path, text: str) -> None:

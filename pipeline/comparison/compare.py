@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from pathlib import Path
 
 import h5py
@@ -13,6 +14,7 @@ import numpy as np
 import model
 
 from .. import io, schema
+from ..dataset import drift
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..dataset.lookup import protocol_and_seed
 from ..errors import PipelineError
@@ -98,6 +100,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
     more = [c for c in per_run(metrics.memory_curves, other_seeds, others)
             if any((c["run"], c["segment"]) == (d["run"], d["segment"]) for d in curves)]
     result["memory"] = metrics.beside_first(metrics.memories(curves), metrics.memories(more))
+    result["drift"] = [drift_row(r) for r in [*runs, *other_seeds]]
     reversals = [r for r in runs if r.is_reversal]
     if reversals:
         paper_phi = model.predict(180, params=model.Params()).packing_fraction
@@ -124,6 +127,14 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
         found = schema.Metrics(**result)
         js.write_text(io.json_text(found.to_dict()))
     return found
+
+
+def drift_row(run) -> dict:
+    """The run's protocol, seed and cycles compared, and each quantity's trend over them (``drift.drift``)."""
+    return {"theta_deg": run.theta_deg, "rotate_at": run.spec.rotate_at_strain, "seed": run.spec.seed,
+            "cycles": run.spec.n_cycles, "trends": {name: {k: None if isinstance(v, float) and math.isnan(v) else v
+                                                           for k, v in dataclasses.asdict(t).items()}
+                                                    for name, t in drift.drift(run).items()}}
 
 
 def fitted_in(params_file: Path) -> Definitions:

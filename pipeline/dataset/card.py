@@ -20,7 +20,8 @@ from ..cli import Parser, one_line_errors
 from ..errors import DemFileError, PipelineError
 from ..io import atomic_path
 from ..paths import ROOT
-from .dem_file import cpu_seconds, cpu_seconds_counted, sessions
+from . import drift
+from .dem_file import cpu_seconds, cpu_seconds_counted, load, sessions
 
 BEGIN = "<!-- inventory: written by make data-card from the files themselves; do not edit by hand -->"
 END = "<!-- inventory end -->"
@@ -118,7 +119,19 @@ def inventory(root: Path) -> str:
                      f"{row['steps'] / 1e6:.2f} | {row['loop_hours']:.2f} | {cpu} | {row['sessions']} "
                      f"({', '.join(map(str, row['ranks']))}) | {', '.join(row['commits'])} | {row['finished']} | "
                      f"{row['megabytes']:.1f} | `{row['sha256']}` |")
-    return "\n".join(lines)
+    return "\n".join(lines + ["", *drift_table(paths, root)])
+
+
+def drift_table(paths: list[Path], root: Path) -> list[str]:
+    """Every run's cycles one by one (``pipeline.dataset.drift``): the gap per cycle and the quantities that
+    drift."""
+    lines = [f"Drift over the cycles (`pipeline/dataset/drift.py`: 0.3 strain before each change, p < {drift.LEVEL}):",
+             "", "| file | gap per cycle (d) | drifting: slope per cycle ± error (p) |", "|---|---|---|"]
+    for path in paths:
+        trends = drift.drift(load(path))
+        gaps = " ".join(f"{g:.2f}" for g in trends["gap"].per_cycle)
+        lines.append(f"| `{path.relative_to(root)}` | {gaps} | {drift.describe(trends).replace('|', chr(92) + '|')} |")
+    return lines
 
 
 def in_progress(root: Path) -> list[str]:

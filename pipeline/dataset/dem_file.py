@@ -175,6 +175,25 @@ class DemRun:
         """The same run read with other definitions of strain, Phi and p (series and cycle recomputed)."""
         return self if definitions == self.definitions else dataclasses.replace(self, definitions=definitions)
 
+    def without_first_cycles(self, k: int) -> DemRun:
+        """The run as if its first ``k`` cycles had been part of its preparation (a packing still compacting in
+        them: ``SKIP_CYCLES``): the samples from ``pre_strain`` before cycle k's start on, the nominal strain counted
+        from that start, ``n_cycles - k`` cycles in its spec. ``k`` = 0 is the run itself."""
+        if not 0 <= k < self.spec.n_cycles:
+            raise ValueError(f"skip_cycles={k} leaves no cycle of {self.path.name}'s {self.spec.n_cycles}")
+        if k == 0:
+            return self
+        start = k * self.spec.period_strain
+
+        def trimmed(raw):
+            keep = raw["strain"] >= start - self.spec.pre_strain - 1e-9
+            out = {key: value[keep] for key, value in raw.items()}
+            out["strain"] = out["strain"] - start
+            return out
+
+        spec = dataclasses.replace(self.spec, n_cycles=self.spec.n_cycles - k)
+        return dataclasses.replace(self, spec=spec, raw=trimmed(self.raw), raw_all=trimmed(self.raw_all))
+
     @cached_property
     def series(self) -> dict:
         return derived.model_series(self.raw, self.parameters, self.definitions, self.grain_diameter)

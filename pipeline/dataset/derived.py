@@ -145,6 +145,17 @@ def model_series(raw: dict, parameters: dict, definitions: Definitions = DEFAULT
     }
 
 
+#: nominal strain before each change of direction over which a run's steady values are taken
+STEADY_WINDOW = 0.3
+
+
+def change_strains(spec) -> np.ndarray:
+    """Nominal strains where the shear direction changes: 0, rotate_at, period, ..., and the run's end."""
+    period, rotate, n = spec.period_strain, spec.rotate_at_strain, spec.n_cycles
+    starts = period * np.arange(n + 1)
+    return np.unique(np.concatenate([starts, starts[:-1] + rotate]))
+
+
 def cycle_indices(strain, period: float, step: float, n_cycles: int) -> tuple[np.ndarray, np.ndarray]:
     """The grid 0, step, ..., period and, per cycle, the index of the sample nearest to each grid
     point (``(n_cycles, n_grid)``); samples land within a few time steps of the grid."""

@@ -32,7 +32,15 @@ def load_of_preset(path: Path, preset: str) -> DemRun:
 def preset_runs(chosen: DataSet, roots: tuple[Path, ...] = DATA_ROOTS) -> list[DemRun]:
     """The data set's runs at its first seed (``<folder>/dem/*.h5``): every angle and rotation."""
     runs = [load_of_preset(p, chosen.preset) for p in preset_files(chosen.folder, roots, variants=False)]
-    return [r for r in runs if chosen.matches(r.engine, r.overrides)]
+    return [skipped(r, chosen) for r in runs if chosen.matches(r.engine, r.overrides)]
+
+
+def skipped(run: DemRun, chosen: DataSet) -> DemRun:
+    """``run`` without the data set's first ``skip_cycles`` cycles; a run with no cycle left is a one-line error."""
+    if chosen.skip_cycles >= run.spec.n_cycles:
+        raise PipelineError(f"skip_cycles={chosen.skip_cycles}: {run.path} has {run.spec.n_cycles} cycle(s), so none "
+                            "would be left")
+    return run.without_first_cycles(chosen.skip_cycles)
 
 
 def _of_data_set(chosen: DataSet, roots: tuple[Path, ...], read=lambda path: True) -> list[DemRun]:
@@ -41,7 +49,7 @@ def _of_data_set(chosen: DataSet, roots: tuple[Path, ...], read=lambda path: Tru
     seed."""
     folder = run_spec.run_folder(chosen.preset, chosen.engine)
     runs = [load_of_preset(p, chosen.preset) for p in preset_files(folder, roots) if read(p)]
-    return [r for r in runs if chosen.matches(r.engine, r.overrides)]
+    return [skipped(r, chosen) for r in runs if chosen.matches(r.engine, r.overrides)]
 
 
 def protocol_and_seed(run: DemRun) -> tuple[float, float, int]:

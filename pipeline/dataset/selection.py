@@ -37,6 +37,9 @@ class DataSet:
     preset: str
     engine: str = run_spec.DEFAULT_ENGINE
     overrides: tuple[tuple[str, float], ...] = ()
+    #: cycles of each run left out, the first ones (``SKIP_CYCLES``: a packing still compacting in them); its outputs
+    #: stay in the data set's folder (a fit records it among its options)
+    skip_cycles: int = 0
 
     @property
     def folder(self) -> str:
@@ -46,7 +49,8 @@ class DataSet:
     @property
     def label(self) -> str:
         """``paper (lammps, inertial_number=0.001)``: what a report names."""
-        return f"{self.preset} ({', '.join([self.engine, *self.settings])})"
+        skipped = [f"cycles from {self.skip_cycles + 1} on"] if self.skip_cycles else []
+        return f"{self.preset} ({', '.join([self.engine, *self.settings, *skipped])})"
 
     @property
     def settings(self) -> list[str]:
@@ -119,6 +123,15 @@ def add_arguments(parser: argparse.ArgumentParser, preset_help: str = "preset wh
                         help="the DEM engine whose runs to read (default: see config/datasets.toml)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="the overrides the runs share, as given to `make dem` (repeatable; seeds ignored)")
+    parser.add_argument("--skip-cycles", type=skip_cycles, default=0, metavar="K",
+                        help="leave out each run's first K cycles (a packing still compacting in them); default 0")
+
+
+def skip_cycles(text: str) -> int:
+    """``--skip-cycles``'s value: a whole number of cycles, 0 or more."""
+    if not text.strip().isdigit():
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number of cycles (0, 1, ...)")
+    return int(text)
 
 
 def from_arguments(args: argparse.Namespace) -> DataSet:
@@ -127,4 +140,5 @@ def from_arguments(args: argparse.Namespace) -> DataSet:
     if preset is None:
         preset = most_faithful_preset()
         print(f"preset: {preset} (the most faithful one with a reversal run; --preset / PRESET= to choose)")
-    return data_set(preset, args.engine, run_spec.parse_overrides(args.set))
+    chosen = data_set(preset, args.engine, run_spec.parse_overrides(args.set))
+    return dataclasses.replace(chosen, skip_cycles=args.skip_cycles)

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..dataset import drift
 from ..io import write_text
 from ..schema import FitSummary, Metrics
 
@@ -221,6 +222,29 @@ def memory_lines(rows: list[dict], labels: list[str]) -> list[str]:
     return lines
 
 
+def drift_lines(rows: list[dict] | None) -> list[str]:
+    """The runs' cycles one by one (``pipeline.dataset.drift``): the gap per cycle and each quantity's trend."""
+    if not rows:
+        return []
+    names = [name for name in drift.QUANTITIES if name in rows[0]["trends"]]
+    lines = ["## Drift over the cycles", "",
+             "Per run, the gap between the walls' inner planes per cycle (d, over the 0.3 strain before each change) "
+             "and each quantity's trend per cycle ± its standard error; **bold** where the drift test finds it at "
+             f"p < {drift.LEVEL:g} (a packing still compacting: `SKIP_CYCLES=k` leaves out the first k cycles).", "",
+             "| θ | rotation | seed | gap per cycle | " + " | ".join(n.replace("|", "\\|") for n in names) + " |",
+             "|---" * (4 + len(names)) + "|"]
+    for row in rows:
+        cells = []
+        for name in names:
+            t = row["trends"][name]
+            text = "" if t["slope"] is None else f"{t['slope']:+.2g} ± {t['standard_error']:.1g}"
+            cells.append(f"**{text}**" if t["p"] is not None and t["p"] < drift.LEVEL else text)
+        gaps = " ".join(f"{g:.2f}" for g in row["trends"]["gap"]["per_cycle"])
+        lines.append(f"| {row['theta_deg']:g} | {row['rotate_at']:g} | {row['seed']} | {gaps} | " + " | ".join(cells)
+                     + " |")
+    return lines
+
+
 def seed_spread_lines(spread: list[dict], components: list[str]) -> list[str]:
     """The errors of the runs measured at several seeds: their mean over the seeds and their range."""
     lines = ["### Over seeds", "",
@@ -258,6 +282,8 @@ def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int, fit_
         lines += ["", *overshoot_lines(metrics.overshoot, list(sets))]
     if metrics.memory:
         lines += ["", *memory_lines(metrics.memory, list(sets))]
+    if metrics.drift:
+        lines += ["", *drift_lines(metrics.drift)]
     if metrics.reversal is not None:
         r = metrics.reversal
         lo, hi = r["table2_packing_fraction_range"]

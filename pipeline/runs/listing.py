@@ -13,6 +13,9 @@ from pathlib import Path
 import h5py
 
 from ..cli import Parser, one_line_errors
+from ..dataset import drift
+from ..dataset.dem_file import load
+from ..errors import PipelineError
 from ..paths import DATA_ROOTS, ROOT
 from .state import read_json, run_state
 
@@ -46,6 +49,8 @@ def runs(roots: tuple[Path, ...] = DATA_ROOTS, summaries: Path = SUMMARIES) -> l
             seen.add((folder, name))
             h5, run_dir = dem_dir / f"{name}.h5", dem_dir / f"{name}.run"
             state, detail = run_state(run_dir, h5)
+            if state == "done":
+                detail = cycles_detail(h5)
             summary = summaries / folder / f"{name}.json"
             rows.append({"folder": folder, "name": name, "where": _shown(root), "overrides": overrides_of(h5, run_dir),
                          "state": state, "detail": detail, "summary": _shown(summary) if summary.exists() else ""})
@@ -56,6 +61,14 @@ def runs(roots: tuple[Path, ...] = DATA_ROOTS, summaries: Path = SUMMARIES) -> l
             rows.append({"folder": folder, "name": name, "where": "", "overrides": values.get("overrides"),
                          "state": "summary only", "detail": "", "summary": _shown(summary)})
     return rows
+
+
+def cycles_detail(h5: Path) -> str:
+    """``drift: ...``: the quantities that drift over a finished run's cycles (``pipeline.dataset.drift``)."""
+    try:
+        return f"drift: {drift.describe(drift.drift(load(h5)))}"
+    except PipelineError as exc:
+        return f"unreadable: {exc}"
 
 
 def _shown(path: Path) -> str:

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 import model
+from pipeline.dataset.derived import change_strains
 from pipeline.errors import SpecError
 from pipeline.studies.fidelity import ladder, render, table
-from pipeline.studies.fidelity.summary import change_strains, summarize
+from pipeline.studies.fidelity.summary import summarize
 from tests.helpers import synthetic_run
 
 

@@ -25,20 +25,12 @@ import model
 
 from ...calibration import global_fit
 from ...comparison.metrics import errors, model_for
-from ...dataset.derived import Definitions, bulk_over_nominal
+from ...dataset.derived import STEADY_WINDOW, Definitions, bulk_over_nominal, change_strains
 from ...errors import CalibrationError
 
-STEADY_WINDOW = 0.3
 SCHEMA = "granular-backstress/fidelity-summary"
 VERSION = 2
 PAPER_DEFINITIONS = Definitions(strain="nominal", phi="gap")  # README, Calibration: "Strain", "Packing fraction"
-
-
-def change_strains(spec: dict) -> np.ndarray:
-    """Nominal strains where the shear direction changes: 0, rotate_at, period, ..., and the run's end."""
-    period, rotate, n = spec.period_strain, spec.rotate_at_strain, spec.n_cycles
-    starts = period * np.arange(n + 1)
-    return np.unique(np.concatenate([starts, starts[:-1] + rotate]))
 
 
 def steady_values(run, window: float = STEADY_WINDOW) -> dict:
