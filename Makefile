@@ -129,7 +129,7 @@ bench-dem: system $(LAMMPS_IF_ASKED) venv ## DEM steps/s, bare and production lo
 bench-lammps-settings: system-lammps venv ## LAMMPS steps/s, two settings side by side from a run's checkpoint (RUN_DIR=...run A=... B=...) -> results/bench/
 engines: venv ## Yade against LAMMPS on one preset (PRESET=reduced), seeds of each -> results/engines/engines.md
 data-card: venv ## the data card's table of every committed run, from the files -> data/reference/README.md
-versus: venv ## any two data sets, seed against seed: A=preset[/engine][/key=value...] B=... -> results/versus/versus.md
+versus: venv ## any two data sets, seed against seed and cycle by cycle: A=preset[/engine][/key=value...] B=... -> results/versus/versus.md
 cells: venv ## the reduced cell against the paper's (its data set, config/datasets.toml), seed against seed -> results/cells/cells.md
 jump: venv ## the reversal jump: fabric and wall stress right after each change of direction, every run -> results/jump/
 stability: system venv ## the DEM on stiff and extreme cases, small cells (about 15 min) -> results/fidelity/stability.md

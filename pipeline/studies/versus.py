@@ -58,14 +58,88 @@ def run_measures(run, fit: bool) -> tuple[dict, dict]:
     out["band strain / nominal"] = bulk_over_nominal(run.with_definitions(Definitions(strain="bulk")))
     profiles = run_profiles(run, TRANSIENT_GAMMAS)
     for k, g in enumerate(TRANSIENT_GAMMAS):
-        values = [p["fabric"][k] for p in profiles if np.isfinite(p["fabric"][k])]
-        out[f"A fraction at γ = {g:g}"] = float(np.mean(values)) if values else math.nan
+        out[f"A fraction at γ = {g:g}"] = _mean([p["fabric"][k] for p in profiles])
     if fit:
         result = own_fit(run.with_definitions(PAPER_DEFINITIONS))
         for name in FIT_NAMES:
             out[f"fit {name}"] = result.get("values", {}).get(name, math.nan)
             own[f"fit {name}"] = (result.get("standard_errors") or {}).get(name)
     return out, own
+
+
+def _mean(values) -> float:
+    finite = [v for v in values if np.isfinite(v)]
+    return float(np.mean(finite)) if finite else math.nan
+
+
+#: the cycles compared one by one: a packing still compacting differs from cycle to cycle, so cycle k of one side
+#: meets cycle k of the other, and the later cycles pooled
+CYCLE_GROUPS = {"cycle 1": lambda c: c == 0, "cycles 2 on": lambda c: c >= 1}
+
+
+def run_events(run) -> dict[str, list[tuple[int, float]]]:
+    """Per quantity, its values event by event, each with its cycle (0, 1, ...): the steady values over each
+    cycle's two windows (0.3 strain before each change that ends a part of it) and the A fractions at each of its
+    two changes of direction."""
+    windows = steady_values(run)
+    out = {label: [(j // 2, w) for j, w in enumerate(windows[key]["windows"][1:])]  # [0]: the preceding half period
+           for key, label in STEADY.items()}
+    profiles = run_profiles(run, TRANSIENT_GAMMAS)
+    for k, g in enumerate(TRANSIENT_GAMMAS):
+        out[f"A fraction at γ = {g:g}"] = [(j // 2, p["fabric"][k]) for j, p in enumerate(profiles)]
+    return out
+
+
+def within_run(one: list[float], many: list[list[float]]) -> tuple[float, float, float, int]:
+    """One run's events against several runs', by the scatter of events about their own run's mean (the
+    change-to-change or window-to-window scatter, with many degrees of freedom): z of the one run's mean against the
+    many runs' mean of events, taking the runs' means as alike but for that scatter, its two-sided critical value at
+    the scatter's degrees of freedom, and F, the many runs' own scatter of means over what the events' scatter makes
+    of it (about 1 where the runs differ by no more than their events do: the test is then sound), and the degrees
+    of freedom."""
+    groups = [np.asarray([v for v in g if np.isfinite(v)]) for g in many]
+    groups = [g for g in groups if len(g)]
+    x = np.asarray([v for v in one if np.isfinite(v)])
+    dof = sum(len(g) - 1 for g in groups)
+    if not len(x) or dof < 1:
+        return math.nan, math.nan, math.nan, dof
+    s2 = sum(float(np.sum((g - g.mean()) ** 2)) for g in groups) / dof
+    total = sum(len(g) for g in groups)
+    mean = sum(float(g.sum()) for g in groups) / total
+    z = (x.mean() - mean) / math.sqrt(s2 / len(x) + s2 / total) if s2 > 0 else math.nan
+    means = [g.mean() for g in groups]
+    f = (float(np.var(means, ddof=1)) / (s2 / np.mean([len(g) for g in groups]))
+         if len(groups) > 1 and s2 > 0 else math.nan)
+    return float(z), float(scipy.stats.t.ppf(0.5 + LEVEL / 2, dof)), f, dof
+
+
+def cycle_groups(runs: dict) -> dict:
+    """``runs[theta][side label]`` compared cycle by cycle (``CYCLE_GROUPS``): per angle and group, the rows of
+    ``compare`` on each run's mean over the group's events, beside ``within_run``'s test where one side has one
+    run."""
+    out = {}
+    for theta, by_side in runs.items():
+        labels = list(by_side)
+        events = {label: [run_events(r) for r in by_side[label]] for label in labels}
+        for group, keep in CYCLE_GROUPS.items():
+            chosen = {label: [{q: [v for c, v in ev[q] if keep(c)] for q in ev} for ev in events[label]]
+                      for label in labels}
+            chosen = {label: [ev for ev in evs if any(len(v) for v in ev.values())] for label, evs in chosen.items()}
+            if not all(chosen.values()):
+                continue
+            measures = {label: [{q: _mean(v) for q, v in ev.items()} for ev in evs] for label, evs in chosen.items()}
+            cycles = {label: [max(1, len(ev[next(iter(STEADY.values()))]) // 2) for ev in evs]
+                      for label, evs in chosen.items()}
+            rows = compare(measures, cycles)
+            for row in rows:
+                if row.get("borrowed"):
+                    one = chosen[row["borrowed"]][0][row["quantity"]]
+                    many = [ev[row["quantity"]] for ev in chosen[_other(labels, row["borrowed"])]]
+                    z, critical, f, dof = within_run(one, many)
+                    row["z_within"] = z if row["borrowed"] == labels[1] else -z
+                    row["critical_within"], row["f_runs"], row["dof_within"] = critical, f, dof
+            out[f"{theta}, {group}"] = {"seeds": {label: len(m) for label, m in measures.items()}, "rows": rows}
+    return out
 
 
 def side(text: str) -> selection.DataSet:
@@ -139,7 +213,8 @@ def summarise(runs: dict, fits: bool = True) -> dict:
         own = {label: [errors for _, errors in runs] for label, runs in measured.items()}
         cycles = {label: [r.spec.n_cycles for r in by_side[label]] for label in labels}
         groups[theta] = {"seeds": {e: len(m) for e, m in measures.items()}, "rows": compare(measures, cycles, own)}
-    return {"sides": labels, "gammas": list(TRANSIENT_GAMMAS), "level": LEVEL, "groups": groups}
+    return {"sides": labels, "gammas": list(TRANSIENT_GAMMAS), "level": LEVEL, "groups": groups,
+            "cycle_groups": cycle_groups(runs)}
 
 
 def cell(m: dict) -> str:
@@ -164,14 +239,39 @@ def markdown(summary: dict) -> str:
              "before it; fit: the global fit on each reversal alone, in the paper's definitions (nominal strain, Φ "
              "of the gap)."]
     for theta, group in summary["groups"].items():
-        lines += ["", f"## θ = {theta}° ({group['seeds'][a]} and {group['seeds'][b]} runs)", "",
-                  f"| quantity | {a} | {b} | z | t* | agree |", "|---|---|---|---|---|---|"]
-        for r in group["rows"]:
-            z = f"{r['z']:+.2f}" + ("†" if r.get("borrowed") else "") if math.isfinite(r["z"]) else ""
-            agree = {True: "yes", False: "**no**", None: ""}[r["agree"]]
-            critical = f"{r['critical']:.2f}" if math.isfinite(r["critical"]) else ""
-            lines.append(f"| {r['quantity']} | {cell(r[a])} | {cell(r[b])} | {z} | {critical} | {agree} |")
+        lines += ["", f"## θ = {theta}° ({group['seeds'][a]} and {group['seeds'][b]} runs)", ""] + table(group, a, b)
+    if summary.get("cycle_groups"):
+        lines += ["", "## Cycle by cycle", "",
+                  "Cycle k of one side against cycle k of the other, and each run's later cycles pooled (a packing "
+                  "still compacting differs from cycle to cycle): each run's mean over the group's events (the two "
+                  "steady windows and the two changes of direction of each cycle), without the fit and the band "
+                  "strain. Where one side has one run, z within (‡) tests it by the events' own scatter about their "
+                  "run's mean (windows or changes, many degrees of freedom, in brackets), taking the runs as alike "
+                  "but for it; F is the runs' scatter of means over what that scatter makes of it (≈ 1: sound; "
+                  "well above 1: the seeds differ more than their events do, and only z† holds)."]
+        for name, group in summary["cycle_groups"].items():
+            lines += ["", f"### θ = {name} ({group['seeds'][a]} and {group['seeds'][b]} runs)", ""]
+            lines += table(group, a, b)
     return "\n".join(lines) + "\n"
+
+
+def table(group: dict, a: str, b: str) -> list[str]:
+    """A group's rows as a markdown table; the within-run test's columns where a row has it."""
+    within = any("z_within" in r for r in group["rows"])
+    head = f"| quantity | {a} | {b} | z | t* | agree |" + (" z within ‡ | t* | F |" if within else "")
+    lines = [head, "|---" * head.count(" | ") + "|---|"]
+    for r in group["rows"]:
+        z = f"{r['z']:+.2f}" + ("†" if r.get("borrowed") else "") if math.isfinite(r["z"]) else ""
+        agree = {True: "yes", False: "**no**", None: ""}[r["agree"]]
+        critical = f"{r['critical']:.2f}" if math.isfinite(r["critical"]) else ""
+        line = f"| {r['quantity']} | {cell(r[a])} | {cell(r[b])} | {z} | {critical} | {agree} |"
+        if within:
+            zw, cw, f = (r.get(k, math.nan) for k in ("z_within", "critical_within", "f_runs"))
+            mark = "**" if math.isfinite(zw) and abs(zw) >= cw else ""
+            line += (f" {mark}{zw:+.2f}{mark} ({r['dof_within']}) | {cw:.2f} | {f:.2g} |" if math.isfinite(zw)
+                     else " | | |")
+        lines.append(line)
+    return lines
 
 
 @one_line_errors

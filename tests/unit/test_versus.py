@@ -101,3 +101,34 @@ def test_one_against_many_holds_95_percent_of_new_draws(cycles_ratio):
         z, critical = versus.one_against_many(value, summary, widen=np.sqrt(cycles_ratio))
         accepted.append(abs(z) < critical)
     assert np.mean(accepted) == pytest.approx(0.95, abs=0.012)  # 3.5 binomial standard deviations
+
+
+def test_within_run_scatter_holds_its_level_and_tells_when_the_runs_differ_more():
+    """One run's events against three runs' events of the same distribution: |z within| < t* about 95 % of the
+    time, F about 1; where the runs' means scatter more than their events, F says so."""
+    rng = np.random.default_rng(3)
+    inside, f = [], []
+    for _ in range(2000):
+        z, critical, ratio, dof = versus.within_run(list(rng.normal(size=8)), [list(rng.normal(size=8))
+                                                                              for _ in range(3)])
+        inside.append(abs(z) < critical)
+        f.append(ratio)
+    assert dof == 21 and abs(np.mean(inside) - 0.95) < 0.015 and 0.8 < np.mean(f) < 1.2
+    apart = [list(rng.normal(loc=3 * k, size=8)) for k in range(3)]
+    assert versus.within_run(list(rng.normal(size=8)), apart)[2] > 20
+
+
+def test_cycle_by_cycle_meets_cycle_1_with_cycle_1_and_pools_the_later_cycles(tmp_path):
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    many = [synthetic_run(folder, 180.0, name=f"s{seed}", seed=seed, noise=0.01, n_cycles=3) for seed in (1, 2, 3)]
+    one = [synthetic_run(folder, 180.0, name="one", seed=9, noise=0.01, n_cycles=3, engine="lammps")]
+    single = [synthetic_run(folder, 180.0, name="single", seed=8, noise=0.01, n_cycles=1, engine="lammps")]
+    groups = versus.summarise({"180": {"many": many, "one": one}}, fits=False)["cycle_groups"]
+    assert set(groups) == {"180, cycle 1", "180, cycles 2 on"}
+    mu = next(r for r in groups["180, cycles 2 on"]["rows"] if r["quantity"] == "τ12/p")
+    assert mu["dof_within"] == 3 * (4 - 1) and abs(mu["z_within"]) < mu["critical_within"]
+    text = versus.markdown(versus.summarise({"180": {"many": many, "one": one}}, fits=False))
+    assert "### θ = 180, cycles 2 on (3 and 1 runs)" in text and "z within ‡" in text
+    only_first = versus.summarise({"180": {"many": many, "single": single}}, fits=False)["cycle_groups"]
+    assert set(only_first) == {"180, cycle 1"}  # a one-cycle side has no later cycles to meet
