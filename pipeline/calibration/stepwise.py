@@ -113,12 +113,29 @@ def calibrate_run(run, window: float = 0.05, c_window=(0.3, 0.69), s_small: floa
     }
 
 
-def cross_check_run(run, window: float = 0.05, min_sine: float = 0.1) -> dict:
+#: resampled cycles behind the standard error of Sec. 3.3's median C per run
+CROSS_CHECK_DRAWS = 40
+
+
+def cross_check_run(run, window: float = 0.05, min_sine: float = 0.1, draws: int = CROSS_CHECK_DRAWS) -> dict:
     """Sec. 3.3: C and Y at every instant of the cycle from the 12 and 32 components of Eq. 14,
-    where the fabric and the shear direction are at least ``asin(min_sine)`` apart in that plane."""
-    c = run.cycle
+    where the fabric and the shear direction are at least ``asin(min_sine)`` apart in that plane. The median C's
+    standard error ``C_se``: its spread over ``draws`` cycle means of the run's cycles drawn with replacement,
+    times sqrt(n / (n - 1)) (NaN for one cycle)."""
+    out = _cross_check(run, run.cycle, window, min_sine)
+    n = run.spec.n_cycles
+    if "C_median" in out and n > 1 and draws:
+        rng = np.random.default_rng(0)
+        medians = [_cross_check(run, {**run.cycle, **resampled_cycle(run, rng)}, window, min_sine).get(
+            "C_median", np.nan) for _ in range(draws)]
+        out["C_se"] = float(np.nanstd(medians) * math.sqrt(n / (n - 1)))
+    return out
+
+
+def _cross_check(run, c: dict, window: float, min_sine: float) -> dict:
+    """``cross_check_run`` on the cycle ``c`` of ``run``."""
     strain = c["strain"]
-    D = cycle_D_dev(run)
+    D = cycle_D_dev(run)  # from the protocol alone
     A_s, _ = smooth_segments(strain, c["A"], D, window_strain=window)
     tau_s, _ = smooth_segments(strain, c["tau_over_p"], D, window_strain=window)
     C, Y = cal.backstress_and_yield(tau_s, A_s, D, min_sine=min_sine)

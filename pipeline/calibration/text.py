@@ -133,7 +133,8 @@ def print_report(report: FitSummary, out: Path) -> None:
     for c in report.cross_check:
         if "C_median" in c:
             q = c["C_quartiles"]
-            print(f"  Sec. 3.3, theta = {c['theta_deg']:g}: C = {c['C_median']:+.2f} (quartiles {q[0]:+.2f} "
+            se = f" ± {c['C_se']:.2f}" if math.isfinite(c.get("C_se", math.nan)) else ""
+            print(f"  Sec. 3.3, theta = {c['theta_deg']:g}: C = {c['C_median']:+.2f}{se} (quartiles {q[0]:+.2f} "
                   f"{q[1]:+.2f}), Y = {c['n']:+.3f} {c['m']:+.3f} S")
     for note in report.notes[2:]:
         print(f"note: {note}")

@@ -106,6 +106,10 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
         paper_phi = model.predict(180, params=model.Params()).packing_fraction
         result["reversal"] = {
             "backstress_share": float(np.mean([metrics.backstress_share(r, ours.C) for r in reversals])),
+            "backstress_share_by_C": {label: float(np.mean([metrics.backstress_share(r, p.C) for r in reversals]))
+                                      for label, p in sets.items()},
+            "model_backstress_share": {label: metrics.model_backstress_share(p, reversals[0].spec.rotate_at_strain)
+                                       for label, p in sets.items()},
             "mean_packing_fraction": float(np.mean([r.cycle["packing_fraction"].mean() for r in reversals])),
             "table2_packing_fraction_range": [float(paper_phi.min()), float(paper_phi.max())],
         }
@@ -118,10 +122,17 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
             parts = [metrics.reversal_parts(g["strain"][()], g["tau12"][()], g["A12"][()], ours.C, rotate_at)
                      for g in groups]
         iso, back = metrics.relaxation_strains(parts)
+        pair = ("isotropic", "backstress")
         result["relaxation"] = {
             "reversal_runs": len(parts), "dem": {"isotropic": iso, "backstress": back},
-            "model": {label: dict(zip(("isotropic", "backstress"), metrics.model_relaxation(p, rotate_at),
-                                      strict=True)) for label, p in sets.items()}}
+            "model": {label: dict(zip(pair, metrics.model_relaxation(p, rotate_at), strict=True))
+                      for label, p in sets.items()},
+            "by_cut": {f"{cut:g}": {
+                "dem": {label: dict(zip(pair, metrics.relaxation_strains(
+                    [metrics.reversal_parts(d["strain"], d["tau12"], d["A12"], p.C, rotate_at) for d in parts], cut),
+                    strict=True)) for label, p in sets.items()},
+                "model": {label: dict(zip(pair, metrics.model_relaxation(p, rotate_at, cut), strict=True))
+                          for label, p in sets.items()}} for cut in metrics.RELAXATION_CUTS}}
     with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
         write_compare_h5(h5, runs, predictions, sets, preset, parts, curves + more, other_seeds, others)
         found = schema.Metrics(**result)

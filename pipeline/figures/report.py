@@ -222,6 +222,31 @@ def memory_lines(rows: list[dict], labels: list[str]) -> list[str]:
     return lines
 
 
+def share_text(r: dict) -> str:
+    """The backstress share with each parameter set's C, and in each set's own model cycle."""
+    if "backstress_share_by_C" not in r:
+        return ""
+    by_c = ", ".join(f"{v:.0%} with {label}'s C" for label, v in r["backstress_share_by_C"].items())
+    own = ", ".join(f"{label} {v:.0%}" for label, v in r["model_backstress_share"].items())
+    return f"; {by_c}; in the model's own cycle: {own}"
+
+
+def relaxation_cut_lines(by_cut: dict) -> list[str]:
+    """The relaxation strains after the reversal at each cut (strain left out after it) and each set's C."""
+    labels = list(next(iter(by_cut.values()))["dem"])
+    lines = ["### Relaxation strains after the reversal, by the cut and by C", "",
+             "Isotropic part / backstress, to within 5 % of the final value from an exponential fit past the cut; "
+             "the DEM's parts split with each set's C, and each set's own model cycle by the same measure (paper, "
+             "Fig. 8: 0.25 / 0.6).", "",
+             "| cut | " + " | ".join(f"DEM, {label}'s C" for label in labels) + " | "
+             + " | ".join(f"model, {label}" for label in labels) + " |", "|---" * (1 + 2 * len(labels)) + "|"]
+    for cut, row in by_cut.items():
+        cells = [f"{_strain_text(row[k][label]['isotropic'])} / {_strain_text(row[k][label]['backstress'])}"
+                 for k in ("dem", "model") for label in labels]
+        lines.append(f"| {cut} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def drift_lines(rows: list[dict] | None) -> list[str]:
     """The runs' cycles one by one (``pipeline.dataset.drift``): the gap per cycle and each quantity's trend."""
     if not rows:
@@ -289,7 +314,7 @@ def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int, fit_
         lo, hi = r["table2_packing_fraction_range"]
         lines += ["", "## Reversal", "",
                   f"- share of the backstress C A12 in the steady shear stress: {r['backstress_share']:.0%} with our C "
-                  f"(paper: 88 %)",
+                  "(paper: 88 %)" + share_text(r),
                   f"- mean packing fraction over the cycle: {r['mean_packing_fraction']:.3f} (the model with Table 2: "
                   f"{lo:.3f} to {hi:.3f}; Phi_c = {paper['phi_c']} is not the steady value)",
                   second_law_line(metrics.second_law)]
@@ -303,6 +328,8 @@ def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int, fit_
                      "the model by the same measure: " + "; ".join(
                          f"{label}: {_strain_text(v['isotropic'])} and {_strain_text(v['backstress'])}"
                          for label, v in rel["model"].items()))
+    if metrics.relaxation is not None and "by_cut" in metrics.relaxation:
+        lines += ["", *relaxation_cut_lines(metrics.relaxation["by_cut"])]
     if fit_from:
         lines += ["", *jump_lines(fit_from, paper)]
     if fit and fit.sensitivity:
