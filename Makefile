@@ -21,7 +21,7 @@ MODEL_DIR := results/model
 # argument lists (`--plan TARGET` prints them).
 USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM STRESS \
 	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS \
-	SKIP_CYCLES
+	SKIP_CYCLES CASES
 $(foreach v,$(USER_VARIABLES),$(eval override $(v) := $$(value $(v))))
 export $(USER_VARIABLES)
 TARGETS := $(PY) -m pipeline.targets
@@ -132,7 +132,7 @@ data-card: venv ## the data card's table of every committed run, from the files 
 versus: venv ## any two data sets, seed against seed and cycle by cycle: A=preset[/engine][/key=value...] B=... -> results/versus/versus.md
 cells: venv ## the reduced cell against the paper's (its data set, config/datasets.toml), seed against seed -> results/cells/cells.md
 jump: venv ## the reversal jump: fabric and wall stress right after each change of direction, every run -> results/jump/
-stability: system venv ## the DEM on stiff and extreme cases, small cells (about 15 min) -> results/fidelity/stability.md
+stability: system venv ## the DEM on stiff and extreme cases, small cells (about 15 min; CASES=baseline,dt0.5 for some) -> results/fidelity/stability.md
 models: venv ## every fabric law fitted and judged on runs it was not fitted on [PRESET] [ACROSS=reduced] -> results/<data set>/models/
 $(STAGES): check
 	$(TARGETS) $@

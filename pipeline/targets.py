@@ -320,7 +320,8 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
     "jump": lambda v: [Call("pipeline.studies.jump")],
     "models": lambda v: [Call("pipeline.comparison.models", (*data_args(v), *across_args(v))),
                          Call("pipeline.figures.models", data_args(v))],
-    "stability": lambda v: [Call("pipeline.studies.stability")],
+    "stability": lambda v: [Call("pipeline.studies.stability", tuple(
+        ["--cases", ",".join(v.names("CASES"))] if v.names("CASES") else []))],
 }
 
 

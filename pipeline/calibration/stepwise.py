@@ -191,9 +191,13 @@ BOOTSTRAPPED = (*SENSITIVE, "c2_coef", "phi_c", "steady_packing_fraction")
 
 def sensitivity(runs: list) -> dict:
     """The stepwise estimates (mean over runs) for each smoothing window, and Eq. 15's C for each
-    strain window after the reversal: how much the calibration hinges on these choices."""
+    strain window after the reversal: how much the calibration hinges on these choices. A setting the runs cannot
+    be calibrated at (too few samples in its window) gives NaN: the spread is then over the others."""
     def means(**kwargs):
-        per_run = [calibrate_run(run, **kwargs) for run in runs]
+        try:
+            per_run = [calibrate_run(run, **kwargs) for run in runs]
+        except CalibrationError:
+            return dict.fromkeys(SENSITIVE, math.nan)
         return {key: float(np.nanmean([r[key] for r in per_run])) for key in SENSITIVE}
 
     return {"smoothing_window": {f"{w:g}": means(window=w) for w in SMOOTHING_WINDOWS},

@@ -125,7 +125,7 @@ def print_report(report: FitSummary, out: Path) -> None:
     for key, e in report.estimates.items():
         if key.startswith("persistence_exponent"):
             continue  # biased at the DEM's 0.005 sampling (0.50 / 1.04 on model data made with 0.75): fit.json only
-        values = [v[key] for v in settings if key in v]
+        values = [v[key] for v in settings if key in v and math.isfinite(v[key])]
         spread = f"   ({min(values):+.4g} to {max(values):+.4g} over its settings)" if values else ""
         se = e["standard_error"]
         error = f"± {se:.2g}" if math.isfinite(se) else "(one run of one cycle: no error)"

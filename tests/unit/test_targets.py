@@ -117,6 +117,7 @@ def test_the_include_file_is_written_by_the_standard_library_alone(tmp_path):
 READER = {"THETA": "dem", "PRESET": "dem", "ENGINE": "dem", "RANKS": "dem", "ROTATE_AT": "dem", "SET": "dem",
           "FRESH": "dem", "THREADS": "dem", "ALLOW_INERTIAL": "dem", "PRESETS": "bench-dem", "ENGINES": "bench-dem",
           "FIT_FROM": "fit", "STRESS": "fit", "WEIGHT": "fit", "VARIANT": "fit", "SKIP_CYCLES": "fit",
+          "CASES": "stability",
           "ANGLES": "fit-angles", "OVER": "fit-jackknife", "BOOT": "fit-bootstrap", "STRAIN": "fit-profile",
           "PHI": "fit-profile",
           "THETAS": "sweep", "ROTATE_ATS": "sweep", "SEEDS": "sweep", "LAUNCH": "sweep", "SLURM": "sweep",
