@@ -85,7 +85,12 @@ def fit(runs: list, variant: str, stress: str, weight: str) -> tuple[global_fit.
     """The global fit of ``variant`` on ``runs`` from Table 2 (``global_fit.start_of``), and the noise model
     measured on those runs alone."""
     data, noise = global_fit.prepare(runs, 0.0, stress, weight)
-    return global_fit.refine(data, global_fit.start_of(variant), global_fit.free_names(variant), noise=noise), noise
+    return fit_prepared(data, noise, variant), noise
+
+
+def fit_prepared(data, noise, variant: str) -> global_fit.GlobalFit:
+    """``fit`` on data ``global_fit.prepare`` has read already."""
+    return global_fit.refine(data, global_fit.start_of(variant), global_fit.free_names(variant), noise=noise)
 
 
 def steady_scale(cycle: FitCycle, quantity: np.ndarray) -> float:
@@ -138,8 +143,8 @@ def information(fit: global_fit.GlobalFit, data_points: float) -> dict:
 def judge(variant: str, runs: list, other_runs: dict[str, list], stress: str, weight: str, progress) -> dict:
     """Everything ``make models`` reports of one variant (see the module's text)."""
     default = [r for r in runs if r.default_rotation]
-    full, noise = fit(default, variant, stress, weight)
-    data, _ = global_fit.prepare(default, 0.0, stress, weight)
+    data, noise = global_fit.prepare(default, 0.0, stress, weight)  # once: the fit and the residuals' count
+    full = fit_prepared(data, noise, variant)
     params = global_fit.with_eq19_c1(full.params)
     out = {"variant": variant, "params": params.to_dict(), "free": list(full.names),
            "values": full.values.tolist(), "standard_errors": full.standard_errors.tolist(),
