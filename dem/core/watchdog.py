@@ -33,7 +33,7 @@ class Watchdog:
         self.stall = float(stall_cpu_seconds)
         self.grace = float(grace_seconds)
         self.doing = "starting"
-        self.beat()
+        self._beats = 0  # counted by the run loop; the thread reads the clocks, off the step loop
         self._read, write = os.pipe()
         os.set_blocking(write, False)
         signal.set_wakeup_fd(write, warn_on_full_buffer=False)  # main thread only, as signal.signal
@@ -42,17 +42,19 @@ class Watchdog:
         threading.Thread(target=self._watch, name="watchdog", daemon=True).start()
 
     def beat(self):
-        self._last = (time.monotonic(), time.process_time())
+        self._beats += 1
 
     def _watch(self):
         signalled = None  # monotonic time of the first stop signal
+        seen, beat_wall, beat_cpu = -1, 0.0, 0.0  # the last count seen, and when (to the poll's second) it moved
         while True:
             ready, _, _ = select.select([self._read], [], [], 1.0)
             if ready:
                 for signum in os.read(self._read, 512):
                     if signum in self.stop_signals and signalled is None:
                         signalled, first = time.monotonic(), signum
-            beat_wall, beat_cpu = self._last
+            if self._beats != seen:
+                seen, beat_wall, beat_cpu = self._beats, time.monotonic(), time.process_time()
             if signalled is not None and time.monotonic() - max(signalled, beat_wall) > self.grace:
                 self._end(f"signal {first}: the engine has not come back to the run loop in {self.grace:g} s "
                           f"({self.doing}): stopped at once; rerun the same command to resume from the last "

@@ -49,14 +49,19 @@ FIT_NAMES = ("C", "n", "a1", "a2", "b1", "b2")
 LEVEL = 0.95
 
 
-def run_measures(run, fit: bool) -> tuple[dict, dict]:
+def run_parts(run) -> tuple[dict, list]:
+    """What both tables read of a run: its steady values (``steady_values``) and its changes' profiles."""
+    return steady_values(run), run_profiles(run, TRANSIENT_GAMMAS)
+
+
+def run_measures(run, fit: bool, parts: tuple[dict, list]) -> tuple[dict, dict]:
     """One run's measures (see the module's doc), each a number (NaN where the run cannot give it), and the run's
-    own errors of those it has them for (the steady values: their windows' standard error; the fit's: its own)."""
-    steady = steady_values(run)
+    own errors of those it has them for (the steady values: their windows' standard error; the fit's: its own);
+    ``parts``: its ``run_parts``."""
+    steady, profiles = parts
     out = {label: steady[key]["mean"] for key, label in STEADY.items()}
     own = {label: steady[key]["standard_error"] for key, label in STEADY.items()}
     out["band strain / nominal"] = bulk_over_nominal(run.with_definitions(Definitions(strain="bulk")))
-    profiles = run_profiles(run, TRANSIENT_GAMMAS)
     for k, g in enumerate(TRANSIENT_GAMMAS):
         out[f"A fraction at γ = {g:g}"] = _mean([p["fabric"][k] for p in profiles])
     if fit:
@@ -77,14 +82,13 @@ def _mean(values) -> float:
 CYCLE_GROUPS = {"cycle 1": lambda c: c == 0, "cycles 2 on": lambda c: c >= 1}
 
 
-def run_events(run) -> dict[str, list[tuple[int, float]]]:
-    """Per quantity, its values event by event, each with its cycle (0, 1, ...): the steady values over each
-    cycle's two windows (0.3 strain before each change that ends a part of it) and the A fractions at each of its
-    two changes of direction."""
-    windows = steady_values(run)
+def run_events(parts: tuple[dict, list]) -> dict[str, list[tuple[int, float]]]:
+    """Per quantity, a run's values event by event (from its ``run_parts``), each with its cycle (0, 1, ...): the
+    steady values over each cycle's two windows (0.3 strain before each change that ends a part of it) and the A
+    fractions at each of its two changes of direction."""
+    windows, profiles = parts
     out = {label: [(j // 2, w) for j, w in enumerate(windows[key]["windows"][1:])]  # [0]: the preceding half period
            for key, label in STEADY.items()}
-    profiles = run_profiles(run, TRANSIENT_GAMMAS)
     for k, g in enumerate(TRANSIENT_GAMMAS):
         out[f"A fraction at γ = {g:g}"] = [(j // 2, p["fabric"][k]) for j, p in enumerate(profiles)]
     return out
@@ -113,14 +117,14 @@ def within_run(one: list[float], many: list[list[float]]) -> tuple[float, float,
     return float(z), float(scipy.stats.t.ppf(0.5 + LEVEL / 2, dof)), f, dof
 
 
-def cycle_groups(runs: dict) -> dict:
-    """``runs[theta][side label]`` compared cycle by cycle (``CYCLE_GROUPS``): per angle and group, the rows of
-    ``compare`` on each run's mean over the group's events, beside ``within_run``'s test where one side has one
-    run."""
+def cycle_groups(parts: dict) -> dict:
+    """``parts[theta][side label]`` (each run's ``run_parts``) compared cycle by cycle (``CYCLE_GROUPS``): per angle
+    and group, the rows of ``compare`` on each run's mean over the group's events, beside ``within_run``'s test
+    where one side has one run."""
     out = {}
-    for theta, by_side in runs.items():
+    for theta, by_side in parts.items():
         labels = list(by_side)
-        events = {label: [run_events(r) for r in by_side[label]] for label in labels}
+        events = {label: [run_events(p) for p in by_side[label]] for label in labels}
         for group, keep in CYCLE_GROUPS.items():
             chosen = {label: [{q: [v for c, v in ev[q] if keep(c)] for q in ev} for ev in events[label]]
                       for label in labels}
@@ -204,17 +208,20 @@ def one_against_many(value: float, many: dict, widen: float = 1.0, sign: int = 1
 def summarise(runs: dict, fits: bool = True) -> dict:
     """The comparison of ``runs[theta][side label]`` (lists of runs; two sides, A then B), the reversals' own
     fits with ``fits``."""
-    groups, labels = {}, []
+    groups, labels, parts = {}, [], {}
     for theta, by_side in runs.items():
         labels = list(by_side)
-        measured = {label: [run_measures(r, fit=fits and theta == "180") for r in by_side[label]]
+        parts[theta] = {label: [run_parts(r) for r in by_side[label]] for label in labels}
+        measured = {label: [run_measures(r, fits and theta == "180", p) for r, p in zip(by_side[label],
+                                                                                        parts[theta][label],
+                                                                                        strict=True)]
                     for label in labels}
         measures = {label: [values for values, _ in runs] for label, runs in measured.items()}
         own = {label: [errors for _, errors in runs] for label, runs in measured.items()}
         cycles = {label: [r.spec.n_cycles for r in by_side[label]] for label in labels}
         groups[theta] = {"seeds": {e: len(m) for e, m in measures.items()}, "rows": compare(measures, cycles, own)}
     return {"sides": labels, "gammas": list(TRANSIENT_GAMMAS), "level": LEVEL, "groups": groups,
-            "cycle_groups": cycle_groups(runs)}
+            "cycle_groups": cycle_groups(parts)}
 
 
 def cell(m: dict) -> str:
