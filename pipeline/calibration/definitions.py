@@ -67,10 +67,14 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
 def own_reversal(params: model.Params) -> dict:
     """The model's own reversal cycle (theta = 180) with ``params``: the rate a1 + a2 |A| at which the fabric
     leaves the reversal (``model.reversal_start_rate``; positive, it grows along its old direction) and the peak
-    |A| over the cycle per the steady |A|, or the solver's reason where the cycle cannot be computed. A fit past
-    the jump restarts from the DEM's state and never runs through the reversal's start, so it can land where the
-    model's own reversal runs away."""
-    rate = model.reversal_start_rate(params)
+    |A| over the cycle per the steady |A|, or the solver's reason where the cycle cannot be computed (the rate too,
+    where the law has no steady state to reverse from). A fit past the jump restarts from the DEM's state and never
+    runs through the reversal's start, so it can land where the model's own reversal runs away."""
+    try:
+        rate = model.reversal_start_rate(params)
+    except model.SolverError as exc:  # no steady state to reverse from
+        return {"start_rate": None, "peak_over_steady": None,
+                "error": "no steady state: " + str(exc).split(" (parameters off")[0]}
     try:
         cycle = model.predict(180, params=params)
     except model.SolverError as exc:

@@ -115,6 +115,8 @@ def markdown(rows: list[dict], label: str) -> str:
 
 def own_reversal_cell(own: dict) -> str:
     """``definitions.own_reversal`` in a table cell."""
+    if own["start_rate"] is None:
+        return "no steady state"
     peak = "fails" if own["peak_over_steady"] is None else f"peak {own['peak_over_steady']:.2f}"
     return f"{own['start_rate']:+.2g}, {peak}"
 

@@ -1,7 +1,7 @@
 """``make models``: every fabric law (``model.params.VARIANTS``) fitted as ``make fit`` fits, and judged by the runs
 it was not fitted on.
 
-``python -m pipeline.comparison.models [--preset P] [--engine E] [--set K=V] [--across P[:E] ...] [--out DIR]``.
+``python -m pipeline.comparison.models [--preset P] [--engine E] [--set K=V] [--across P[:E]|none ...] [--out DIR]``.
 For each variant, the global fit (``calibration.global_fit``: the same definitions, noise model and weights as
 ``make fit``; the dilatancy is not fitted, Phi is not scored) on
 
@@ -68,7 +68,9 @@ def protocol(run) -> str:
 
 
 def splits(runs: list) -> list[Split]:
-    """``angles`` and one ``without <theta>`` per angle of the default protocol; no split lets a test run train."""
+    """``angles`` and one ``without <theta>`` per angle of the default protocol, each where it has runs to fit and
+    runs to predict (a data set of the training angles alone has no ``angles`` split, one angle no split at all);
+    no split lets a test run train."""
     default = [i for i, r in enumerate(runs) if r.default_rotation]
     train = tuple(i for i in default if runs[i].theta_deg in TRAIN_ANGLES)
     out = [Split("angles", train, tuple(i for i in range(len(runs)) if i not in train))]
@@ -78,7 +80,7 @@ def splits(runs: list) -> list[Split]:
     for s in out:
         if set(s.train) & set(s.test):
             raise CalibrationError(f"split {s.name}: a held-out run is among the fitted ones")
-    return out
+    return [s for s in out if s.train and s.test]
 
 
 def fit(runs: list, variant: str, stress: str, weight: str) -> tuple[global_fit.GlobalFit, object]:
@@ -107,12 +109,11 @@ def held_out(run, params: model.Params, noise, stress: str, cache: dict | None =
     the scaled (A, tau) residuals and the noise's correlation over them (``global_fit.sample_covariance``; ``cache``
     shares the matrices) for ``compared``."""
     cycle = global_fit.scaled_cycle(run, noise, 0.0, stress)
-    row = {"run": run.path.stem, "protocol": protocol(run), "seed": run.spec.seed, "components": {}, "error": None}
     try:
         pred = cycle.prediction(params)
     except model.SolverError as exc:  # the fitted law cannot run this protocol's cycle: no prediction at all
-        return {**row, "error": str(exc).split(" (parameters off")[0], "chi2": np.inf, "samples": 1.0,
-                "rms_noise": np.inf, "_blocks": None}
+        return not_predicted(run, str(exc).split(" (parameters off")[0])
+    row = {"run": run.path.stem, "protocol": protocol(run), "seed": run.spec.seed, "components": {}, "error": None}
     r_A, r_tau = global_fit.scaled_residuals(cycle, pred)
     row["_blocks"] = [(np.concatenate([r_A[:, k], r_tau[:, k]]), global_fit.sample_covariance(noise, k, cycle, cache))
                       for k in range(len(COMPONENTS))]
@@ -131,6 +132,13 @@ def held_out(run, params: model.Params, noise, stress: str, cache: dict | None =
             chi2, samples = chi2 + float(np.sum(in_noise**2)), samples + len(error)
     row.update(chi2=chi2, samples=samples, rms_noise=float(np.sqrt(chi2 / samples)))
     return row
+
+
+def not_predicted(run, reason: str) -> dict:
+    """``held_out``'s row for a run the law gives no prediction of (its cycle cannot be run, or the law could not be
+    fitted on the other runs): an infinite error, no residuals."""
+    return {"run": run.path.stem, "protocol": protocol(run), "seed": run.spec.seed, "components": {},
+            "error": reason, "chi2": np.inf, "samples": 1.0, "rms_noise": np.inf, "_blocks": None}
 
 
 def information(fit: global_fit.GlobalFit, data_points: float) -> dict:
@@ -152,10 +160,16 @@ def judge(variant: str, runs: list, other_runs: dict[str, list], stress: str, we
            "own_reversal": own_reversal(params), "splits": [], "across": []}
     progress()
     for split in splits(runs):
-        trained, train_noise = fit([runs[i] for i in split.train], variant, stress, weight)
-        rows = [held_out(runs[i], trained.params, train_noise, stress, {}) for i in split.test]
-        out["splits"].append({"name": split.name, "params": trained.params.to_dict(), "misfit": trained.misfit,
-                              "rows": rows, "rms_noise": pooled(rows)})
+        try:
+            trained, train_noise = fit([runs[i] for i in split.train], variant, stress, weight)
+        except CalibrationError as exc:  # the law cannot be fitted on these runs alone: it predicts nothing
+            rows = [not_predicted(runs[i], f"not fitted on the other runs: {exc}") for i in split.test]
+            out["splits"].append({"name": split.name, "params": None, "misfit": None, "error": str(exc),
+                                  "rows": rows, "rms_noise": np.inf})
+        else:
+            rows = [held_out(runs[i], trained.params, train_noise, stress, {}) for i in split.test]
+            out["splits"].append({"name": split.name, "params": trained.params.to_dict(), "misfit": trained.misfit,
+                                  "error": None, "rows": rows, "rms_noise": pooled(rows)})
         progress()
     for label, others in other_runs.items():
         there = [r for r in others if r.default_rotation]
@@ -196,13 +210,13 @@ def curves(runs: list, results: list[dict]) -> dict:
     cycle mean; each variant fitted without 120 and 150, the ``angles`` split) and the first JUMP_SPAN strain after
     the reversal (A's component along the old direction per its steady value; each variant's fit on every run)."""
     out = {"memory": [], "jump": []}
-    sets = {r["variant"]: next(s for s in r["splits"] if s["name"] == "angles")["params"] for r in results}
     full = {r["variant"]: r["params"] for r in results}
     for run in runs:
         if not run.default_rotation:
             continue
-        if run.theta_deg in (120.0, 150.0):
-            preds = metrics.model_for(run, {v: model.Params.from_dict(p) for v, p in sets.items()})
+        if run.theta_deg in (120.0, 150.0):  # held out by the ``angles`` split, which is therefore made
+            sets = {r["variant"]: next(s for s in r["splits"] if s["name"] == "angles")["params"] for r in results}
+            preds = metrics.model_for(run, {v: model.Params.from_dict(p) for v, p in sets.items() if p})
             for c in metrics.memory_curves(run, preds):
                 if c["segment"] == "after the turn to theta":
                     out["memory"].append({"run": run.path.stem, "seed": run.spec.seed, "theta": run.theta_deg,
@@ -285,8 +299,10 @@ def without_blocks(results: list[dict]) -> list[dict]:
                          "there_from_here": strip(a["there_from_here"])} for a in r["across"]]} for r in results]
 
 
-def markdown(label: str, results: list[dict], judgements: list[dict]) -> str:
-    """``models.md``: the held-out table, the in-sample numbers, the parameters and the verdict."""
+def markdown(label: str, results: list[dict], judgements: list[dict],
+             not_fitted: dict[str, str] | None = None) -> str:
+    """``models.md``: the held-out table, the in-sample numbers, the parameters and the verdict; the laws that could
+    not be fitted on every run (``not_fitted``: the reason) are named."""
     variants = [r["variant"] for r in results]
     lines = [f"# Fabric laws judged by the runs they were not fitted on: {label}", "",
              "Held-out error: RMS over the cycle in units of the run's noise (1 is a prediction within the noise), "
@@ -299,14 +315,16 @@ def markdown(label: str, results: list[dict], judgements: list[dict]) -> str:
     for r in results:
         rev = r["own_reversal"]
         runs_away = "no cycle" if rev["error"] else f"peak/steady {rev['peak_over_steady']:.2f}"
+        own = "no steady state" if rev["start_rate"] is None else f"start rate {rev['start_rate']:+.3g}, {runs_away}"
         lines.append(f"| {r['variant']} | {r['parameters']} | {r['misfit']:.2f} | {r['aic']:.0f} | {r['bic']:.0f} | "
-                     f"start rate {rev['start_rate']:+.3g}, {runs_away} |")
+                     f"{own} |")
     lines += ["", "Parameters (fit on every run; ± one standard error from the noise):", ""]
     for r in results:
         lines.append(f"- {r['variant']}: " + ", ".join(f"{n} = {v:+.4g} ± {s:.2g}" for n, v, s in
                                                         zip(r["free"], r["values"], r["standard_errors"], strict=True)))
-    lines += ["", "Per held-out run (RMS over its components in noise units; inf: the law fitted cannot run its cycle; "
-              "models.json has each component, also per the DEM's steady value):", ""]
+    lines += ["", "Per held-out run (RMS over its components in noise units; inf: no prediction, the law fitted cannot "
+              "run its cycle or could not be fitted on the other runs, models.json says which; models.json has each "
+              "component, also per the DEM's steady value):", ""]
     for k, split in enumerate(results[0]["splits"]):
         for j, row in enumerate(split["rows"]):
             cells = [f"{r['splits'][k]['rows'][j]['rms_noise']:.2f}" for r in results]
@@ -316,6 +334,9 @@ def markdown(label: str, results: list[dict], judgements: list[dict]) -> str:
               f"the noise alone makes of that difference (its correlation along strain included); beyond the noise "
               f"past |z| = {BEYOND_NOISE_Z:g}.", ""]
     lines += [f"- {line}" for line in verdict_lines(judgements)]
+    if not_fitted:  # a law whose fit on every run failed
+        lines += ["", "Not fitted on every run (so not judged):", ""]
+        lines += [f"- {variant}: {reason}" for variant, reason in not_fitted.items()]
     return "\n".join(lines) + "\n"
 
 
@@ -326,7 +347,11 @@ def read(chosen) -> list:
 
 def other_data_sets(chosen, across: list[str]) -> dict[str, list]:
     """The runs of each data set named ``P[:E]`` in ``across``; by default the most faithful other preset with a
-    reversal run."""
+    reversal run; none for ``none``."""
+    if across == ["none"]:
+        return {}
+    if "none" in across:
+        raise CalibrationError(f"--across {' '.join(across)}: none stands alone (no other data set)")
     if not across:
         across = [p for p in selection.PRESETS_BY_FIDELITY
                   if p != chosen.preset and selection.has_reversal(selection.data_set(p))][:1]
@@ -347,7 +372,7 @@ def main(argv=None) -> int:
     selection.add_arguments(parser, "preset whose runs judge the variants")
     parser.add_argument("--across", action="append", default=[], metavar="PRESET[:ENGINE]",
                         help="another data set to predict from this one and back (repeatable; default: the most "
-                             "faithful other preset with a reversal run)")
+                             "faithful other preset with a reversal run; none: no other)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<data set>/models)")
     args = parser.parse_args(argv)
     chosen = selection.from_arguments(args)
@@ -367,15 +392,24 @@ def main(argv=None) -> int:
 
     print(f"runs: {chosen.label}; across: {', '.join(others) or 'none'}", flush=True)
     stress, weight = global_fit.STRESS_DEFAULT, global_fit.WEIGHT_DEFAULT
-    results = [judge(v, runs, others, stress, weight, progress) for v in variants]
+    results, not_fitted = [], {}
+    for v in variants:
+        try:
+            results.append(judge(v, runs, others, stress, weight, progress))
+        except CalibrationError as exc:  # this law cannot be fitted on these runs: the others are still judged
+            if v == variants[0]:
+                raise CalibrationError(f"Eq. 13's law (the one the others are judged against): {exc}") from None
+            not_fitted[v] = str(exc)
+            done[0] += total // len(variants)  # its fits, none made
+            print(f"models: {v} not fitted on every run ({exc}): left out", flush=True)
     judgements = judged(results)
     results = without_blocks(results)
     summary = {"schema_version": MODELS_VERSION, "data_set": chosen.folder, "stress_fitted": stress,
                "weight": weight, "train_angles": list(TRAIN_ANGLES), "beyond_noise_z": BEYOND_NOISE_Z,
-               "variants": results, "verdict": judgements}
+               "variants": results, "not_fitted": not_fitted, "verdict": judgements}
     with io.atomic_paths(*(out / n for n in ("models.json", "models.md", "models.h5"))) as (js, md, h5):
         js.write_text(io.json_text(summary))
-        md.write_text(markdown(chosen.label, results, judgements))
+        md.write_text(markdown(chosen.label, results, judgements, not_fitted))
         write_curves(h5, curves(runs, results))
     for r in results:
         io.write_params(out / f"params-{r['variant']}.json", model.Params.from_dict(r["params"]),

@@ -26,11 +26,17 @@ AXES = {"inertial_number": ("inertial number I", True), "cell": ("gap H / d", Fa
 TITLES = {"mu": "steady τ12/p"}
 
 
+class NothingToDraw(Exception):
+    """A figure the table has no data for (yet): said, and the other figures drawn."""
+
+
 def error_vs_cpu(table: dict, out: Path) -> Path:
     """Per angle: each setting's |shift| of the steady τ12/p from the reference (its runs' mean; error bars
     the shift's standard error from the seeds' scatter) against its CPU-hours per run, the Pareto front
     joined, and one run's scatter at the preset as a line."""
     thetas = [t for t in table["references"] if "mu" in table["recommendation"][t]["quantities"]]
+    if not thetas:
+        raise NothingToDraw("no angle has the seeds' scatter of the steady τ12/p (a seed axis) yet")
     fig, axes = plt.subplots(1, len(thetas), figsize=(6 * len(thetas), 4.5), squeeze=False)
     for ax, theta in zip(axes[0], thetas, strict=True):
         mu = table["recommendation"][theta]["quantities"]["mu"]
@@ -70,7 +76,7 @@ def params_vs_fidelity(table: dict, out: Path) -> Path:
     lines = table.get("extrapolations", {}).get("180", {})
     axes_shown = [a for a in AXES if a in lines]
     if not axes_shown:
-        raise PipelineError("no axis with two or more values at θ = 180° yet: nothing to draw")
+        raise NothingToDraw("no inertial-number or cell axis with two or more values at θ = 180° yet")
     fig, axes = plt.subplots(len(axes_shown), len(PARAMETERS), figsize=(2.3 * len(PARAMETERS), 2.5 * len(axes_shown)),
                              squeeze=False)
     for row_axes, axis in zip(axes, axes_shown, strict=True):
@@ -114,9 +120,11 @@ def main(argv=None) -> int:
         table = json.loads(args.table.read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise PipelineError(f"cannot read {args.table}: run `make fidelity` first ({exc})") from None
-    made = [error_vs_cpu(table, args.table.with_name("error_vs_cpu.png")),
-            params_vs_fidelity(table, args.table.with_name("params_vs_fidelity.png"))]
-    print("wrote " + ", ".join(str(p) for p in made))
+    for draw, name in ((error_vs_cpu, "error_vs_cpu.png"), (params_vs_fidelity, "params_vs_fidelity.png")):
+        try:
+            print(f"wrote {draw(table, args.table.with_name(name))}")
+        except NothingToDraw as exc:
+            print(f"{args.table.with_name(name)}: not drawn, {exc}")
     return 0
 
 

@@ -1,68 +1,43 @@
 """The targets `make help` names, run through `make` end to end at the smallest scale that exercises them, in a copy
-of the project (results of this checkout are never touched). Which test runs which target is ``RUN_HERE``;
-``RUN_BY_CI`` are the ones CI's `make test` is made of; ``NOT_RUN`` the ones still too long for CI, each with the
-reason. A new target fails the first test until it is placed in one of them."""
+of the project (results of this checkout are never touched). Which test runs which target is ``RUN_HERE``: the long
+ones (the demo and what follows it on its data set) run in a lane started with the session (``tests/conftest.py``),
+whose test runs last; ``RUN_BY_CI`` are the ones CI's `make test` is made of. A new target fails the first test until
+it is placed."""
 
 import os
 import re
-import shutil
 import signal
 import subprocess
-from pathlib import Path
 
 import pytest
 
 from pipeline.paths import ROOT
+from tests.helpers.project import LANE, LANE_TEST, make, project_copy
 
 pytestmark = [pytest.mark.yade, pytest.mark.lammps]
 
 RUN_HERE = {
     "help": "test_every_target_is_run_here_or_by_ci",
     **dict.fromkeys(("dem", "engines", "bench-lammps-settings", "profile-dem", "bench-dem", "stability",
-                     "model-cycles", "sweep", "runs", "sweep-status"),
+                     "model-cycles", "sweep", "runs", "sweep-status", "fidelity"),
                     "test_the_dem_and_engine_targets_run_at_the_tiny_size"),
     **dict.fromkeys(("fit", "compare", "figures", "compare-seed", "fit-bootstrap", "fit-jackknife", "fit-angles",
                      "fit-definitions", "versus", "cells", "jump", "fidelity-table", "data-card", "clean"),
                     "test_the_data_targets_run_on_the_committed_data"),
+    # the demo (its DEM runs, demo-dem, first) and what follows it on its data set
+    **dict.fromkeys(("demo", "demo-dem", "sweep-collect", "fit-from", "fit-profile", "models", "bench"), LANE_TEST),
 }
+assert {args[0] for args in LANE} <= set(RUN_HERE)
 RUN_BY_CI = ("test", "test-unit", "test-yade", "test-cluster", "lint", "venv", "system", "system-venv",
              "system-lammps", "system-slurm")
-#: each with why CI does not run it through `make` (the tiny cell is too noisy for the stepwise route, so a data
-#: set of its runs cannot be fitted, and the committed ones take minutes in these)
-NOT_RUN = {
-    "demo": "two quick-preset DEM runs (about 5 min on two cores), then fit, compare and figures, run here",
-    "demo-dem": "two quick-preset DEM runs (about 5 min); its launcher is run here by `dem`",
-    "bench": "minutes of timing by design; bench-dem is run here at the tiny size",
-    "sweep-collect": "fit, compare and figures of a sweep's data set: a tiny sweep cannot be fitted",
-    "fit-from": "2-5 min on the committed paper cell (its functions: tests/unit/test_calibration.py)",
-    "fit-profile": "3-4 min on the committed paper cell (tests/unit/test_calibration.py)",
-    "models": "about 3 min on the committed paper cell (tests/unit/test_models.py)",
-    "fidelity": "makes the ladder's missing DEM runs first (on a fresh clone `reduced` θ = 90 seeds 4 and 5, about "
-                "35 min each); fidelity-table, its table without them, is run here",
-}
+#: a ladder of two tiny runs (seconds each), for `make fidelity LADDER=...`
+TINY_LADDER = """preset = "tiny"
+thetas = [180.0]
 
-
-def project_copy(folder: Path) -> Path:
-    """The checkout's files (tracked and new, not ignored) copied into ``folder``; run files hard-linked (never written
-    in place: every writer renames a new file onto its name), and a virtualenv of links to the checkout's."""
-    listed = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=ROOT,
-                            capture_output=True, check=True).stdout.decode().split("\0")
-    for name in filter(None, listed):
-        source, target = ROOT / name, folder / name
-        if not source.is_file():
-            continue
-        target.parent.mkdir(parents=True, exist_ok=True)
-        if source.suffix in (".h5", ".npz", ".lmp"):
-            os.link(source, target)
-        else:
-            shutil.copy2(source, target)
-    venv = folder / ".venv"
-    venv.mkdir()
-    for entry in (ROOT / ".venv").iterdir():
-        if entry.name != ".installed":
-            (venv / entry.name).symlink_to(entry.resolve())
-    (venv / ".installed").touch()  # newer than the copied pyproject.toml: Make builds no virtualenv here
-    return folder
+[axes.dt_safety]
+what = "time step as a fraction of the critical one"
+values = [{ dt_safety = 0.2 }, { dt_safety = 0.3 }]
+"""
 
 
 @pytest.fixture(scope="module")
@@ -70,20 +45,10 @@ def project(tmp_path_factory):
     return project_copy(tmp_path_factory.mktemp("project"))
 
 
-def make(project: Path, *args: str, timeout: float = 900) -> str:
-    """``make ARGS`` in the copy; its output, after checking it succeeded."""
-    proc = subprocess.run(["make", "--no-print-directory", *args], cwd=project, capture_output=True, text=True,
-                          timeout=timeout)
-    text = proc.stdout + proc.stderr
-    assert proc.returncode == 0, f"make {' '.join(args)}: exit {proc.returncode}\n{text[-3000:]}"
-    assert "Traceback" not in text, text[-3000:]
-    return text
-
-
 def test_every_target_is_run_here_or_by_ci(project):
     listed = re.findall(r"^  make (\S+)", make(project, "help"), flags=re.MULTILINE)
     assert len(listed) == len(set(listed)) > 40
-    assert sorted(listed) == sorted([*RUN_HERE, *RUN_BY_CI, *NOT_RUN])
+    assert sorted(listed) == sorted([*RUN_HERE, *RUN_BY_CI])
 
 
 def test_the_dem_and_engine_targets_run_at_the_tiny_size(project):
@@ -116,6 +81,11 @@ def test_the_dem_and_engine_targets_run_at_the_tiny_size(project):
     assert (project / "results/tiny/dem/theta030.h5").exists() and (project / "results/tiny/dem/theta060.h5").exists()
     assert "tiny/theta060" in make(project, "runs")
     assert "done" in make(project, "sweep-status")
+    (project / "ladder.toml").write_text(TINY_LADDER)
+    said = make(project, "fidelity", "LADDER=ladder.toml", "JOBS=2")
+    # dt_safety 0.2 is the preset's own: its run, made above, is found; the other is made
+    assert "running 1 ladder run(s)" in said and "2 run(s) of the ladder; 0 not made yet" in said
+    assert "moved from the `tiny` preset" in (project / "results/fidelity-ladder/table.md").read_text()
 
 
 def test_the_data_targets_run_on_the_committed_data(project):
@@ -141,3 +111,23 @@ def test_the_data_targets_run_on_the_committed_data(project):
     assert (project / "data/reference/README.md").read_text() == (ROOT / "data/reference/README.md").read_text()
     make(project, "clean")
     assert not (folder / "fit").exists() and not (project / "results/cells").exists()
+
+
+@pytest.mark.last
+def test_the_long_targets_run_in_a_lane_beside_the_session(long_lane):
+    """The lane's commands (``LANE``) each succeed without a traceback, and leave what they promise."""
+    done = long_lane.wait(timeout=1800)
+    for d in done:
+        assert d.status == 0 and "Traceback" not in d.output, f"make {' '.join(d.args)}: exit {d.status}\n" \
+                                                               f"{d.output[-3000:]}"
+    assert [d.args for d in done] == LANE
+    said = {d.args[0]: d.output for d in done}
+    folder = long_lane.project / "results/quick"
+    assert "demo done" in said["demo"] and (folder / "report.md").exists() and (folder / "fit/params.json").exists()
+    assert len(list((long_lane.project / "results/model").glob("theta*.csv"))) == 6
+    assert "(2 done)" in said["sweep"] and "make figures PRESET=quick" in said["sweep-collect"]
+    assert (folder / "fit/fit_from.md").exists() and (folder / "fit/profiles.json").exists()
+    assert "| held out |" in (folder / "models/models.md").read_text() and (folder / "models/models.png").exists()
+    bench = long_lane.project / "results/bench"
+    assert all((bench / name).exists() for name in ("update.md", "dem_throughput.md"))
+    print("lane: " + ", ".join(f"{' '.join(d.args)} {d.seconds:.0f} s" for d in done))

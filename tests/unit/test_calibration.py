@@ -143,6 +143,11 @@ def test_own_reversal_runs_table_2_and_names_why_a_law_that_runs_away_fails():
     paper, away = own_reversal(model.Params()), own_reversal(RUNS_AWAY)
     assert paper["error"] is None and paper["peak_over_steady"] == pytest.approx(1.0, abs=0.01)
     assert away["peak_over_steady"] is None and away["start_rate"] > 0.01 and "the fabric grows" in away["error"]
+    # a law whose fabric never leaves zero has no steady state to reverse from: said, not raised
+    still = own_reversal(model.Params(a1=0.0, b1=0.0))
+    assert still["start_rate"] is None and still["error"].startswith("no steady state: ")
+    from pipeline.calibration.restart import own_reversal_cell
+    assert own_reversal_cell(still) == "no steady state"
 
 
 @pytest.mark.slow  # reads the committed reduced data set's every run

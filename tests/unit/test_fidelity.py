@@ -8,6 +8,7 @@ import pytest
 import model
 from pipeline.dataset.derived import change_strains
 from pipeline.errors import SpecError
+from pipeline.paths import RESULTS_DIR, fidelity_output
 from pipeline.studies.fidelity import ladder, render, table
 from pipeline.studies.fidelity.summary import summarize
 from tests.helpers import synthetic_run
@@ -21,8 +22,17 @@ def test_the_ladder_is_validated_and_its_preset_run_is_one_run_on_every_axis(tmp
     assert len({r.relative for r in base}) == 1
     bad = tmp_path / "bad.toml"
     bad.write_text('preset = "reduced"\nthetas = [180.0]\n[axes.x]\nvalues = [{ dt_safety = 0.9 }]\n')
-    with pytest.raises(SpecError, match="dt_safety"):
-        ladder.rungs(ladder.load(bad))
+    with pytest.raises(SpecError, match="bad.toml, axis x, .*dt_safety"):
+        ladder.rungs(ladder.load(bad), source=bad.name)
+    # a user's ladder: checked in one line naming the file, its table in a folder of its own
+    for text, said in (('preset = "huge"\nthetas = [180.0]\n[axes.x]\nvalues = [{ seed = 2 }]\n', "preset 'huge'"),
+                       ('preset = "tiny"\n[axes.x]\nvalues = [{ seed = 2 }]\n', "axis x needs values, and thetas"),
+                       ('preset = "tiny"\nthetas = [180.0]\n[axes.x]\nvalues = []\n', "axis x needs values")):
+        bad.write_text(text)
+        with pytest.raises(SpecError, match=f"bad.toml: {said}"):
+            ladder.load(bad)
+    assert fidelity_output() == RESULTS_DIR / "fidelity"
+    assert fidelity_output(bad, "lammps") == RESULTS_DIR / "fidelity-bad-lammps"
 
 
 def test_a_run_with_a_summary_or_a_file_is_not_run_again_and_the_rest_is_a_sweep(tmp_path):

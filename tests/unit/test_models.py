@@ -37,6 +37,16 @@ def test_no_split_fits_a_run_it_predicts_and_each_predicts_what_it_says():
         assert all(runs[i].default_rotation for i in s.train)  # Fig. 7's turns are never fitted
 
 
+def test_a_split_with_nothing_to_predict_or_nothing_to_fit_is_not_made():
+    """The demo's data set (180 and 90, both training angles) has no ``angles`` split; one angle has no split."""
+    demo = [SimpleNamespace(theta_deg=t, default_rotation=True) for t in (180.0, 90.0)]
+    assert [s.name for s in models.splits(demo)] == ["without 180", "without 90"]
+    assert models.splits(demo[:1]) == []
+    assert models.other_data_sets(None, ["none"]) == {}
+    with pytest.raises(models.CalibrationError, match="none stands alone"):
+        models.other_data_sets(None, ["none", "reduced"])
+
+
 def test_a_law_that_cannot_run_the_held_out_cycle_fails_the_test(tmp_path):
     run = synthetic_run(tmp_path, theta=180.0, name="rev", n_cycles=2, noise=0.002)
     data, noise = global_fit.prepare([run])
@@ -44,6 +54,29 @@ def test_a_law_that_cannot_run_the_held_out_cycle_fails_the_test(tmp_path):
     assert 0 < good["rms_noise"] < 3 and good["error"] is None  # the truth predicts its run within the noise
     bad = models.held_out(run, model.PAPER.replace(a1=0.05, a2=2.0, b2=0.0), noise, global_fit.STRESS_DEFAULT)
     assert bad["error"] and bad["rms_noise"] == np.inf and models.pooled([good, bad]) == np.inf
+
+
+@pytest.mark.slow
+def test_a_law_that_cannot_be_fitted_on_a_splits_runs_predicts_none_of_its_held_out_runs(tmp_path, monkeypatch):
+    """A split whose fit fails (the demo's 90 alone, for a law with more parameters) is reported as no prediction of
+    its held-out runs, and the other splits go on."""
+    runs = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=2, noise=0.003, seed=int(t))
+            .with_definitions(PAPER_DEFINITIONS) for t in (180.0, 90.0)]
+    real_fit = models.fit
+
+    def fit(train, *args):
+        if [r.theta_deg for r in train] == [90.0]:
+            raise models.CalibrationError("the global fit did not converge (budget)")
+        return real_fit(train, *args)
+
+    monkeypatch.setattr(models, "fit", fit)
+    out = models.judge(model.params.DEFAULT_VARIANT, runs, {}, global_fit.STRESS_DEFAULT, global_fit.WEIGHT_DEFAULT,
+                       lambda: None)
+    failed, made = out["splits"]
+    assert failed["name"] == "without 180" and failed["params"] is None and failed["rms_noise"] == np.inf
+    assert failed["rows"][0]["error"].startswith("not fitted on the other runs: the global fit did not converge")
+    assert made["name"] == "without 90" and made["error"] is None and np.isfinite(made["rms_noise"])
+    assert "without 180 | inf" in models.markdown("demo", [out], [])
 
 
 @pytest.mark.slow

@@ -102,6 +102,17 @@ def test_the_targets_pass_their_options_and_folders():
     assert plan("bench-lammps-settings", RUN_DIR="r.run", B="atom_modify sort 0 0.0; neigh_modify every 5")[0] \
         .endswith("--a 'atom_modify sort 0 0.0' --b 'atom_modify sort 0 0.0; neigh_modify every 5' --out results/bench")
     assert plan("fidelity-table", ENGINE="lammps")[1].endswith("--table results/fidelity-lammps/table.json")
+    # another ladder: its own folder, which the figure reads
+    assert plan("fidelity", LADDER="tests/my.toml", ENGINE="lammps") == [
+        "python -m pipeline.studies.fidelity --run --jobs 2 --engine lammps --ladder tests/my.toml "
+        "--out results/fidelity-my-lammps",
+        "python -m pipeline.figures.fidelity --table results/fidelity-my-lammps/table.json"]
+    assert plan("fidelity-table")[0].endswith("--ladder config/fidelity.toml --out results/fidelity")
+    assert plan("fit-profile", PRESET="quick", POINTS="3")[0].endswith("--phi gap --points 3")
+    assert plan("bench", PRESETS="tiny", POINTS="1000") == [
+        "python -m pipeline.studies.bench_model --out results/bench",
+        "python -m pipeline.studies.bench_update --points 1000 --out results/bench",
+        "python -m pipeline.studies.bench_dem --presets tiny --engines yade --out results/bench"]
 
 
 def test_the_include_file_is_written_by_the_standard_library_alone(tmp_path):
@@ -122,7 +133,8 @@ READER = {"THETA": "dem", "PRESET": "dem", "ENGINE": "dem", "RANKS": "dem", "ROT
           "PHI": "fit-profile",
           "THETAS": "sweep", "ROTATE_ATS": "sweep", "SEEDS": "sweep", "LAUNCH": "sweep", "SLURM": "sweep",
           "JOBS": "sweep", "MANY": "sweep", "SWEEP": "sweep-status", "SEED": "compare-seed", "A": "versus",
-          "B": "versus", "RUN_DIR": "bench-lammps-settings", "ACROSS": "models"}
+          "B": "versus", "RUN_DIR": "bench-lammps-settings", "ACROSS": "models", "POINTS": "fit-profile",
+          "LADDER": "fidelity"}
 PAYLOADS = ("$(shell touch INJECTED)", "x;touch INJECTED", "x\ntouch INJECTED", "`touch INJECTED`",
             "$(touch INJECTED)", "x' \"y", "x" * 5000, "ü→∞")
 

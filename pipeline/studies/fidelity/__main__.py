@@ -1,6 +1,6 @@
 """``make fidelity``: run the ladder's missing DEM runs, summarise every run, write ``results/fidelity/``.
 
-``python -m pipeline.studies.fidelity [--run] [--jobs 2] [--launch local|slurm] [--out DIR]``
+``python -m pipeline.studies.fidelity [--run] [--jobs 2] [--launch local|slurm] [--ladder FILE] [--out DIR]``
 
 Without ``--run`` nothing is simulated: the table is built from the committed summaries
 (``data/fidelity/``) and any ladder run found in ``results/`` or the reference dataset, which is
@@ -16,14 +16,18 @@ from pathlib import Path
 
 from ... import engines, io
 from ...cli import Parser, one_line_errors
-from ...paths import RESULTS_DIR
+from ...paths import FIDELITY_LADDER, ROOT, fidelity_output
 from ...runs.sweep.local import run_local
 from ...runs.sweep.plan import write_plan
 from ...runs.sweep.slurm import load_cluster_config, submit
 from . import ladder, render, table
 from .gather import csv_text, summaries, top_summaries
 
-OUT_DIR = RESULTS_DIR / "fidelity"
+
+def shown_path(path: Path) -> str:
+    """``path`` relative to the project where it lies inside it."""
+    path = path.resolve()
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
 
 
 @one_line_errors
@@ -34,14 +38,17 @@ def main(argv=None) -> int:
     parser.add_argument("--launch", choices=("local", "slurm"), default="local")
     parser.add_argument("--engine", default=engines.DEFAULT_ENGINE,
                         help=f"the DEM engine of the ladder's runs: {', '.join(engines.ENGINES)}")
-    parser.add_argument("--out", type=Path, help="default results/fidelity (results/fidelity-lammps for LAMMPS)")
+    parser.add_argument("--ladder", type=Path, default=FIDELITY_LADDER,
+                        help="the ladder (default config/fidelity.toml)")
+    parser.add_argument("--out", type=Path, help="default results/fidelity, with -<ladder> for another ladder and "
+                                                 "-<engine> for an engine but Yade")
     args = parser.parse_args(argv)
     if args.out is None:
-        args.out = OUT_DIR if args.engine == engines.DEFAULT_ENGINE else OUT_DIR.with_name(f"fidelity-{args.engine}")
+        args.out = fidelity_output(args.ladder, args.engine)
     if args.jobs < 1:
         parser.error(f"--jobs {args.jobs} must be at least 1")
-    ladder_config = ladder.load()
-    rungs = ladder.rungs(ladder_config, args.engine)
+    ladder_config = ladder.load(args.ladder)
+    rungs = ladder.rungs(ladder_config, args.engine, args.ladder.name)
     out = io.check_writable_dir(args.out)
     missing = ladder.missing(rungs)
     if args.run and missing:
@@ -58,8 +65,9 @@ def main(argv=None) -> int:
     top = (label, top_summaries(top_paths), list(ladder_config["top"].get("checks", []))) if top_paths else None
     extrapolations = {axis: entry["extrapolate"] for axis, entry in ladder_config["axes"].items()
                       if "extrapolate" in entry}
-    result = table.build(entries, extrapolations=extrapolations,
-                         node_cores=int(ladder_config.get("node_cores", 32)), top=top)
+    result = {**table.build(entries, extrapolations=extrapolations,
+                            node_cores=int(ladder_config.get("node_cores", 32)), top=top),
+              "ladder": shown_path(args.ladder), "preset": ladder_config["preset"]}
     io.write_json(out / "table.json", result)
     io.write_text(out / "table.csv", csv_text(result["rows"]))
     io.write_text(out / "table.md", render.markdown(result))

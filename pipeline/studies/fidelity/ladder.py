@@ -1,4 +1,5 @@
-"""The fidelity ladder of ``config/fidelity.toml``: its runs, which of them exist, and running the rest.
+"""The fidelity ladder of ``config/fidelity.toml`` (or a user's, ``make fidelity LADDER=...``): its runs, which of
+them exist, and running the rest.
 
 A rung is one axis value at one angle: a run of the ladder's preset with that value's overrides (values
 equal to the preset's own are dropped, so the preset itself is one run shared by every axis). A run
@@ -17,10 +18,9 @@ from ... import spec as run_spec
 from ...config import load_presets
 from ...dataset import lookup, selection
 from ...errors import SpecError
-from ...paths import CONFIG_DIR, DATA_ROOTS, RESULTS_DIR, ROOT, first_existing
+from ...paths import DATA_ROOTS, FIDELITY_LADDER, RESULTS_DIR, ROOT, first_existing
 from ...runs.sweep.plan import Sweep, Task, make_sweep
 
-LADDER_FILE = CONFIG_DIR / "fidelity.toml"
 SUMMARY_DIR = ROOT / "data" / "fidelity"
 
 
@@ -41,7 +41,7 @@ class Rung:
         return " ".join(f"{k}={v:g}" for k, v in self.overrides.items())
 
 
-def load(path: Path = LADDER_FILE) -> dict:
+def load(path: Path = FIDELITY_LADDER) -> dict:
     try:
         with path.open("rb") as f:
             ladder = tomllib.load(f)
@@ -49,12 +49,17 @@ def load(path: Path = LADDER_FILE) -> dict:
         raise SpecError(f"{path}: cannot read the ladder ({exc})") from None
     if "preset" not in ladder or not ladder.get("axes"):
         raise SpecError(f"{path}: a ladder needs a preset and at least one axis")
+    if ladder["preset"] not in load_presets():
+        raise SpecError(f"{path}: preset {ladder['preset']!r} is not one of {', '.join(load_presets())}")
+    for axis, entry in ladder["axes"].items():
+        if not isinstance(entry, dict) or not entry.get("values") or "thetas" not in {*entry, *ladder}:
+            raise SpecError(f"{path}: axis {axis} needs values, and thetas (its own or the ladder's)")
     return ladder
 
 
-def rungs(ladder: dict, engine: str = run_spec.DEFAULT_ENGINE) -> list[Rung]:
-    """Every rung in ``engine``, each validated as ``make dem`` would (a bad value is an error before anything
-    runs)."""
+def rungs(ladder: dict, engine: str = run_spec.DEFAULT_ENGINE, source: str = FIDELITY_LADDER.name) -> list[Rung]:
+    """Every rung in ``engine``, each validated as ``make dem`` would (a bad value is an error naming ``source``,
+    the ladder's file, before anything runs)."""
     preset = ladder["preset"]
     defaults = load_presets()[preset]
     out = []
@@ -65,7 +70,7 @@ def rungs(ladder: dict, engine: str = run_spec.DEFAULT_ENGINE) -> list[Rung]:
                 try:
                     spec = run_spec.resolve(theta, preset, overrides=overrides, engine=engine)
                 except SpecError as exc:
-                    raise SpecError(f"{LADDER_FILE.name}, axis {axis}, {value}: {exc}") from None
+                    raise SpecError(f"{source}, axis {axis}, {value}: {exc}") from None
                 out.append(Rung(axis, {k: float(v) for k, v in value.items()}, float(theta), spec))
     return out
 

@@ -13,7 +13,8 @@ from .table import FITTED, combo_name
 
 def markdown(table: dict) -> str:
     lines = ["# The fidelity ladder", "",
-             "Each row: one setting (an axis of `config/fidelity.toml` moved from the `reduced` preset). μ is the "
+             f"Each row: one setting (an axis of `{table.get('ladder', 'config/fidelity.toml')}` moved from the "
+             f"`{table.get('preset', 'reduced')}` preset). μ is the "
              "steady τ:D'/(p|D'|) (τ12/p along the shear), over the last 0.3 strain before each change of direction; "
              "*shift* is the row minus the reference (the seeds' ensemble at that angle), ± both errors combined, a "
              "run's error being the larger of its windows' standard error and the seeds' scatter per run. "

@@ -1,0 +1,101 @@
+"""A copy of the project to run `make` in (results of this checkout are never touched), and a lane of `make`
+commands that runs in such a copy beside the rest of the session."""
+
+import os
+import shutil
+import signal
+import subprocess
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from pipeline.paths import ROOT
+
+#: the lane's test: the lane is started only when it is among the session's tests
+LANE_TEST = "test_the_long_targets_run_in_a_lane_beside_the_session"
+#: run in this order in one copy: the demo (its two `quick` DEM runs, fit, compare, figures), then on its data set a
+#: sweep of the same runs (done: nothing runs) and its collection, the fit past the jump, a three-point profile, the
+#: fabric laws judged within the data set, and every benchmark at the smallest size
+LANE = [("demo",), ("sweep", "PRESET=quick", "THETAS=180 90"), ("sweep-collect",), ("fit-from", "PRESET=quick"),
+        ("fit-profile", "PRESET=quick", "POINTS=3"), ("models", "PRESET=quick", "ACROSS=none"),
+        ("bench", "PRESETS=tiny", "POINTS=2000")]
+
+
+def project_copy(folder: Path) -> Path:
+    """The checkout's files (tracked and new, not ignored) copied into ``folder``; run files hard-linked (never written
+    in place: every writer renames a new file onto its name), and a virtualenv of links to the checkout's."""
+    listed = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=ROOT,
+                            capture_output=True, check=True).stdout.decode().split("\0")
+    for name in filter(None, listed):
+        source, target = ROOT / name, folder / name
+        if not source.is_file():
+            continue
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if source.suffix in (".h5", ".npz", ".lmp"):
+            os.link(source, target)
+        else:
+            shutil.copy2(source, target)
+    venv = folder / ".venv"
+    venv.mkdir()
+    for entry in (ROOT / ".venv").iterdir():
+        if entry.name != ".installed":
+            (venv / entry.name).symlink_to(entry.resolve())
+    (venv / ".installed").touch()  # newer than the copied pyproject.toml: Make builds no virtualenv here
+    return folder
+
+
+def make(project: Path, *args: str, timeout: float = 900) -> str:
+    """``make ARGS`` in the copy; its output, after checking it succeeded."""
+    proc = subprocess.run(["make", "--no-print-directory", *args], cwd=project, capture_output=True, text=True,
+                          timeout=timeout)
+    text = proc.stdout + proc.stderr
+    assert proc.returncode == 0, f"make {' '.join(args)}: exit {proc.returncode}\n{text[-3000:]}"
+    assert "Traceback" not in text, text[-3000:]
+    return text
+
+
+@dataclass
+class Done:
+    """One command of a lane: its arguments, exit status, output and wall time (s)."""
+
+    args: tuple[str, ...]
+    status: int
+    output: str
+    seconds: float
+
+
+class Lane:
+    """``make`` commands run one after the other in ``project`` by a thread, from the moment it is started: work too
+    long to wait for in turn (a target's DEM runs) overlaps the rest of the session. The first failing command ends
+    the lane. ``stop`` kills the command running (its process group)."""
+
+    def __init__(self, project: Path, commands: list[tuple[str, ...]]):
+        self.project, self.commands, self.done = project, commands, []
+        self._proc, self._stopped = None, False
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        for args in self.commands:
+            if self._stopped:
+                return
+            tic = time.monotonic()
+            self._proc = subprocess.Popen(["make", "--no-print-directory", *args], cwd=self.project, text=True,
+                                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+            output = self._proc.communicate()[0]
+            self.done.append(Done(args, self._proc.returncode, output, time.monotonic() - tic))
+            if self._proc.returncode != 0:
+                return
+
+    def wait(self, timeout: float) -> list[Done]:
+        """Every command's record once the lane has ended (an AssertionError after ``timeout`` s)."""
+        self._thread.join(timeout)
+        assert not self._thread.is_alive(), f"the lane has not ended in {timeout:.0f} s: done {self.done}"
+        return self.done
+
+    def stop(self) -> None:
+        self._stopped = True
+        if self._proc is not None and self._proc.poll() is None:
+            os.killpg(self._proc.pid, signal.SIGTERM)
+        self._thread.join(60)
