@@ -165,13 +165,22 @@ RESUMED = "resumed from checkpoint"
 FORWARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
 
 
-def _die_with_parent() -> None:
+def _prepare_scene() -> None:
     """In the scene's process, before Yade starts: SIGTERM when the launcher dies (Linux's parent-death
-    signal), which stops the scene at its next checkpoint; at once if the launcher is already gone."""
+    signal), which stops the scene at its next checkpoint; at once if the launcher is already gone. And the
+    scheduler group of its new session (Linux's autogroup) at the launcher's niceness: else ``nice make dem`` would
+    leave the scene at full weight against every other session's work."""
     libc = ctypes.CDLL(None, use_errno=True)
     libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
     if os.getppid() == 1:
         os.kill(os.getpid(), signal.SIGTERM)
+    niceness = os.getpriority(os.PRIO_PROCESS, 0)
+    if niceness > 0:
+        try:
+            with open("/proc/self/autogroup", "w") as f:
+                f.write(str(niceness))
+        except OSError:  # no autogroups here: the niceness alone holds
+            pass
 
 
 PR_SET_PDEATHSIG = 1
@@ -191,10 +200,10 @@ def mpi_command(ranks: int) -> list[str]:
 
 def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int, ranks: int = 1) -> tuple[int, str]:
     """Run the scene, echoing its progress lines (prefixed by ``label``) and logging them to ``run_dir/log.txt``;
-    returns its exit status and its last error line. The scene inherits the run's lock (``lock_fd``) and gets
-    SIGTERM if this launcher dies. With ``ranks`` > 1 it runs under ``mpirun``, which kills its ranks on SIGINT or
-    SIGTERM and passes SIGUSR1 and SIGUSR2 on: the first signal reaches the scene as SIGUSR1 (stop at the next
-    checkpoint), a second as SIGUSR2 (stop at once)."""
+    returns its exit status and its last error line. The scene inherits the run's lock (``lock_fd``), gets SIGTERM
+    if this launcher dies and runs at its niceness (``_prepare_scene``). With ``ranks`` > 1 it runs under
+    ``mpirun``, which kills its ranks on SIGINT or SIGTERM and passes SIGUSR1 and SIGUSR2 on: the first signal
+    reaches the scene as SIGUSR1 (stop at the next checkpoint), a second as SIGUSR2 (stop at once)."""
     try:
         command = mpi_command(ranks) + scripts.command(engines.engine(engine).scene, run_dir)
         scripts.require(engine)
@@ -205,7 +214,7 @@ def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int
         log.write(f"# {dt.datetime.now().isoformat(timespec='seconds')} {' '.join(command)}\n")
         proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                                 cwd=run_dir, start_new_session=True, pass_fds=(lock_fd,),
-                                preexec_fn=_die_with_parent)
+                                preexec_fn=_prepare_scene)
 
         received = []
 

@@ -67,8 +67,9 @@ class Done:
 
 class Lane:
     """``make`` commands run one after the other in ``project`` by a thread, from the moment it is started: work too
-    long to wait for in turn (a target's DEM runs) overlaps the rest of the session. The first failing command ends
-    the lane. ``stop`` kills the command running (its process group)."""
+    long to wait for in turn (a target's DEM runs) overlaps the rest of the session, at the lowest priority (nice 19,
+    which the DEM launcher passes to its scenes' scheduler groups), so that it takes the cores the session leaves
+    idle. The first failing command ends the lane. ``stop`` kills the command running (its process group)."""
 
     def __init__(self, project: Path, commands: list[tuple[str, ...]]):
         self.project, self.commands, self.done = project, commands, []
@@ -81,8 +82,9 @@ class Lane:
             if self._stopped:
                 return
             tic = time.monotonic()
-            self._proc = subprocess.Popen(["make", "--no-print-directory", *args], cwd=self.project, text=True,
-                                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+            self._proc = subprocess.Popen(["nice", "-n", "19", "make", "--no-print-directory", *args],
+                                          cwd=self.project, text=True, stdout=subprocess.PIPE,
+                                          stderr=subprocess.STDOUT, process_group=0)
             output = self._proc.communicate()[0]
             self.done.append(Done(args, self._proc.returncode, output, time.monotonic() - tic))
             if self._proc.returncode != 0:

@@ -123,6 +123,25 @@ def test_a_running_scene_listens_on_no_port(tmp_path, engine):
     assert "auth cookie" not in (next(tmp_path.rglob("log.txt"))).read_text()
 
 
+def test_a_niced_launchers_scene_runs_at_its_niceness_in_its_own_scheduler_group_too(tmp_path):
+    """``nice make dem`` nices the scene: the niceness passes to it, and so to the scheduler group (Linux's autogroup)
+    of the session it starts, which would else compete at full weight with every other session's work."""
+    proc = subprocess.Popen(["nice", "-n", "7", *launcher(*RACE_ARGS, results=tmp_path)], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        for line in proc.stdout:
+            if "strain" in line:
+                break
+        (scene,) = children(proc.pid)
+        assert os.getpriority(os.PRIO_PROCESS, scene) == 7
+        group = Path(f"/proc/{scene}/autogroup")
+        if group.exists():
+            assert group.read_text().split()[-1] == "7", group.read_text()
+    finally:
+        proc.communicate()
+    assert proc.returncode == 0
+
+
 def test_two_local_lammps_ranks_listen_on_no_port(tmp_path):
     """At two ranks on this machine the ranks talk through shared memory: neither opens a listening socket (Open
     MPI's TCP transport would listen on every interface). ``mpirun`` itself keeps its runtime's listener
