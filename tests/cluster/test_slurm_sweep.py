@@ -26,6 +26,7 @@ from pipeline.runs.state import STATUS, read_json
 from pipeline.runs.sweep import plan as sweep_plan
 from pipeline.runs.sweep import slurm as sweep_slurm
 from pipeline.runs.sweep import status as sweep_status
+from tests.helpers.sockets import listening_inodes, scene_ranks, socket_inodes
 
 pytestmark = [pytest.mark.yade, pytest.mark.slurm]
 
@@ -338,12 +339,23 @@ def test_a_lammps_sweep_runs_two_ranks_per_task_and_survives_a_warning(cluster, 
     job = job_id(tmp_path, plan.ident)
     assert "--ntasks=2" in (tmp_path / "sweeps" / plan.ident / "job.sh").read_text()
     poll, warned = warn_once_running(cluster, plan, job, 20)
-    wait_for(poll, 300, "the LAMMPS run of the sweep to finish", lambda: cluster_state(cluster, plan))
+    (task,) = plan.tasks
+    looked = []  # per look at the two running ranks: the listening sockets they hold
+
+    def poll_and_look():
+        ranks = scene_ranks(task.run_dir)
+        if len(ranks) == 2 and len(looked) < 3:
+            listening = set(listening_inodes())
+            looked.append([socket_inodes(pid) & listening for pid in ranks])
+        return poll()
+
+    wait_for(poll_and_look, 300, "the LAMMPS run of the sweep to finish", lambda: cluster_state(cluster, plan))
+    # a job of one node: the ranks talk through shared memory, and no rank listens (mpirun's runtime still does)
+    assert looked and all(not held for look in looked for held in look), looked
     assert len(warned) == 1, warned
     log = (tmp_path / "sweeps" / plan.ident / "logs" / f"task-{warned.pop()}.out").read_text()
     assert "stopped (exit 138); requeued to resume from its checkpoint" in log, log
     assert "attempt 2" in log and "resumed from checkpoint" in log
-    (task,) = plan.tasks
     mine = load(task.output)
     assert mine.engine == "lammps" and len(mine.raw_all["fabric"]) == run_spec.cost(task.spec())["samples"]
     assert "mpirun -np 2" in (task.run_dir / "log.txt").read_text()

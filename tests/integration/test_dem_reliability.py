@@ -15,6 +15,7 @@ import pytest
 from pipeline import spec as run_spec
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
+from tests.helpers.sockets import listening_inodes, socket_inodes
 
 pytestmark = pytest.mark.yade
 
@@ -65,18 +66,6 @@ def test_runs_on_a_loaded_machine_lose_no_sample_and_match_an_undisturbed_run(tm
             np.testing.assert_array_equal(again.raw[key], value, err_msg=f"run {k}: {key}")
 
 
-def listening_inodes():
-    """Socket inodes of every TCP socket in LISTEN state, and their local ports."""
-    found = {}
-    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
-        with open(table) as fh:
-            for line in fh.readlines()[1:]:
-                fields = line.split()
-                if fields[3] == "0A":
-                    found[fields[9]] = int(fields[1].rsplit(":", 1)[1], 16)
-    return found
-
-
 def children(pid):
     out = []
     for entry in Path("/proc").iterdir():
@@ -88,18 +77,6 @@ def children(pid):
             if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
                 out.append(int(entry.name))
     return out
-
-
-def socket_inodes(pid):
-    inodes = set()
-    for fd in Path(f"/proc/{pid}/fd").iterdir():
-        try:
-            target = os.readlink(fd)
-        except OSError:
-            continue
-        if target.startswith("socket:["):
-            inodes.add(target[8:-1])
-    return inodes
 
 
 @pytest.mark.parametrize("engine", ["yade", "lammps"])

@@ -117,3 +117,22 @@ def test_an_option_the_engine_would_ignore_is_refused_before_anything_runs(tmp_p
     with pytest.raises(SpecError) as refused:
         dem.run(spec, tmp_path, **options)
     assert str(refused.value) == message and not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("job, local", [({}, True), ({"SLURM_JOB_ID": "7", "SLURM_JOB_NUM_NODES": "1"}, True),
+                                        ({"SLURM_JOB_ID": "7", "SLURM_JOB_NUM_NODES": "2"}, False)],
+                         ids=["here", "slurm-one-node", "slurm-two-nodes"])
+def test_ranks_on_one_machine_talk_through_shared_memory_and_open_no_port(monkeypatch, job, local):
+    """Open MPI's TCP transport (a port on every interface) stays off wherever every rank runs on this machine; a job
+    over several nodes keeps Open MPI's defaults; a user's own setting wins."""
+    from pipeline.runs import scripts
+
+    monkeypatch.delenv("OMPI_MCA_btl", raising=False)
+    for name in ("SLURM_JOB_ID", "SLURM_JOB_NUM_NODES"):
+        monkeypatch.delenv(name, raising=False)
+    for name, value in job.items():
+        monkeypatch.setenv(name, value)
+    assert scripts.environment(ranks=2).get("OMPI_MCA_btl") == ("self,vader" if local else None)
+    assert scripts.environment(ranks=1)["OMPI_MCA_btl"] == "self,vader"
+    monkeypatch.setenv("OMPI_MCA_btl", "self,tcp")
+    assert scripts.environment(ranks=2)["OMPI_MCA_btl"] == "self,tcp"
