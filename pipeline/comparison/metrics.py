@@ -115,14 +115,10 @@ def relaxation_strains(parts: list[dict], cut: float = RELAXATION_CUTS[0]) -> tu
 
 
 def model_cycle_parts(params: model.Params, rotate_at: float) -> dict:
-    """``reversal_parts`` of the model's periodic theta = 180 cycle."""
+    """``reversal_parts`` of the model's periodic theta = 180 cycle (``relaxation_strains`` of ``[it]`` measures the
+    model as the DEM is measured)."""
     cycle = model.predict(180, rotate_at=rotate_at, params=params)
     return reversal_parts(cycle.strain, cycle.tau[:, 0, 1], cycle.A[:, 0, 1], params.C, rotate_at)
-
-
-def model_relaxation(params: model.Params, rotate_at: float, cut: float = RELAXATION_CUTS[0]) -> tuple[float, float]:
-    """``relaxation_strains`` of the model's periodic theta = 180 cycle, by the measure applied to the DEM."""
-    return relaxation_strains([model_cycle_parts(params, rotate_at)], cut)
 
 
 def model_backstress_share(params: model.Params, rotate_at: float) -> float:

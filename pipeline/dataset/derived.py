@@ -156,6 +156,12 @@ def change_strains(spec) -> np.ndarray:
     return np.unique(np.concatenate([starts, starts[:-1] + rotate]))
 
 
+def means_before(strain: np.ndarray, values: np.ndarray, ends, window: float = STEADY_WINDOW) -> np.ndarray:
+    """The mean of ``values`` over the ``window`` of nominal ``strain`` before each of ``ends`` (a run's steady
+    windows, with ``change_strains``)."""
+    return np.array([np.mean(values[(strain > e - window - 1e-9) & (strain < e - 1e-9)]) for e in ends])
+
+
 def cycle_indices(strain, period: float, step: float, n_cycles: int) -> tuple[np.ndarray, np.ndarray]:
     """The grid 0, step, ..., period and, per cycle, the index of the sample nearest to each grid
     point (``(n_cycles, n_grid)``); samples land within a few time steps of the grid."""

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.stats
 
-from .derived import STEADY_WINDOW, Definitions, change_strains
+from .derived import Definitions, change_strains, means_before
 
 #: the drift test's level (two-sided)
 LEVEL = 0.05
@@ -56,10 +56,7 @@ def window_means(run) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     ends = change_strains(run.spec)
     ends = ends[ends > 1e-9]  # the window before 0 is the preceding half period
     cycle = np.floor((ends - 1e-9) / run.spec.period_strain).astype(int)
-    means = {}
-    for name, v in values.items():
-        means[name] = np.array([np.mean(v[(strain > e - STEADY_WINDOW - 1e-9) & (strain < e - 1e-9)]) for e in ends])
-    return cycle, means
+    return cycle, {name: means_before(strain, v, ends) for name, v in values.items()}
 
 
 def trend(cycle: np.ndarray, values: np.ndarray, n_cycles: int) -> Trend:

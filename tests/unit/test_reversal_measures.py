@@ -20,7 +20,8 @@ def test_the_models_own_share_is_the_share_read_off_its_cycle_as_a_run(tmp_path)
 
 def test_the_models_relaxation_strains_depend_on_the_cut():
     table2 = model.Params()
-    strains = {cut: metrics.model_relaxation(table2, 0.7, cut) for cut in metrics.RELAXATION_CUTS}
+    cycle = [metrics.model_cycle_parts(table2, 0.7)]
+    strains = {cut: metrics.relaxation_strains(cycle, cut) for cut in metrics.RELAXATION_CUTS}
     isotropic = [strains[c][0] for c in metrics.RELAXATION_CUTS]
     assert isotropic == sorted(isotropic, reverse=True) and isotropic[0] - isotropic[-1] > 0.05
     assert all(0.1 < strains[c][1] < 0.4 for c in strains)  # the backstress: nowhere near the paper's 0.6

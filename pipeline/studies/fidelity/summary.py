@@ -25,7 +25,7 @@ import model
 
 from ...calibration import global_fit
 from ...comparison.metrics import errors, model_for
-from ...dataset.derived import STEADY_WINDOW, Definitions, bulk_over_nominal, change_strains
+from ...dataset.derived import STEADY_WINDOW, Definitions, bulk_over_nominal, change_strains, means_before
 from ...errors import CalibrationError
 
 SCHEMA = "granular-backstress/fidelity-summary"
@@ -43,8 +43,7 @@ def steady_values(run, window: float = STEADY_WINDOW) -> dict:
                   "phi_gap": run.with_definitions(Definitions(phi="gap")).series["packing_fraction"]}
     out = {}
     for name, values in quantities.items():
-        means = [float(np.mean(values[(strain > c - window - 1e-9) & (strain < c - 1e-9)]))
-                 for c in change_strains(run.spec)]
+        means = means_before(strain, values, change_strains(run.spec), window).tolist()
         se = float(np.std(means, ddof=1) / np.sqrt(len(means)))
         out[name] = {"mean": float(np.mean(means)), "standard_error": se, "windows": means}
     return out
