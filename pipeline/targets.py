@@ -183,6 +183,12 @@ def weight_option(v: Variables) -> list[str]:
     return ["--weight", weight] if weight else []
 
 
+def points_option(v: Variables) -> list[str]:
+    """POINTS, where given (the stage holds the default)."""
+    points = v.whole("POINTS")
+    return ["--points", points] if points else []
+
+
 def dem(v: Variables) -> list[Call]:
     argv = ["run", "--theta", v.number("THETA", "180"), "--preset", v.name("PRESET", "quick"),
             "--engine", v.choice("ENGINE", ENGINES, DEFAULT_ENGINE), "--threads", v.whole("THREADS", "1")]
@@ -245,7 +251,7 @@ def bench_dem(v: Variables) -> list[Call]:
 def bench(v: Variables) -> list[Call]:
     """Every benchmark: the model's numerics, the material-point update (POINTS per update) and bench-dem's."""
     return [Call("pipeline.studies.bench_model", ("--out", "results/bench")),
-            Call("pipeline.studies.bench_update", ("--points", v.whole("POINTS", "100000"), "--out", "results/bench")),
+            Call("pipeline.studies.bench_update", (*points_option(v), "--out", "results/bench")),
             *bench_dem(v)]
 
 
@@ -309,7 +315,7 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
     "fit-from": lambda v: [Call("pipeline.calibration.restart", (*data_args(v), *weight_option(v)))],
     "fit-profile": lambda v: [Call("pipeline.calibration.profile", (
         *data_args(v), "--strain", v.choice("STRAIN", ("nominal", "bulk"), "nominal"),
-        "--phi", v.choice("PHI", ("gap", "central"), "gap"), "--points", v.whole("POINTS", "9"),
+        "--phi", v.choice("PHI", ("gap", "central"), "gap"), *points_option(v),
         *weight_option(v)))],
     "compare": lambda v: [Call("pipeline.comparison", tuple(data_args(v)))],
     "compare-seed": compare_seed,

@@ -123,7 +123,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
                      for g in groups]
         iso, back = metrics.relaxation_strains(parts)
         pair = ("isotropic", "backstress")
-        cycles = {label: [metrics.model_cycle_parts(p, rotate_at)] for label, p in sets.items()}  # each set's once
+        cycles = {label: [metrics.model_cycle_parts(p, rotate_at)] for label, p in sets.items()}
         by_cut = {f"{cut:g}": {
             "dem": {label: dict(zip(pair, metrics.relaxation_strains(
                 [metrics.reversal_parts(d["strain"], d["tau12"], d["A12"], p.C, rotate_at) for d in parts], cut),

@@ -8,6 +8,7 @@ or |tau12/p| of the cycle).
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -114,16 +115,23 @@ def relaxation_strains(parts: list[dict], cut: float = RELAXATION_CUTS[0]) -> tu
             relaxation_strain(strain, np.mean([d["backstress12"] for d in parts], axis=0), skip=cut))
 
 
+@functools.lru_cache(maxsize=8)
+def model_reversal(params: model.Params, rotate_at: float) -> model.Result:
+    """The model's periodic theta = 180 cycle with ``params`` (read, never changed: the comparison takes several
+    measures of each parameter set's cycle, and computes it once)."""
+    return model.predict(180, rotate_at=rotate_at, params=params)
+
+
 def model_cycle_parts(params: model.Params, rotate_at: float) -> dict:
     """``reversal_parts`` of the model's periodic theta = 180 cycle (``relaxation_strains`` of ``[it]`` measures the
     model as the DEM is measured)."""
-    cycle = model.predict(180, rotate_at=rotate_at, params=params)
+    cycle = model_reversal(params, rotate_at)
     return reversal_parts(cycle.strain, cycle.tau[:, 0, 1], cycle.A[:, 0, 1], params.C, rotate_at)
 
 
 def model_backstress_share(params: model.Params, rotate_at: float) -> float:
     """``backstress_share`` of the model's own periodic theta = 180 cycle (Table 2's: the paper's 88 %)."""
-    cycle = model.predict(180, rotate_at=rotate_at, params=params)
+    cycle = model_reversal(params, rotate_at)
     steady = (cycle.strain > rotate_at - 0.2) & (cycle.strain < rotate_at)
     return float(np.mean(params.C * cycle.A[steady, 0, 1]) / np.mean(cycle.tau[steady, 0, 1]))
 

@@ -211,12 +211,13 @@ def curves(runs: list, results: list[dict]) -> dict:
     the reversal (A's component along the old direction per its steady value; each variant's fit on every run)."""
     out = {"memory": [], "jump": []}
     full = {r["variant"]: r["params"] for r in results}
+    # each law's fit of the ``angles`` split (made wherever a run at 120 or 150 is held out), where it was fitted
+    sets = {r["variant"]: s["params"] for r in results for s in r["splits"] if s["name"] == "angles" and s["params"]}
     for run in runs:
         if not run.default_rotation:
             continue
-        if run.theta_deg in (120.0, 150.0):  # held out by the ``angles`` split, which is therefore made
-            sets = {r["variant"]: next(s for s in r["splits"] if s["name"] == "angles")["params"] for r in results}
-            preds = metrics.model_for(run, {v: model.Params.from_dict(p) for v, p in sets.items() if p})
+        if run.theta_deg in (120.0, 150.0):
+            preds = metrics.model_for(run, {v: model.Params.from_dict(p) for v, p in sets.items()})
             for c in metrics.memory_curves(run, preds):
                 if c["segment"] == "after the turn to theta":
                     out["memory"].append({"run": run.path.stem, "seed": run.spec.seed, "theta": run.theta_deg,
