@@ -96,6 +96,9 @@ def _relation_problems(v: DemSpec) -> list[str]:
                         f"{v.sample_strain!r} at least twice when dense_window_strain > 0")
     if v.dense_window_strain >= v.period_strain / 2:
         problems.append(f"dense_window_strain={v.dense_window_strain!r} must be < period_strain/2")
+    if v.contact_track_strain > v.sample_strain:
+        problems.append(f"contact_track_strain={v.contact_track_strain!r} must be <= sample_strain="
+                        f"{v.sample_strain!r} (the contacts are tracked at every sample too), or 0 for none")
     return problems
 
 
@@ -111,6 +114,7 @@ QUASI_STATIC_I = 1e-2  # above this inertial number the flow is no longer quasi-
 MAX_SEED = 2**31 - 1
 MIN_SAMPLE_STRAIN = 5e-4  # every sample is a pass over the contacts and a row of profiles
 MIN_PROFILE_BIN_D = 0.25
+MIN_TRACK_STRAIN = 2.5e-5  # every tracking point is a pass over the contacts (tens of steps in the quick cells)
 
 
 def _physical_problems(v: DemSpec) -> list[str]:
@@ -148,6 +152,9 @@ def _physical_problems(v: DemSpec) -> list[str]:
                         "a pass over every contact; dense_sample_strain samples finer after each change)")
     if v.dense_window_strain > 0 and v.dense_sample_strain < MIN_SAMPLE_STRAIN / 2:
         problems.append(f"dense_sample_strain={v.dense_sample_strain!r} must be >= {MIN_SAMPLE_STRAIN / 2}")
+    if 0 < v.contact_track_strain < MIN_TRACK_STRAIN:
+        problems.append(f"contact_track_strain={v.contact_track_strain!r} must be >= {MIN_TRACK_STRAIN} (each "
+                        "tracking point is a pass over every contact), or 0 for no contact budget")
     if v.profile_bin_d < MIN_PROFILE_BIN_D:
         problems.append(f"profile_bin_d={v.profile_bin_d!r} must be >= {MIN_PROFILE_BIN_D} d (a profile "
                         "bin thinner than a quarter grain holds no average)")

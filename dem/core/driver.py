@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from dem.core import checks, contract, measure, protocol, schema, watchdog
+from dem.core import budget, checks, contract, measure, protocol, schema, watchdog
 from dem.core.rawfile import DISK_ERRORS, DISK_FULL, DiskError, require_free, save_npz, stack, write_raw, write_status
 from dem.core.state import RunState
 
@@ -57,8 +57,10 @@ class Experiment:
         self.area = spec.width_d ** 2
         self.gain = spec.gap_d * spec.overlap_ratio / spec.control_time
         self.gamma_dot = spec.inertial_number  # I = d gamma_dot / sqrt(p/rho) with d = p = rho = 1
-        self.samples = load_samples(run_dir, state.samples_file)
+        self.samples, tracked = load_samples(run_dir, state.samples_file)
         self.sample_strains = protocol.sample_strains(spec)
+        self.track_strains = protocol.track_strains(spec)
+        self.tracker = budget.ContactTracker(tracked or None) if self.track_strains else None
         self.failure = None
         self.last_print = (time.time(), self.iteration())
         self.next_percent = 0.0
@@ -91,8 +93,9 @@ class Experiment:
             phi = math.radians(protocol.direction_deg(strain, self.spec))
             u = (st.wall_speed * math.cos(phi), 0.0, st.wall_speed * math.sin(phi))
             self.move_walls((u[0], u[1] + vy, u[2]), (-u[0], -u[1], -u[2]))
-            if strain >= self.sample_strains[st.next_sample] - protocol.EPS:
-                self.sample(strain)
+            if self.sample_due(strain) or (st.next_track < len(self.track_strains)
+                                           and strain >= self.track_strains[st.next_track] - protocol.EPS):
+                self.observe(strain)
         st.callback_seconds += time.perf_counter() - tic
 
     def compaction_check(self, err):
@@ -124,25 +127,49 @@ class Experiment:
             self.fail(f"compaction did not converge within t = {self.spec.compaction_max_time} "
                       f"(sigma_wall/p - 1 = {err:+.3f})")
 
-    # sampling
-    def sample(self, strain):
-        st = self.state
+    # sampling and tracking
+    def sample_due(self, strain):
+        return strain >= self.sample_strains[self.state.next_sample] - protocol.EPS
+
+    def observe(self, strain):
+        """Gather the contacts once: track them where a tracking point is due (every sample is one) and sample."""
         contacts, grains = self.gather()
         y_bottom, y_top = self.inner_planes()
+        region = (y_bottom + self.spec.region_margin_d, y_top - self.spec.region_margin_d)
+        if self.tracker is not None:
+            self.track(strain, contacts, region)
+        if self.sample_due(strain):
+            self.sample(strain, contacts, grains, (y_bottom, y_top), region)
+
+    def track(self, strain, contacts, region):
+        """A tracking point of the contact budget (``dem.core.budget``): every target up to ``strain`` is done."""
+        st = self.state
+        while st.next_track < len(self.track_strains) and self.track_strains[st.next_track] < strain + protocol.EPS:
+            st.next_track += 1
+        id1, id2, normal = contacts["id1"], contacts["id2"], contacts["normal"]
+        internal = (id1 >= st.first_grain) & (id2 >= st.first_grain)
+        inside = internal & measure.in_slab(contacts["point"][:, 1], *region)
+        normal_force = np.einsum("ci,ci->c", contacts["force"][inside], normal[inside])
+        self.tracker.step(budget.pair_keys(id1[inside], id2[inside]), normal[inside], normal_force,
+                          budget.pair_keys(id1[internal], id2[internal]), protocol.direction_deg(strain, self.spec))
+
+    def sample(self, strain, contacts, grains, walls, region):
+        st = self.state
+        y_bottom, y_top = walls
         gap = y_top - y_bottom
-        margin = self.spec.region_margin_d
         n_bins = max(1, int(round(st.gap0 / self.spec.profile_bin_d)))
         edges = np.linspace(y_bottom, y_top, n_bins + 1)
-        row = measure.measure(contacts, grains, st.first_grain, self.area, (y_bottom + margin, y_top - margin),
-                              edges)
+        row = measure.measure(contacts, grains, st.first_grain, self.area, region, edges)
+        if self.tracker is not None:
+            row.update(self.tracker.row())
         row.update(
             iteration=self.iteration(), time=self.time(), strain=strain,
             direction_deg=protocol.direction_deg(strain, self.spec), gap=gap,
-            region=[y_bottom + margin, y_top - margin], profile_edges=edges, **self.wall_record(),
+            region=list(region), profile_edges=edges, **self.wall_record(),
             wall_stress_error_mean=st.err_sum / max(st.err_n, 1), wall_stress_error_max=st.err_max,
         )
         st.err_sum, st.err_n, st.err_max = 0.0, 0, 0.0
-        schema.check_row(row)
+        schema.check_row(row, contacts=self.tracker is not None)
         self.samples.append(row)
         st.next_sample += 1
         self.check(row, grains, y_bottom, y_top)
@@ -200,13 +227,20 @@ def format_seconds(seconds):
 
 
 # ---------------------------------------------------------------- persistence (atomic: temp file, then rename)
+#: the contact tracker's arrays in a checkpoint's samples file (``budget.ContactTracker.to_arrays``)
+TRACKER_PREFIX = "tracker__"
+
+
 def load_samples(run_dir, name):
+    """The sample rows saved beside a checkpoint, and the contact tracker's arrays saved with them (``{}`` for
+    none)."""
     if not name:
-        return []
+        return [], {}
     with np.load(os.path.join(run_dir, name), allow_pickle=False) as data:
         columns = {key: data[key] for key in data.files}
+    tracked = {key[len(TRACKER_PREFIX):]: columns.pop(key) for key in list(columns) if key.startswith(TRACKER_PREFIX)}
     n = len(next(iter(columns.values()))) if columns else 0
-    return [{key: columns[key][i] for key in columns} for i in range(n)]
+    return [{key: columns[key][i] for key in columns} for i in range(n)], tracked
 
 
 def checkpoint(run, scene):
@@ -216,6 +250,8 @@ def checkpoint(run, scene):
     checkpoint intact."""
     name = f"samples_{run.iteration():012d}.npz"
     columns = stack(run.samples)
+    if run.tracker is not None:
+        columns.update({TRACKER_PREFIX + key: value for key, value in run.tracker.to_arrays().items()})
     require_free(run.run_dir, 2 * scene.checkpoint_bytes() + 2 * sum(a.nbytes for a in columns.values()),
                  "a checkpoint")
     previous = run.state.samples_file

@@ -63,7 +63,7 @@ def velocity_gradient(y, velocity, mass):
     return (w * dy) @ velocity / denom
 
 
-def _in_slab(y, lo, hi):
+def in_slab(y, lo, hi):
     return (y >= lo) & (y < hi)
 
 
@@ -112,8 +112,8 @@ def measure(contacts: dict, grains: dict, first_grain_id: int, area: float,
     # central region
     lo, hi = region
     volume = area * (hi - lo)
-    g_in = _in_slab(y, lo, hi)
-    c_in = _in_slab(point[:, 1], lo, hi)
+    g_in = in_slab(y, lo, hi)
+    c_in = in_slab(point[:, 1], lo, hi)
     c_fab = c_in & internal
     grain_ids = grains["id"]
     counts = np.bincount(np.concatenate([id1, id2]), minlength=int(grain_ids.max()) + 1 if len(grain_ids) else 0)

@@ -52,13 +52,30 @@ def sample_strains(spec):
         for change in direction_changes(spec):
             n_fine = int(math.floor(window / fine + 1e-9))
             dense += [change + j * fine for j in range(1, n_fine + 1)]
-    strains = sorted(grid + [s for s in dense if s < end_strain(spec) - 1e-9])
+    return merged(grid + [s for s in dense if s < end_strain(spec) - 1e-9])
+
+
+def merged(strains):
+    """``strains`` sorted, each within 1e-9 of the one before it dropped."""
     out = []
-    for s in strains:
+    for s in sorted(strains):
         if out and s - out[-1] < 1e-9:
             continue
         out.append(s)
     return out
+
+
+def track_strains(spec):
+    """Strains at which the contacts are tracked (``dem.core.budget``): every sample's, every change of direction's
+    and every ``contact_track_strain`` from ``-pre_strain``, sorted, within 1e-9 of each other merged; none where
+    ``contact_track_strain`` is 0 (the run records no contact budget)."""
+    step = spec.contact_track_strain
+    if step <= 0:
+        return []
+    end = end_strain(spec)
+    n_grid = int(math.floor((spec.pre_strain + end) / step + 1e-9)) + 1
+    grid = [i * step - spec.pre_strain for i in range(n_grid)]
+    return merged(grid + sample_strains(spec) + [s for s in direction_changes(spec) if s < end - 1e-9])
 
 
 def on_grid(strain, spec):

@@ -1,4 +1,4 @@
-"""The raw-sample schema (``config/raw_schema.toml``), read by Yade's python and the project venv alike."""
+"""The raw-sample schema (``config/raw_schema.toml``), read by the engines' python3 and the project venv alike."""
 
 import functools
 import os
@@ -9,15 +9,25 @@ SCHEMA_FILE = os.path.join(ROOT, "config", "raw_schema.toml")
 
 
 @functools.lru_cache(maxsize=1)
+def _tables():
+    with open(SCHEMA_FILE, "rb") as fh:
+        return tomllib.load(fh)
+
+
 def sample_fields():
     """``{name: {"unit": str, "shape": list, "doc": str}}`` of every raw sample field, in file order."""
-    with open(SCHEMA_FILE, "rb") as fh:
-        return tomllib.load(fh)["samples"]
+    return _tables()["samples"]
 
 
-def check_row(row):
-    """Raise ``KeyError`` naming the fields a sample row lacks or has beyond the schema."""
-    names = set(sample_fields())
+def contact_fields():
+    """The contact budget's fields (``[contacts]``), recorded by runs that track their contacts."""
+    return _tables()["contacts"]
+
+
+def check_row(row, contacts=False):
+    """Raise ``KeyError`` naming the fields a sample row lacks or has beyond the schema (with the contact budget's
+    where ``contacts``)."""
+    names = set(sample_fields()) | (set(contact_fields()) if contacts else set())
     missing, extra = sorted(names - set(row)), sorted(set(row) - names)
     if missing or extra:
         raise KeyError(f"sample row does not match {SCHEMA_FILE}: missing {missing}, unexpected {extra}")

@@ -11,8 +11,10 @@ import dataclasses
 SPEC_VERSION = 1
 #: the reference engine, which a spec written before specs named their engine ran
 LEGACY_ENGINE = "yade"
-#: values of keys that files written before the keys existed lack: they ran without dense samples
-LEGACY_DEFAULTS = {"engine": LEGACY_ENGINE, "dense_window_strain": 0.0, "dense_sample_strain": 0.0}
+#: values of keys that files written before the keys existed lack: they ran without dense samples and without the
+#: contact budget
+LEGACY_DEFAULTS = {"engine": LEGACY_ENGINE, "dense_window_strain": 0.0, "dense_sample_strain": 0.0,
+                   "contact_track_strain": 0.0}
 #: keys read as whole numbers; every other value is a float
 INTEGER_KEYS = frozenset({"n_cycles", "control_every_steps", "checkpoint_steps", "seed"})
 
@@ -45,6 +47,7 @@ class DemSpec:
     sample_strain: float
     dense_window_strain: float
     dense_sample_strain: float
+    contact_track_strain: float
     region_margin_d: float
     profile_bin_d: float
     dt_safety: float

@@ -27,6 +27,7 @@ class RunState:
     gap0: float | None = None  # the gap H0 when shear started, d
     wall_speed: float | None = None  # U = gamma_dot H0 / 2
     next_sample: int = 0  # index into protocol.sample_strains
+    next_track: int = 0  # index into protocol.track_strains (the contact budget's tracking points)
     alarm_strain: float = 0.0  # strain the wall stress has been off target in a row
     samples_file: str | None = None  # the samples saved beside the last checkpoint
     err_sum: float = 0.0  # the wall stress error since the last sample: sum, count, largest

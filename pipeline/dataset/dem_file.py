@@ -1,12 +1,14 @@
 """The DEM run file: the raw samples and their provenance, one self-describing HDF5 file per run.
 
-Layout (schema ``granular-backstress/dem-run`` v2; H5MD in spirit: a version at the root, a ``unit``
+Layout (schema ``granular-backstress/dem-run`` v3; H5MD in spirit: a version at the root, a ``unit``
 on every dataset):
 
 ``/`` attrs ``schema``, ``schema_version``, ``creator``, ``created``, ``conventions``
 ``/provenance`` attrs: preset, theta_deg, seed, Yade version, git commit, commands, timestamps, spec
 ``/parameters`` attrs: every spec value, plus the contact constants and the time step; ``grain_diameter``
-``/raw/...`` the samples as taken, named and unit-tagged by ``config/raw_schema.toml``
+``/raw/...`` the samples as taken, named and unit-tagged by ``config/raw_schema.toml`` [samples]
+``/contacts/...`` the contact budget of every sample (``dem/core/budget.py``; [contacts]), in runs that track their
+contacts (version 3 on; a file without it reads with ``DemRun.contacts`` None)
 
 Nothing derived is stored: series and cycles are computed when the file is read
 (``pipeline.dataset.derived``), with the definitions the reader chooses, so a run never depends on
@@ -28,7 +30,7 @@ import h5py
 import numpy as np
 
 from dem.core.protocol import on_grid, sample_strains
-from dem.core.schema import sample_fields
+from dem.core.schema import contact_fields, sample_fields
 from dem.core.spec import LEGACY_ENGINE, DemSpec
 
 from ..errors import DemFileError
@@ -36,8 +38,8 @@ from ..io import atomic_path
 from . import derived
 
 SCHEMA = "granular-backstress/dem-run"
-SCHEMA_VERSION = 2
-READABLE_VERSIONS = (1, 2)
+SCHEMA_VERSION = 3
+READABLE_VERSIONS = (1, 2, 3)
 CONVENTIONS = ("stress tension-positive, normalised by the controlled wall normal stress p; tau = sigma' "
                "(deviator); walls normal to e2; shear direction cos(phi) e1 + sin(phi) e3, phi from e1 towards "
                "e3; strain t*gamma_dot from the start of the first period; fabric A = <n n> - I/3 (Eq. 8)")
@@ -73,6 +75,10 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
     missing = sorted(set(fields) - set(raw))
     if missing:
         raise DemFileError(f"{raw_path} lacks the raw field(s) {', '.join(missing)}")
+    tracked = sorted(set(contact_fields()) & set(raw))
+    if tracked and len(tracked) < len(contact_fields()):
+        raise DemFileError(f"{raw_path} has part of the contact budget only (lacks "
+                           f"{', '.join(sorted(set(contact_fields()) - set(raw)))})")
     # every cycle complete on the grid?
     grid = grid_samples(raw["strain"], spec)
     derived.cycle_indices(raw["strain"][grid], spec.period_strain, spec.sample_strain, spec.n_cycles)
@@ -104,6 +110,10 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
         g_raw = f.create_group("raw")
         for key, info in fields.items():
             _dataset(g_raw, key, raw[key], info["unit"])
+        if tracked:
+            g_contacts = f.create_group("contacts")
+            for key, info in contact_fields().items():
+                _dataset(g_contacts, key, raw[key], info["unit"])
 
 
 def grid_samples(strain, spec) -> np.ndarray:
@@ -125,7 +135,9 @@ class DemRun:
     with ``definitions`` (:class:`pipeline.dataset.derived.Definitions`; ``with_definitions`` for others).
 
     ``raw`` holds the samples on the regular grid (every ``sample_strain``: what the cycle averages and
-    the fits read); ``raw_all`` every sample, the dense ones after each change of direction included.
+    the fits read); ``raw_all`` every sample, the dense ones after each change of direction included; ``contacts``
+    the contact budget of every sample (``config/raw_schema.toml`` [contacts]), None for a run that did not track
+    its contacts.
     """
 
     path: Path
@@ -137,6 +149,7 @@ class DemRun:
     grain_diameter: np.ndarray = field(repr=False, default=None)
     definitions: derived.Definitions = derived.DEFAULT
     raw_all: dict = field(repr=False, default=None)
+    contacts: dict | None = field(repr=False, default=None)
 
     @property
     def theta_deg(self) -> float:
@@ -192,7 +205,12 @@ class DemRun:
             return out
 
         spec = dataclasses.replace(self.spec, n_cycles=self.spec.n_cycles - k)
-        return dataclasses.replace(self, spec=spec, raw=trimmed(self.raw), raw_all=trimmed(self.raw_all))
+        contacts = None
+        if self.contacts is not None:
+            keep = self.raw_all["strain"] >= start - self.spec.pre_strain - 1e-9
+            contacts = {key: value[keep] for key, value in self.contacts.items()}
+        return dataclasses.replace(self, spec=spec, raw=trimmed(self.raw), raw_all=trimmed(self.raw_all),
+                                   contacts=contacts)
 
     @cached_property
     def series(self) -> dict:
@@ -208,18 +226,23 @@ class DemRun:
         return derived.run_cycle(self)
 
 
-def _check_raw(path: Path, raw: dict) -> None:
-    """Every field of the schema, of its shape, the basic ones finite, and strain rising sample by sample."""
-    fields = sample_fields()
-    missing = sorted(set(fields) - set(raw))
+def _check_fields(path: Path, group: str, data: dict, fields: dict, n: int) -> None:
+    """Every field of ``fields`` in ``data`` (the file's ``group``), with ``n`` rows of the schema's shape."""
+    missing = sorted(set(fields) - set(data))
     if missing:
-        raise DemFileError(f"{path}: /raw lacks {', '.join(missing)}")
-    n = len(raw["strain"])
+        raise DemFileError(f"{path}: /{group} lacks {', '.join(missing)}")
     for key, info in fields.items():
-        value = raw[key]
+        value = data[key]
         fixed = [d for d in info["shape"] if isinstance(d, int)]
         if value.shape[:1] != (n,) or (fixed and tuple(value.shape[-len(fixed):]) != tuple(fixed)):
-            raise DemFileError(f"{path}: /raw/{key} has shape {value.shape}, expected ({n}, {info['shape']})")
+            raise DemFileError(f"{path}: /{group}/{key} has shape {value.shape}, expected ({n}, {info['shape']})")
+
+
+def _check_raw(path: Path, raw: dict) -> None:
+    """Every field of the schema, of its shape, the basic ones finite, and strain rising sample by sample."""
+    if "strain" not in raw:
+        raise DemFileError(f"{path}: /raw lacks strain")
+    _check_fields(path, "raw", raw, sample_fields(), len(raw["strain"]))
     for key in ("strain", "time", "direction_deg", "fabric", "stress_contact", "stress_kinetic", "packing_fraction"):
         if not np.all(np.isfinite(raw[key])):
             raise DemFileError(f"{path}: /raw/{key} has non-finite values")
@@ -257,7 +280,7 @@ def cpu_seconds_counted(parameters: dict) -> bool:
 
 
 def load(path) -> DemRun:
-    """Read a DEM run file (schema v1 or v2), checked against the schema: datasets, shapes, finite values."""
+    """Read a DEM run file (schema v1, v2 or v3), checked against the schema: datasets, shapes, finite values."""
     path = Path(path)
     try:
         f = h5py.File(path, "r")
@@ -272,6 +295,8 @@ def load(path) -> DemRun:
         try:
             raw = {k: ds[()] for k, ds in f["raw"].items()}
             units = {f"raw/{k}": ds.attrs["unit"] for k, ds in f["raw"].items()}
+            contacts = ({k: f["contacts"][k][()] for k in contact_fields() if k in f["contacts"]}
+                        if "contacts" in f else None)
             prov = dict(f["provenance"].attrs)
             params = dict(f["parameters"].attrs)
             diameters = f["parameters/grain_diameter"][()] if "grain_diameter" in f["parameters"] else None
@@ -285,6 +310,9 @@ def load(path) -> DemRun:
     if "gamma_dot_nominal" not in params:
         raise DemFileError(f"{path}: the parameters lack gamma_dot_nominal")
     _check_raw(path, raw)
+    if contacts is not None:
+        _check_fields(path, "contacts", contacts, contact_fields(), len(raw["strain"]))
     grid = grid_samples(raw["strain"], spec)
     _check_cycles(path, raw, spec, grid)
-    return DemRun(path, spec, params, prov, {k: v[grid] for k, v in raw.items()}, units, diameters, raw_all=raw)
+    return DemRun(path, spec, params, prov, {k: v[grid] for k, v in raw.items()}, units, diameters, raw_all=raw,
+                  contacts=contacts)

@@ -18,6 +18,7 @@ import pytest
 
 from dem.core import driver
 from dem.core.cell import WALL_RADIUS
+from dem.core.schema import contact_fields
 from pipeline import spec as run_spec
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
@@ -118,6 +119,23 @@ def test_both_engines_run_one_spec_into_files_the_pipeline_reads_alike(both_engi
         assert 0.5 < np.median(p) < 1.5
 
 
+def test_both_engines_track_their_contacts_into_a_budget_that_sums_to_the_change_of_the_fabric(both_engines):
+    """The contact budget (dem/core/budget.py) of each engine: made + lost + kept + crossed is the change of the
+    measured fabric from sample to sample, to rounding; contacts are made and lost; the persistence of each change's
+    set starts at 1 and falls; the strong network is a minority."""
+    _, runs = both_engines
+    for run in runs.values():
+        c = run.contacts
+        assert c is not None and set(c) == set(contact_fields())
+        total = sum(c[f"budget_{t}"] for t in ("made", "lost", "kept", "crossed"))
+        assert np.all(np.isnan(total[0]))
+        np.testing.assert_allclose(total[1:], np.diff(run.raw_all["fabric"], axis=0), atol=1e-13)
+        assert c["made_count"][1:].sum() > 0 and c["lost_count"][1:].sum() > 0
+        assert np.all(c["track_points"][1:] >= 1)
+        assert 0 <= np.nanmin(c["persistence"]) and np.nanmax(c["persistence"]) == 1.0
+        assert 0.2 < np.median(c["strong_fraction"]) < 0.5
+
+
 def test_a_lammps_run_needs_no_yade(both_engines, tmp_path):
     """With Yade's Python modules hidden (a ``yade`` package that fails to import, first on the path) and no
     ``yade`` launcher on PATH, the tiny LAMMPS run builds the same grains (the numpy cloud) and gives the same file
@@ -156,6 +174,8 @@ def test_an_interrupted_lammps_run_resumes_bit_identical_to_an_uninterrupted_one
     resumed = load(run_spec.output_path(tiny_spec("lammps"), results))
     for key, value in runs["lammps"].raw_all.items():
         np.testing.assert_array_equal(resumed.raw_all[key], value, err_msg=key)
+    for key, value in runs["lammps"].contacts.items():  # the contact tracker goes on from its checkpoint
+        np.testing.assert_array_equal(resumed.contacts[key], value, err_msg=key)
     assert not list(run_dir.glob("restart_*")) and not (run_dir / "checkpoint.json").exists()
 
 
