@@ -253,3 +253,23 @@ def observables(A: np.ndarray, D_dev: np.ndarray, p: np.ndarray, packing_fractio
         w_vol = w_vol + c2 * (p[PHI_C] - phi + p[C3])  # Eq. 18 over |D'|
         out["w_vol"] = w_vol
     return out
+
+
+def eq13_terms(A: np.ndarray, L: np.ndarray, params) -> dict:
+    """Eq. 13's three terms for stacks of fabrics ``A`` and velocity gradients ``L`` (n, 3, 3), as rates of A per
+    unit |D'| t: the input ``beta1(S) D'/|D'| / Lambda(S)``, the recovery ``beta2(S) A / Lambda(S)`` (Eqs. 12, 13,
+    24, 25) and the spin ``W A - A W`` per |D'| that the Jaumann rate adds (their sum is dA/d(|D'|t)). ``params`` a
+    ``model.Params`` of the paper's law; S is Eq. 10's. NaN where S = 0 (no persistence: the rate diverges)."""
+    A = np.asarray(A, dtype=float).reshape(-1, 3, 3)
+    L = np.asarray(L, dtype=float).reshape(-1, 3, 3)
+    D = 0.5 * (L + np.swapaxes(L, 1, 2))
+    W = 0.5 * (L - np.swapaxes(L, 1, 2))
+    D_dev = D - np.trace(D, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
+    norm = np.sqrt(np.sum(D_dev * D_dev, axis=(1, 2)))[:, None, None]
+    S = hardening_variable_stack(A, D_dev)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = np.where(S > 0, S ** params.persistence_exponent, np.nan)[:, None, None]
+        beta1 = (params.a1 + params.b1 * S)[:, None, None]
+        beta2 = (params.a2 + params.b2 * S)[:, None, None]
+        return {"S": S, "input": beta1 * D_dev / norm / lam, "recovery": beta2 * A / lam,
+                "spin": (W @ A - A @ W) / norm}

@@ -244,8 +244,9 @@ def needs(v: Variables, name: str, example: str, check: Callable[[str], str | No
 def bench_dem(v: Variables) -> list[Call]:
     presets = v.names("PRESETS") or ["quick", "reduced", "paper"]
     engines = v.names("ENGINES", ENGINES) or [DEFAULT_ENGINE]
+    sets = [a for s in v.settings("SET") for a in ("--set", s)]
     return [Call("pipeline.studies.bench_dem", ("--presets", ",".join(presets), "--engines", ",".join(engines),
-                                                "--out", "results/bench"))]
+                                                *sets, "--out", "results/bench"))]
 
 
 def bench(v: Variables) -> list[Call]:

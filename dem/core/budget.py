@@ -29,7 +29,9 @@ PRL 1998); the strong and weak partial fabrics are each set's ``<n n> - I/3``; t
 the new shear loads their direction, ``x = n.D'.n / max_m m.D'.m = 2 (n.s)(n.e2)`` in [-1, 1] with s the new shear
 direction (``L = gamma_dot s (x) e2``): *compressed* x < -1/3, *neutral* |x| <= 1/3, *stretched* x > 1/3. At each
 sample the fraction of each class whose pair still touches (anywhere) is recorded, with the fabric of those still in
-the region (the *survivors*), their share of the region's contacts and of its strong network.
+the region (the *survivors*), their share of the region's contacts and of its strong network, each class's part of A
+(its survivors' ``sum (n n - I/3) / N``: with the contacts made since the change they make up A) and each class's mean
+normal force (its unloading).
 """
 
 import math
@@ -206,6 +208,12 @@ class ContactTracker:
         survivor = _member(self.change_keys, keys)
         out["survivor_fabric"] = mean_fabric(normals[survivor])
         out["survivor_share"] = float(survivor.mean()) if len(keys) else np.nan
+        at = np.minimum(np.searchsorted(self.change_keys, keys), max(len(self.change_keys) - 1, 0))
+        now_class = np.where(survivor, cls[at] if len(cls) else 0, 0)
+        classes = [survivor] + [now_class == k for k in (1, 2, 3)]
+        out["survivor_part"] = np.array([deviator_sum(normals[now_class == k]) / max(len(keys), 1)
+                                         for k in (1, 2, 3)])
+        out["survivor_force"] = np.array([normal_force[m].mean() if m.any() else np.nan for m in classes])
         strong = normal_force > normal_force.mean() if len(keys) else np.zeros(0, dtype=bool)
         out["survivor_strong_share"] = float(survivor[strong].mean()) if strong.any() else np.nan
         for name in _SUMS:

@@ -1,11 +1,12 @@
 """LAMMPS benchmark: steps/s of the bare and of the production loop of the LAMMPS scene.
 
 ``python3 -m dem.tools.lammps_bench RUN_DIR STEPS REPEATS OUT.json`` (Debian's python3 with LAMMPS) builds the scene of
-RUN_DIR/spec.json, compacts it and shears it STEPS steps (no checkpoint), then times STEPS steps of shear in two
+RUN_DIR/spec.json, compacts it and shears it STEPS steps (no checkpoint), then times STEPS steps of shear in three
 modes, REPEATS times each, interleaved (best time kept): ``bare`` (the controller's ``fix python/invoke`` and
-``fix halt`` removed: LAMMPS alone, the walls at their shear velocity with the gap held) and ``full`` (the controller
-and the in-situ sampling, as in production). Unlike ``dem/tools/yade_bench.py`` the runs follow one another rather than
-restart from one kept state (LAMMPS reads a restart file back in one process only once, see
+``fix halt`` removed: LAMMPS alone, the walls at their shear velocity with the gap held), ``untracked`` (the
+controller and the in-situ sampling without the contact budget's tracking points) and ``full`` (as in production,
+the contacts tracked every ``contact_track_strain``). Unlike ``dem/tools/yade_bench.py`` the runs follow one another
+rather than restart from one kept state (LAMMPS reads a restart file back in one process only once, see
 ``dem/lammps/scene.py``): each repeat shears on, in the same steady state.
 """
 
@@ -30,9 +31,11 @@ def main():
         lmp.command(f"run {steps}")
     lmp.command(f"run {steps}")
     every = int(scene.spec.control_every_steps)
-    times = {"bare": [], "full": []}
+    times = {"bare": [], "untracked": [], "full": []}
+    tracker, track_strains = run.tracker, run.track_strains
     for _ in range(repeats):
         for mode in times:
+            run.tracker, run.track_strains = (tracker, track_strains) if mode == "full" else (None, [])
             if mode == "bare":  # the walls go on at their shear velocity, the gap held (as dem/tools/yade_bench.py's)
                 lmp.command("unfix halt")
                 lmp.command("unfix control")
@@ -48,6 +51,7 @@ def main():
     best = {mode: min(t) for mode, t in times.items()}
     bodies = run.state.n_grains + run.state.n_wall_spheres
     result = {"engine": "lammps", "engine_version": lmp.version(), "preset": scene.spec.preset,
+              "contact_track_strain": scene.spec.contact_track_strain,
               "grains": run.state.n_grains, "wall_spheres": run.state.n_wall_spheres, "steps": steps,
               "repeats": repeats, "dt": run.dt(), "seconds": best,
               "steps_per_second": {mode: steps / t for mode, t in best.items()},

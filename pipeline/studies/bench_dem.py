@@ -12,7 +12,9 @@ Python in the production loop) and ``dem_throughput.md``.
 With ``--engines yade,lammps`` (``make bench-dem ENGINES=yade,lammps``) each preset is also run by LAMMPS's scene
 (``dem/tools/lammps_bench.py``: the same spec, the same driver, from its own compaction) right after Yade's, and
 ``dem_engines.md`` and ``dem_engines.json`` give both engines' steps/s and their ratio, measured in this one
-invocation.
+invocation. With ``--engines lammps`` LAMMPS's scene alone is timed. Every LAMMPS benchmark times the production loop
+with and without the contact budget's tracking side by side (``dem_budget.md``: its cost). ``--set key=value``
+overrides the preset for both engines (``make bench-dem PRESETS=paper ENGINES=lammps SET="inertial_number=0.001"``).
 """
 
 from __future__ import annotations
@@ -29,20 +31,20 @@ from ..paths import RESULTS_DIR
 from ..runs import scripts
 
 #: steps per timed run: a few seconds of each preset here, several sampling intervals of the small ones
-STEPS = {"tiny": 3000, "quick": 31000, "reduced": 45000, "paper": 1500}
+STEPS = {"tiny": 3000, "quick": 31000, "reduced": 45000, "paper": 4500}
 REPEATS = 3
 
 
-def bench(preset: str, repeats: int, cache: Path) -> dict:
-    spec = run_spec.resolve(180, preset)
+def bench(preset: str, repeats: int, cache: Path, overrides: dict) -> dict:
+    spec = run_spec.resolve(180, preset, overrides=overrides)
     cache = cache.resolve()  # the scene runs in a scratch folder
     cache.parent.mkdir(parents=True, exist_ok=True)
     return scripts.run_script("dem.tools.yade_bench", spec, (STEPS.get(preset, 30000), repeats, scripts.OUT, cache),
                            what=f"benchmark of preset {preset}")
 
 
-def bench_lammps(preset: str, repeats: int) -> dict:
-    spec = run_spec.resolve(180, preset, engine="lammps")
+def bench_lammps(preset: str, repeats: int, overrides: dict) -> dict:
+    spec = run_spec.resolve(180, preset, overrides=overrides, engine="lammps")
     return scripts.run_script("dem.tools.lammps_bench", spec, (STEPS.get(preset, 30000), repeats, scripts.OUT),
                            what=f"LAMMPS benchmark of preset {preset}")
 
@@ -58,6 +60,21 @@ def engines_report(pairs: list[tuple[dict, dict]]) -> str:
         lines.append(f"| {y['preset']} | {y['grains']} + {y['wall_spheres']} | {ys['bare']:.0f} / {ys['full']:.0f} "
                      f"| {ls['bare']:.0f} / {ls['full']:.0f} | {ls['full'] / ys['full']:.1f}× "
                      f"| {lmp['particle_steps_per_second']['full'] / 1e6:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
+def budget_report(runs: list[dict], overrides: dict) -> str:
+    """The contact budget's cost: LAMMPS's production loop with its tracking points against the same loop without."""
+    setting = " ".join(f"{k}={v:g}" for k, v in overrides.items()) or "the presets' own values"
+    lines = ["# The contact budget's cost (`make bench-dem ENGINES=lammps`)", "",
+             f"LAMMPS, one core, {setting}; interleaved repeats, best of each: the production loop with the contacts "
+             "tracked every `contact_track_strain` (full) against the same loop without tracking points (untracked).",
+             "", "| preset | grains | contact_track_strain | untracked steps/s | full steps/s | full / untracked |",
+             "|---|---|---|---|---|---|"]
+    for r in runs:
+        sps = r["steps_per_second"]
+        lines.append(f"| {r['preset']} | {r['grains']} | {r['contact_track_strain']:g} | {sps['untracked']:.0f} "
+                     f"| {sps['full']:.0f} | {sps['full'] / sps['untracked']:.3f} |")
     return "\n".join(lines) + "\n"
 
 
@@ -116,31 +133,45 @@ def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.studies.bench_dem", description=__doc__.splitlines()[0])
     parser.add_argument("--presets", default="quick,reduced,paper")
     parser.add_argument("--repeats", type=int, default=REPEATS)
-    parser.add_argument("--engines", default="yade", help="yade, or yade,lammps for both side by side")
+    parser.add_argument("--engines", default="yade", help="yade, lammps, or yade,lammps for both side by side")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a preset value overridden for both engines (repeatable)")
     parser.add_argument("--out", type=Path, default=RESULTS_DIR / "bench")
     args = parser.parse_args(argv)
     presets = check_presets([p.strip() for p in args.presets.split(",")])
     if args.repeats < 1:
         raise PipelineError(f"--repeats {args.repeats} must be at least 1")
     engines = [e.strip() for e in args.engines.split(",")]
-    if engines not in (["yade"], ["yade", "lammps"]):
-        raise PipelineError(f"--engines {args.engines!r}: yade, or yade,lammps")
+    if engines not in (["yade"], ["lammps"], ["yade", "lammps"]):
+        raise PipelineError(f"--engines {args.engines!r}: yade, lammps, or yade,lammps")
+    overrides = run_spec.parse_overrides(args.set)
+    for preset in presets:  # a one-line error now for a bad value
+        run_spec.resolve(180, preset, overrides=overrides)
     try:
         for engine in engines:  # a one-line error now if an engine asked for is missing
             scripts.require(engine)
     except scripts.EngineMissing as exc:
         raise PipelineError(str(exc)) from None
     out = io.check_writable_dir(args.out)
-    rows, pairs = [], []
+    rows, lammps_runs = [], []
     for preset in presets:
         print(f"benchmarking {preset} (a paper cell's first compaction takes long) ...", flush=True)
-        rows.append(bench(preset, args.repeats, out / "cache" / f"{preset}.yade.gz"))
-        sps = rows[-1]["steps_per_second"]
-        print(f"  bare {sps['bare']:.0f} steps/s, full {sps['full']:.0f} steps/s", flush=True)
+        if "yade" in engines:
+            rows.append(bench(preset, args.repeats, out / "cache" / f"{preset}.yade.gz", overrides))
+            sps = rows[-1]["steps_per_second"]
+            print(f"  bare {sps['bare']:.0f} steps/s, full {sps['full']:.0f} steps/s", flush=True)
         if "lammps" in engines:
-            pairs.append((rows[-1], bench_lammps(preset, args.repeats)))
-            sps = pairs[-1][1]["steps_per_second"]
-            print(f"  LAMMPS: bare {sps['bare']:.0f} steps/s, full {sps['full']:.0f} steps/s", flush=True)
+            lammps_runs.append(bench_lammps(preset, args.repeats, overrides))
+            sps = lammps_runs[-1]["steps_per_second"]
+            print(f"  LAMMPS: bare {sps['bare']:.0f}, untracked {sps['untracked']:.0f}, full {sps['full']:.0f} "
+                  "steps/s", flush=True)
+    if lammps_runs:
+        io.write_json(out / "dem_budget.json", lammps_runs)
+        io.write_text(out / "dem_budget.md", budget_report(lammps_runs, overrides))
+        print(budget_report(lammps_runs, overrides))
+    if not rows:
+        return 0
+    pairs = list(zip(rows, lammps_runs, strict=False)) if lammps_runs else []
     if pairs:
         io.write_json(out / "dem_engines.json", [{"yade": throughput_record(y), "lammps": lmp} for y, lmp in pairs])
         io.write_text(out / "dem_engines.md", engines_report(pairs))

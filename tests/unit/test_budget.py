@@ -189,3 +189,43 @@ def test_tracking_points_hold_every_sample_and_change_and_none_without_tracking(
     assert set(np.round(protocol.direction_changes(spec), 9)) <= set(np.round(track, 9))
     assert np.all(np.diff(track) > 1e-9) and np.max(np.diff(track)) <= 0.002 + 1e-9
     assert protocol.track_strains(resolve(90, "tiny", overrides={"contact_track_strain": 0})) == []
+
+
+def test_the_survivors_parts_by_class_and_the_made_ones_make_up_the_fabric():
+    compressed, stretched, neutral = unit([1, -1, 0]), unit([1, 1, 0]), np.array([0.0, 0.0, 1.0])
+    tracker = budget.ContactTracker()
+    step(tracker, [(1, 2), (2, 3), (3, 4)], [compressed, stretched, neutral], direction=0.0, forces=[3.0, 1.0, 2.0])
+    step(tracker, [(1, 2), (3, 4), (5, 6)], [compressed, neutral, stretched], direction=0.0, forces=[4.0, 2.0, 1.0])
+    row = tracker.row()
+    made = (np.outer(stretched, stretched) - np.eye(3) / 3) / 3
+    np.testing.assert_allclose(row["survivor_part"].sum(axis=0) + made,
+                               fabric(np.array([compressed, neutral, stretched])), atol=1e-15)
+    np.testing.assert_allclose(row["survivor_part"][2], 0.0)  # the stretched one was lost
+    np.testing.assert_allclose(row["survivor_force"][:3], [3.0, 4.0, 2.0])
+    assert np.isnan(row["survivor_force"][3])
+
+
+def test_eq13_terms_add_up_to_the_models_own_fabric_rate():
+    """The split of Eq. 13 the budget is set against sums to the rate the model integrates (its jitted kernel)."""
+    import model
+    from model import equations
+
+    rng = np.random.default_rng(3)
+    p = model.PAPER
+    for phi in (0.0, 90.0, 150.0):
+        a = rng.normal(scale=0.05, size=(3, 3))
+        a = 0.5 * (a + a.T)
+        a -= np.trace(a) * np.eye(3) / 3
+        L = model.shear_velocity_gradient(phi)
+        terms = equations.eq13_terms(a[None], L[None], p)
+        D = 0.5 * (L + L.T)
+        W = 0.5 * (L - L.T)
+        norm = np.linalg.norm(D)
+        Dh = D / norm
+        y = np.array([a[0, 0], a[1, 1], a[0, 1], a[0, 2], a[1, 2], 0.0, 0.0])
+        packed = np.array([Dh[0, 0], Dh[1, 1], Dh[2, 2], Dh[0, 1], Dh[0, 2], Dh[1, 2]])
+        n = equations.fabric_rates(y, packed, np.array([W[0, 1], W[0, 2], W[1, 2]]) / norm, p.as_array())
+        total = (terms["input"] + terms["recovery"] + terms["spin"])[0]
+        rate = np.array(n[:5]) / n[5]
+        np.testing.assert_allclose([total[0, 0], total[1, 1], total[0, 1], total[0, 2], total[1, 2]], rate,
+                                   rtol=1e-10, atol=1e-12)
