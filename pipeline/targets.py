@@ -335,6 +335,7 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
     "cells": lambda v: [Call("pipeline.studies.versus", ("--a", "reduced", "--b", "paper", "--out", "results/cells"))],
     "data-card": lambda v: [Call("pipeline.dataset.card")],
     "jump": lambda v: [Call("pipeline.studies.jump")],
+    "budget": lambda v: [Call("pipeline.studies.budget", data_args(v))],
     "models": lambda v: [Call("pipeline.comparison.models", (*data_args(v), *across_args(v))),
                          Call("pipeline.figures.models", data_args(v))],
     "stability": lambda v: [Call("pipeline.studies.stability", tuple(

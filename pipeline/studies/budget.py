@@ -1,0 +1,405 @@
+"""The contact budget after each change of direction (``make budget``): what the DEM's contacts do, set against Eq. 13.
+
+``python -m pipeline.studies.budget [--preset P] [--engine E] [--set k=v ...] [--params FILE] [--out DIR]`` reads the
+data set's runs that tracked their contacts (``dem/core/budget.py``; without ``--engine``, the preset's LAMMPS data set
+where its default one has none) and, for every change of direction, over strain windows after it, measures:
+
+- the fabric's rate of change per unit nominal strain, split into the contacts **made**, **lost** (and their sum, the
+  **exchange**, which alone does not depend on the tracking spacing), **kept** (rotating) and **crossing** the
+  region's border, against Eq. 13's **input** ``beta1 D'/(|D'| Lambda)``, **recovery**
+  ``beta2 A/Lambda`` and the Jaumann **spin** evaluated on the measured fabric (``model.equations.eq13_terms``) with
+  the data set's own fit of Eq. 13 (or ``--params``), each per unit strain (``|D'| = gamma_dot/sqrt2``);
+- on two components, in units of the steady fabric before the change ``a0 = -s_old.A.e2``: the **shear** part
+  ``-s_new.A.e2/a0`` (1 at steady state under the new shear, -1 right after a reversal) and the **memory**
+  ``t.A.e2 / (-(t.s_old) a0)``, t the wall-plane direction normal to the new shear (the part of A the new shear does
+  not make: 1 at the change, 0 once the old direction is forgotten; only where |sin(turn)| >= 0.25);
+- at each window's end: the memory held by the strong and weak networks (each ``fraction x its fabric``) and by the
+  contacts present since the change, by how the new shear loads them (compressed, neutral, stretched: their part of
+  A); the persistence of the change's contacts by class; the rise of the packing fraction since the change;
+- the loss rate of contacts (lost per region contact per unit strain), Eq. 10's S on the measured fabric, and their
+  product with Lambda(S) = S^k: were Lambda the contacts' persistence, the product would not vanish after a reversal.
+
+Events of one protocol (angle, rotation) are pooled over cycles, both turns of a cycle (the turn to theta and back
+are mirror images where both start from a steady state) and seeds; each value is the mean over events with its
+standard error. Writes ``budget.json`` (``BudgetGroup`` records), ``budget.md`` and, drawn from the file by
+``pipeline.figures.budget``, ``budget.png``. ``--spacing RUN.h5 ...`` instead compares runs of one spec tracked at
+different spacings (``spacing.md``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import model
+from dem.core.protocol import direction_changes
+from model.equations import eq13_terms
+
+from .. import io
+from ..cli import Parser, one_line_errors
+from ..dataset import selection
+from ..dataset.dem_file import load
+from ..dataset.lookup import every_seed
+from ..errors import PipelineError
+from ..paths import preset_output
+
+#: windows of nominal strain after a change: the jump (dense samples) first, then the slow memory
+WINDOWS = ((0.0, 0.0005), (0.0005, 0.001), (0.001, 0.002), (0.002, 0.005), (0.005, 0.02), (0.02, 0.05),
+           (0.05, 0.1), (0.1, 0.2), (0.2, 0.4))
+#: the state before a change: the mean over this much strain before it
+BEFORE = 0.02
+#: the memory component is followed where the turn's normal part is not small (as ``comparison.metrics``)
+MIN_SIN = 0.25
+MEASURED = ("made", "lost", "kept", "crossed")
+#: the columns of the measured terms: made and lost apart depend on the tracking spacing (a contact that opens and
+#: closes between two tracking points is kept; one seen to is made and lost), their sum, the exchange, does not
+COLUMNS = ("made", "lost", "exchange", "kept", "crossed")
+EQ13 = ("input", "recovery", "spin")
+CLASSES = ("compressed", "neutral", "stretched")
+E2 = np.array([0.0, 1.0, 0.0])
+
+
+def direction(phi_deg: float) -> np.ndarray:
+    return model.shear_direction(phi_deg)
+
+
+@dataclasses.dataclass(frozen=True)
+class Stat:
+    """A mean over events and its standard error (None for one event)."""
+
+    mean: float
+    se: float | None
+    n: int
+
+    @classmethod
+    def of(cls, values) -> Stat:
+        v = np.asarray([x for x in values if np.isfinite(x)], dtype=float)
+        if len(v) == 0:
+            return cls(math.nan, None, 0)
+        return cls(float(v.mean()), float(v.std(ddof=1) / math.sqrt(len(v))) if len(v) > 1 else None, len(v))
+
+    def text(self, digits: int = 3) -> str:
+        if not math.isfinite(self.mean):
+            return "–"
+        return f"{self.mean:+.{digits}f}" + (f" ± {self.se:.{digits}f}" if self.se is not None else "")
+
+
+@dataclasses.dataclass(frozen=True)
+class WindowBudget:
+    """One strain window after the changes of one protocol: rates per unit strain of each term on the shear and the
+    memory components (fractions of a0), and the state at the window's end."""
+
+    lo: float
+    hi: float
+    shear: dict[str, Stat]  # MEASURED, "total", EQ13, "eq13_total": rates of the shear fraction
+    memory: dict[str, Stat]  # the same on the memory fraction (empty where the turn has no normal part)
+    state: dict[str, Stat]  # at the window's end: shear and memory fractions, networks, survivors, persistence, ...
+
+
+@dataclasses.dataclass(frozen=True)
+class BudgetGroup:
+    """Every change of direction of one protocol (angle and rotation strain) in a data set."""
+
+    label: str
+    theta_deg: float
+    rotate_at: float
+    runs: list[str]
+    events: int
+    windows: list[WindowBudget]
+    curves: dict[str, list[float]]  # cumulative fractions against strain after the change, mean over events
+
+
+def event_frame(phi_old: float, phi_new: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """(s_new, t, t.s_old): the new shear direction, the wall-plane direction normal to it, and the old direction's
+    share of t."""
+    s_new, s_old = direction(phi_new), direction(phi_old)
+    t = direction(phi_new + 90.0)
+    return s_new, t, float(t @ s_old)
+
+
+def components(X: np.ndarray, s_new, t, a0: float, t_old: float) -> tuple[np.ndarray, np.ndarray]:
+    """The shear and memory fractions of tensors X (..., 3, 3)."""
+    shear = -np.einsum("i,...ij,j->...", s_new, X, E2) / a0
+    if abs(t_old) < MIN_SIN:
+        return shear, np.full(shear.shape, np.nan)
+    return shear, np.einsum("i,...ij,j->...", t, X, E2) / (-t_old * a0)
+
+
+def event_series(run, change: float, end: float, params: model.Params) -> dict | None:
+    """Per sample after one change (up to ``end`` or the last window): the strain since the change, each term's
+    increment on both components, the state's fractions; None where the run does not resolve the change."""
+    raw, c = run.raw_all, run.contacts
+    strain = raw["strain"]
+    at = int(np.argmin(np.abs(strain - change)))  # the sample at the change lands within a controller interval
+    fine = run.spec.dense_sample_strain if run.spec.dense_window_strain > 0 else run.spec.sample_strain
+    if abs(strain[at] - change) > 0.25 * fine or at == 0:
+        return None
+    before = np.flatnonzero((np.arange(len(strain)) < at) & (strain >= change - BEFORE - 1e-9))
+    after = np.flatnonzero((np.arange(len(strain)) > at) & (strain <= min(end, change + WINDOWS[-1][1]) + 1e-9))
+    if len(before) == 0 or len(after) == 0:
+        return None
+    phi_old, phi_new = float(raw["direction_deg"][at - 1]), float(raw["direction_deg"][at])
+    s_new, t, t_old = event_frame(phi_old, phi_new)
+    A = raw["fabric"]
+    a0 = float(-direction(phi_old) @ A[before].mean(axis=0) @ E2)
+    if not a0 > 0:
+        return None
+    idx = np.concatenate([[at], after])  # the sample at the change, then every one after it
+    gamma = strain[idx] - strain[at]
+    step = np.diff(strain[idx])
+    # Eq. 13 on the state at the start of each interval, along that interval's direction, per unit strain
+    L = np.array([model.shear_velocity_gradient(phi) for phi in raw["direction_deg"][idx[:-1]]])
+    terms = eq13_terms(A[idx[:-1]], L, params)
+    out = {"gamma": gamma, "step": step}
+    for name in MEASURED:
+        out[name] = components(c[f"budget_{name}"][after], s_new, t, a0, t_old)
+    out["exchange"] = tuple(m + lost for m, lost in zip(out["made"], out["lost"], strict=True))
+    for name in EQ13:
+        out[name] = components(terms[name] * step[:, None, None] / math.sqrt(2.0), s_new, t, a0, t_old)
+    out["A"] = components(A[idx], s_new, t, a0, t_old)
+    strong = c["strong_fraction"][idx][:, None, None]
+    out["strong"] = components(strong * c["strong_fabric"][idx], s_new, t, a0, t_old)
+    out["weak"] = components((1 - strong) * c["weak_fabric"][idx], s_new, t, a0, t_old)
+    for k, name in enumerate(CLASSES):
+        out[f"survivors_{name}"] = components(c["survivor_part"][idx, k], s_new, t, a0, t_old)
+    out["persistence"] = c["persistence"][idx]
+    out["packing"] = raw["packing_fraction"][idx] - raw["packing_fraction"][before].mean()
+    out["loss_rate"] = c["lost_count"][after] / np.maximum(raw["contacts"][after], 1) / step
+    out["S"] = terms["S"]
+    out["lambda"] = terms["S"] ** params.persistence_exponent
+    return out
+
+
+def window_stats(events: list[dict], lo: float, hi: float, has_memory: bool) -> WindowBudget:
+    """The events' rates over (lo, hi] and their state at hi."""
+    def rate(e, name, part):
+        pick = (e["gamma"][1:] > lo + 1e-9) & (e["gamma"][1:] <= hi + 1e-9)
+        span = e["step"][pick].sum()
+        return float(e[name][part][pick].sum() / span) if span > 0.5 * (hi - lo) else math.nan
+
+    def at_end(e, key, part=None):
+        k = int(np.argmin(np.abs(e["gamma"] - hi)))
+        if abs(e["gamma"][k] - hi) > 0.25 * (hi - lo) + 1e-9:
+            return math.nan
+        value = e[key] if part is None else e[key][part]
+        return float(value[k])
+
+    parts = {"shear": 0, "memory": 1}
+    rates = {}
+    for comp, part in parts.items():
+        if comp == "memory" and not has_memory:
+            rates[comp] = {}
+            continue
+        table = {name: Stat.of([rate(e, name, part) for e in events]) for name in (*COLUMNS, *EQ13)}
+        table["total"] = Stat.of([sum(rate(e, n, part) for n in MEASURED) for e in events])
+        table["eq13_total"] = Stat.of([sum(rate(e, n, part) for n in EQ13) for e in events])
+        rates[comp] = table
+    state = {}
+    for comp, part in parts.items():
+        if comp == "memory" and not has_memory:
+            continue
+        for key in ("A", "strong", "weak", *(f"survivors_{c}" for c in CLASSES)):
+            state[f"{comp}_{key}"] = Stat.of([at_end(e, key, part) for e in events])
+    for k, name in enumerate(("all", *CLASSES)):
+        state[f"persistence_{name}"] = Stat.of([at_end(e, "persistence", (slice(None), k)) for e in events])
+    state["packing_rise"] = Stat.of([at_end(e, "packing") for e in events])
+
+    def mean_in(e, key):
+        pick = (e["gamma"][1:] > lo + 1e-9) & (e["gamma"][1:] <= hi + 1e-9)
+        return float(np.nanmean(e[key][pick])) if pick.any() else math.nan
+
+    def mean_before(e, key):  # S and Lambda at the start of each interval of the window
+        pick = (e["gamma"][:-1] >= lo - 1e-9) & (e["gamma"][:-1] < hi - 1e-9)
+        return float(np.nanmean(e[key][pick])) if pick.any() else math.nan
+
+    state["loss_rate"] = Stat.of([mean_in(e, "loss_rate") for e in events])
+    state["S"] = Stat.of([mean_before(e, "S") for e in events])
+    state["lambda"] = Stat.of([mean_before(e, "lambda") for e in events])
+    state["loss_rate_times_lambda"] = Stat.of([mean_in(e, "loss_rate") * mean_before(e, "lambda") for e in events])
+    return WindowBudget(lo, hi, rates["shear"], rates["memory"], state)
+
+
+def curves(events: list[dict], has_memory: bool) -> dict[str, list[float]]:
+    """Mean over events of the fraction followed (memory where the turn has a normal part, else shear) and of each
+    term's cumulative sum from the change, on the first event's strains (the dense samples make them alike)."""
+    part = 1 if has_memory else 0
+    gamma = events[0]["gamma"]
+    common = [e for e in events if len(e["gamma"]) == len(gamma) and np.allclose(e["gamma"], gamma, atol=2e-4)]
+    out = {"gamma": gamma.tolist(), "component": "memory" if has_memory else "shear"}
+    out["A"] = np.nanmean([e["A"][part] for e in common], axis=0).tolist()
+    start = out["A"][0]
+    for name in (*COLUMNS, *EQ13):
+        cumulative = [np.concatenate([[0.0], np.cumsum(e[name][part])]) for e in common]
+        out[name] = (start + np.nanmean(cumulative, axis=0)).tolist()
+    for name in ("strong", "weak", *(f"survivors_{c}" for c in CLASSES)):
+        out[name] = np.nanmean([e[name][part] for e in common], axis=0).tolist()
+    return out
+
+
+def group_label(run) -> str:
+    label = f"{run.theta_deg:g}°"
+    return label if run.default_rotation else f"{label} at {run.spec.rotate_at_strain:g}"
+
+
+def budget_groups(runs: list, params: model.Params) -> list[BudgetGroup]:
+    """``BudgetGroup`` of each protocol among ``runs`` (those with a contact budget)."""
+    by_protocol: dict[tuple, list] = {}
+    for run in runs:
+        by_protocol.setdefault((run.theta_deg, run.spec.rotate_at_strain), []).append(run)
+    groups = []
+    for (theta, rotate_at), members in sorted(by_protocol.items(), key=lambda kv: (-kv[0][0], kv[0][1])):
+        events = []
+        for run in members:
+            changes = direction_changes(run.spec)
+            ends = changes[1:] + [run.raw_all["strain"][-1]]
+            for change, end in zip(changes, ends, strict=True):
+                if run.default_rotation or change % run.spec.period_strain > 1e-9:  # Fig. 7: the turn to theta
+                    e = event_series(run, change, end, params)
+                    if e is not None:
+                        events.append(e)
+        if not events:
+            continue
+        has_memory = abs(math.sin(math.radians(theta))) >= MIN_SIN
+        windows = [window_stats(events, lo, hi, has_memory) for lo, hi in WINDOWS]
+        groups.append(BudgetGroup(group_label(members[0]), theta, rotate_at, sorted({str(r.path) for r in members}),
+                                  len(events), windows, curves(events, has_memory)))
+    return groups
+
+
+def markdown(label: str, params_source: str, groups: list[BudgetGroup]) -> str:
+    lines = [f"# The contact budget: {label}", "",
+             f"Eq. 13's terms with {params_source}. Rates per unit nominal strain of the shear fraction "
+             "(-s_new.A.e2/a0) and the memory fraction (t.A.e2 over its value at the change), a0 the steady fabric "
+             "before the change; mean ± standard error over the events (changes of direction, every cycle and "
+             "seed). `pipeline/studies/budget.py` defines every column.", ""]
+    for g in groups:
+        lines += [f"## {g.label} ({g.events} changes, {len(g.runs)} run(s))", ""]
+        for comp in ("shear", "memory"):
+            if not g.windows[0].__dict__[comp]:
+                continue
+            lines += [f"Rates of the {comp} fraction:", "",
+                      "| strain after | made | lost | exchange | kept | crossed | DEM total | Eq. 13 input | recovery "
+                      "| spin | Eq. 13 total |", "|---|" + "---|" * 10]
+            for w in g.windows:
+                r = getattr(w, comp)
+                lines.append(f"| {w.lo:g}–{w.hi:g} | " + " | ".join(
+                    r[n].text(2) for n in (*COLUMNS, "total", *EQ13, "eq13_total")) + " |")
+            lines.append("")
+        comp = "memory" if g.windows[0].memory else "shear"
+        lines += [f"The {comp} fraction at each window's end, and who holds it:", "",
+                  "| strain | A | strong | weak | survivors compressed | neutral | stretched | persistence all "
+                  "| compr. | neutral | stretched | ΔΦ | loss rate | S | loss rate × Λ(S) |",
+                  "|---|" + "---|" * 14]
+        for w in g.windows:
+            s = w.state
+            cells = [s[f"{comp}_{k}"].text(3) for k in ("A", "strong", "weak", *(f"survivors_{c}" for c in CLASSES))]
+            cells += [s[f"persistence_{k}"].text(3) for k in ("all", *CLASSES)]
+            cells += [s["packing_rise"].text(4), s["loss_rate"].text(1), s["S"].text(3),
+                      s["loss_rate_times_lambda"].text(2)]
+            lines.append(f"| {w.hi:g} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines) + "\n"
+
+
+def tracked_runs(chosen) -> list:
+    return [r for r in every_seed(chosen) if r.contacts is not None]
+
+
+def choose(args) -> tuple:
+    """The data set and its runs with a contact budget; without ``--engine``, the preset's LAMMPS data set where its
+    default one has none."""
+    chosen = selection.from_arguments(args)
+    runs = tracked_runs(chosen)
+    if not runs and args.engine is None and not args.set:
+        other = selection.data_set(chosen.preset, "lammps")
+        runs, chosen = tracked_runs(other), other
+    if not runs:
+        raise PipelineError(f"no run of {chosen.label} tracked its contacts: make one with `make dem ... ENGINE="
+                            f"{chosen.engine}` (contact_track_strain > 0, the default)")
+    return chosen, runs
+
+
+def eq13_params(chosen, path: Path | None) -> tuple[model.Params, str]:
+    """``--params``, or Eq. 13 fitted on the data set's runs (``make models``' fit of the paper's law)."""
+    if path is not None:
+        params = io.read_params(path)
+        if params.variant != model.params.DEFAULT_VARIANT:
+            raise PipelineError(f"--params {path}: law {params.variant}, not Eq. 13's ({model.params.DEFAULT_VARIANT})")
+        return params, f"the parameters of {path}"
+    from ..comparison import models
+
+    fitted, _ = models.fit(models.read(chosen), model.params.DEFAULT_VARIANT, "all", "runs")
+    return fitted.params, f"Eq. 13 fitted on every run of {chosen.label} (as `make models`)"
+
+
+def spacing_markdown(runs: list) -> str:
+    """Runs of one spec tracked at different spacings: the terms' totals over each run and their difference from the
+    finest spacing's, sample by sample."""
+    runs = sorted(runs, key=lambda r: r.spec.contact_track_strain)
+    finest = runs[0]
+    for r in runs[1:]:
+        if not np.array_equal(r.raw_all["fabric"], finest.raw_all["fabric"]):
+            raise PipelineError(f"{r.path} and {finest.path} are not one trajectory (their fabrics differ)")
+    lines = ["# The contact budget against the tracking spacing", "",
+             f"One trajectory ({finest.spec.label()} and its copies, differing only in `contact_track_strain`). "
+             "Made and lost: events over the run; each term's rms over the samples of its 12 component, and the rms "
+             "of its difference from the finest spacing's.", "",
+             "| contact_track_strain | tracking points | made | lost | entered + left | made rms | lost rms "
+             "| made + lost rms | kept rms | made Δ | lost Δ | made + lost Δ | kept Δ |", "|---|" + "---|" * 12]
+
+    def rms(x):
+        return float(np.sqrt(np.mean(x ** 2)))
+
+    base = finest.contacts
+    for r in runs:
+        c = r.contacts
+        term = {n: c[f"budget_{n}"][1:, 0, 1] for n in MEASURED}
+        ref = {n: base[f"budget_{n}"][1:, 0, 1] for n in MEASURED}
+        net, ref_net = term["made"] + term["lost"], ref["made"] + ref["lost"]
+        lines.append(
+            f"| {r.spec.contact_track_strain:g} | {int(c['track_points'].sum())} | {int(c['made_count'].sum())} "
+            f"| {int(c['lost_count'].sum())} | {int(c['entered_count'].sum() + c['left_count'].sum())} "
+            f"| {rms(term['made']):.4f} | {rms(term['lost']):.4f} | {rms(net):.4f} | {rms(term['kept']):.5f} "
+            f"| {rms(term['made'] - ref['made']):.4f} | {rms(term['lost'] - ref['lost']):.4f} "
+            f"| {rms(net - ref_net):.5f} | {rms(term['kept'] - ref['kept']):.6f} |")
+    return "\n".join(lines) + "\n"
+
+
+@one_line_errors
+def main(argv=None) -> int:
+    parser = Parser(prog="python -m pipeline.studies.budget", description=__doc__.splitlines()[0])
+    selection.add_arguments(parser, "preset whose runs to read")
+    parser.add_argument("--params", type=Path, help="Eq. 13's parameters (default: fitted on the data set's runs)")
+    parser.add_argument("--spacing", type=Path, nargs="+", metavar="RUN.h5",
+                        help="compare runs of one spec tracked at different spacings instead")
+    parser.add_argument("--out", type=Path, help="output folder (default results/<data set>/budget)")
+    args = parser.parse_args(argv)
+    if args.spacing:
+        runs = [load(p) for p in args.spacing]
+        if any(r.contacts is None for r in runs) or len(runs) < 2:
+            raise PipelineError("--spacing needs two runs or more, each with a contact budget")
+        out = io.check_writable_dir(args.out or preset_output(runs[0].spec.folder, "budget"))
+        io.write_text(out / "spacing.md", spacing_markdown(runs))
+        print(f"wrote {out / 'spacing.md'}")
+        return 0
+    chosen, runs = choose(args)
+    out = io.check_writable_dir(args.out or preset_output(chosen.folder, "budget"))
+    print(f"budget: {len(runs)} run(s) of {chosen.label} with a contact budget", flush=True)
+    params, source = eq13_params(chosen, args.params)
+    groups = budget_groups(runs, params)
+    record = {"schema_version": 1, "data_set": chosen.folder, "params": params.to_dict(), "params_source": source,
+              "windows": [list(w) for w in WINDOWS], "groups": [dataclasses.asdict(g) for g in groups]}
+    io.write_json(out / "budget.json", record)
+    io.write_text(out / "budget.md", markdown(chosen.label, source, groups))
+    from ..figures import budget as figure
+
+    print(f"wrote {out / 'budget.md'}, budget.json and {figure.draw(out).name}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
