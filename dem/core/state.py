@@ -33,6 +33,7 @@ class RunState:
     err_sum: float = 0.0  # the wall stress error since the last sample: sum, count, largest
     err_n: int = 0
     err_max: float = 0.0
+    track_seconds: float = 0.0  # the contact budget's tracking points between samples (gather and track)
     callback_seconds: float = 0.0  # our Python in the loop, the loop, the process's CPU
     loop_seconds: float = 0.0
     cpu_seconds: float = 0.0

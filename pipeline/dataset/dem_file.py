@@ -104,8 +104,9 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
             wall_speed=meta["wall_speed"], gamma_dot_nominal=meta["gamma_dot_nominal"], iterations=meta["iterations"],
             callback_seconds=meta["callback_seconds"], loop_seconds=meta["loop_seconds"],
         )
-        if "cpu_seconds" in meta:
-            params.attrs["cpu_seconds"] = meta["cpu_seconds"]
+        for key in ("cpu_seconds", "track_seconds"):  # counted from 2026-11-24 and 2026-11-28 on
+            if key in meta:
+                params.attrs[key] = meta[key]
         _dataset(params, "grain_diameter", 2 * np.asarray(meta["grain_radius"]), "d")
         g_raw = f.create_group("raw")
         for key, info in fields.items():
