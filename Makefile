@@ -44,12 +44,16 @@ check:
 $(CHECKED_GOALS): check
 system-venv system system-lammps system-slurm $(VENV_STAMP): | check
 
-FIT_DIR := results/$(DATA_SET)/fit
-COMPARE_DIR := results/$(DATA_SET)/compare
+# a fit and its comparison are named by the options that set their numbers (FIT_SUFFIX: the law, FIT_FROM, STRESS,
+# WEIGHT, SKIP_CYCLES where not the defaults; pipeline/calibration/naming.py), so that none replaces another's; the
+# default fit's report is the data set's, another's goes into its comparison's folder
+FIT_DIR := results/$(DATA_SET)/fit$(FIT_SUFFIX)
+COMPARE_DIR := results/$(DATA_SET)/compare$(FIT_SUFFIX)
+REPORT := $(if $(FIT_SUFFIX),$(COMPARE_DIR),results/$(DATA_SET))/report.md
 # every writer renames its outputs into place when they are complete: an interrupted step keeps the previous set,
 # which Make must not delete either
 .PRECIOUS: $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 $(COMPARE_DIR)/metrics.json \
-	$(COMPARE_DIR)/compare.h5 results/$(DATA_SET)/report.md
+	$(COMPARE_DIR)/compare.h5 $(REPORT)
 DATASET_CODE := $(filter-out pipeline/targets.py,$(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py \
 	config/raw_schema.toml))
 
@@ -148,7 +152,7 @@ demo-dem-%: | $(VENV_STAMP)
 	$(PY) -m pipeline.runs run --theta $* --preset quick
 
 # ---------------------------------------------------------------- the data set's files: fit -> compare -> figures
-fit: $(FIT_DIR)/params.json ## calibrate on the data set's runs [PRESET=...] [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] [VARIANT=loading] [SKIP_CYCLES=1] -> results/<data set>/fit/
+fit: $(FIT_DIR)/params.json ## calibrate on the data set's runs [PRESET=...] [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] [VARIANT=loading] [SKIP_CYCLES=1] -> results/<data set>/fit[-<options>]/
 # the options of the last fit: a fit with other options is a new fit
 $(FIT_DIR)/options.txt: FORCE
 	@python3 -m pipeline.targets fit-options $@
@@ -166,9 +170,9 @@ $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 &: $(FIT_DIR)/params.json 
 compare-seed: check $(FIT_DIR)/params.json ## another seed's runs against the model, drawn: SEED=N -> results/<data set>/compare-seed<N>/
 	$(TARGETS) $@
 
-figures: results/$(DATA_SET)/report.md ## Figs. 3-9 and report.md -> results/<data set>/figures/, report.md
+figures: $(REPORT) ## Figs. 3-9 and report.md -> results/<data set>/figures/, report.md (another law's or option's: in its compare-<...>/)
 
-results/$(DATA_SET)/report.md: $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 $(FIT_DIR)/fit.json \
+$(REPORT): $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 $(FIT_DIR)/fit.json \
 		$(FIT_DIR)/fit.h5 $(wildcard pipeline/figures/*.py $(FIT_DIR)/fit_from.json)
 	$(TARGETS) figures
 

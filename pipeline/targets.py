@@ -172,6 +172,36 @@ def fit_options(v: Variables) -> list[str]:
              *(["--weight", weight] if weight else []), *(["--variant", variant] if variant else [])])
 
 
+def fit_suffix(v: Variables) -> str:
+    """The tail of the fit's and its comparison's folders (``pipeline.calibration.naming``): the fit's options and
+    SKIP_CYCLES where they differ from their defaults."""
+    from .calibration import naming
+
+    fit_from, stress, weight = v.number("FIT_FROM"), v.choice("STRESS", ("shear", "all")), v.choice("WEIGHT",
+                                                                                                  ("runs", "angles"))
+    return naming.suffix(float(fit_from or 0), stress or naming.STRESS_DEFAULT, weight or naming.WEIGHT_DEFAULT,
+                         v.name("VARIANT") or naming.LAW_DEFAULT, int(v.whole("SKIP_CYCLES") or 0))
+
+
+def fit_paths(v: Variables) -> tuple[str, str]:
+    """The fit's and its comparison's folders of the data set the variables name."""
+    folder, tail = data_set_of(v).folder, fit_suffix(v)
+    return f"results/{folder}/fit{tail}", f"results/{folder}/compare{tail}"
+
+
+def compare(v: Variables) -> list[Call]:
+    fit_dir, compare_dir = fit_paths(v)
+    return [Call("pipeline.comparison", (*data_args(v), "--params", f"{fit_dir}/params.json", "--out", compare_dir))]
+
+
+def figures(v: Variables) -> list[Call]:
+    """Figs. 3-9 and report.md: in the data set's folder for the default fit, in its comparison's folder for a fit
+    with other options (so that neither replaces the other's)."""
+    fit_dir, compare_dir = fit_paths(v)
+    out = compare_dir if fit_suffix(v) else str(Path(compare_dir).parent)
+    return [Call("pipeline.figures", (*data_args(v), "--fit", fit_dir, "--compare", compare_dir, "--out", out))]
+
+
 def across_args(v: Variables) -> list[str]:
     """``make models``' ACROSS: the other data sets (``PRESET[:ENGINE]``, space-separated) to predict and be
     predicted by."""
@@ -281,9 +311,11 @@ def versus(v: Variables) -> list[Call]:
 
 def compare_seed(v: Variables) -> list[Call]:
     seed = needs(v, "SEED", "SEED=2 (the seed whose runs to compare)", v.whole)
-    chosen = data_set_of(v)
-    return [Call("pipeline.comparison", (*data_args(v), "--seed", seed)),
-            Call("pipeline.figures", (*data_args(v), "--compare", f"results/{chosen.folder}/compare-seed{seed}"))]
+    fit_dir, compare_dir = fit_paths(v)
+    compare_dir = compare_dir.replace("/compare", f"/compare-seed{seed}", 1)
+    return [Call("pipeline.comparison", (*data_args(v), "--seed", seed, "--params", f"{fit_dir}/params.json",
+                                         "--out", compare_dir)),
+            Call("pipeline.figures", (*data_args(v), "--fit", fit_dir, "--compare", compare_dir))]
 
 
 def fit_angles(v: Variables) -> list[Call]:
@@ -318,9 +350,9 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
         *data_args(v), "--strain", v.choice("STRAIN", ("nominal", "bulk"), "nominal"),
         "--phi", v.choice("PHI", ("gap", "central"), "gap"), *points_option(v),
         *weight_option(v)))],
-    "compare": lambda v: [Call("pipeline.comparison", tuple(data_args(v)))],
+    "compare": compare,
     "compare-seed": compare_seed,
-    "figures": lambda v: [Call("pipeline.figures", tuple(data_args(v)))],
+    "figures": figures,
     "fidelity": lambda v: fidelity(v, run=True),
     "fidelity-table": lambda v: fidelity(v, run=False),
     "profile-dem": lambda v: [Call("pipeline.studies.profile_dem", (
@@ -374,7 +406,8 @@ def goals_makefile(v: Variables, goals: list[str]) -> str:
                 compare_seed(v)
             chosen = data_set_of(v)
             runs = [str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(p) for p in preset_files(chosen.preset)]
-            lines += [f"DATA_SET := {chosen.folder}", f"DATA_RUNS := {' '.join(runs)}"]
+            lines += [f"DATA_SET := {chosen.folder}", f"DATA_RUNS := {' '.join(runs)}",
+                      f"FIT_SUFFIX := {fit_suffix(v)}"]
     except PipelineError as exc:
         text = " ".join(str(exc).split()).replace("$", "$$").replace("#", "\\#").rstrip("\\")
         lines.append(f"CHECK_ERROR := {text}")

@@ -23,7 +23,8 @@ from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
 from . import global_fit
 from .calibrate import JACKKNIFE_OVER, Settings, fit, parse_hold
-from .inputs import folder_name, runs_of
+from .inputs import runs_of
+from .naming import fit_folder
 from .options import add_weight_argument
 from .text import print_report
 
@@ -74,8 +75,9 @@ def main(argv=None) -> int:
         chosen = selection.from_arguments(args)
         print(f"runs: {chosen.label}")
         reversals, cross, left_out = runs_of(chosen, args.angles)
-        out = args.out or preset_output(chosen.folder, folder_name(args.angles, args.jackknife, args.fit_from,
-                                                                   args.stress, args.weight))
+        out = args.out or preset_output(chosen.folder, fit_folder(
+            args.angles, args.jackknife, fit_from=args.fit_from, stress=args.stress, weight=args.weight,
+            variant=args.variant, skip_cycles=chosen.skip_cycles))
     print(f"definitions: {settings.definitions.label()}")
     report = fit(reversals, out, cross, left_out, **vars(settings))
     print_report(report, out)

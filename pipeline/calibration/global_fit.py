@@ -27,6 +27,7 @@ from ..dataset.derived import states_after_changes
 from ..errors import CalibrationError
 from . import noise as noise_model
 from .fit_cycle import FitCycle
+from .naming import STRESS_DEFAULT, WEIGHT_DEFAULT
 from .noise import COMPONENTS, QUANTITIES
 
 #: the parameters refined (the persistence exponent and the dilatancy stay as given)
@@ -63,7 +64,6 @@ def bounds_of(names) -> tuple[np.ndarray, np.ndarray]:
 #: oblique angles), which tau = C A + Y D'/|D'| cannot give with |A_ii| < 0.004: fitted, they pull the fabric law's
 #: a_i and C (docs/calibration.md). "all" fits them too.
 STRESS_FITS = {"shear": ((0, 1), (2, 1)), "all": COMPONENTS}
-STRESS_DEFAULT = "shear"
 
 
 #: how a protocol's runs (theta, rotate_at; its seeds) share the fit. "runs", the default: each run counts once, so
@@ -72,7 +72,6 @@ STRESS_DEFAULT = "shear"
 #: their mean with one run's noise): the paper's design of one run per angle with any number of seeds, whose
 #: parameters do not move with how many seeds each angle has while the model misses the runs beyond their noise.
 WEIGHTS = ("runs", "angles")
-WEIGHT_DEFAULT = "runs"
 
 
 def check_weight(weight: str) -> str:

@@ -1,11 +1,10 @@
-"""Which runs a fit takes and where it writes: the data set's reversals, its other angles (or some of them) and
-the runs it leaves out, and the fit's folder beside the data set's other fits."""
+"""Which runs a fit takes: the data set's reversals, its other angles (or some of them) and the runs it leaves out
+(where it writes: ``naming``)."""
 
 from __future__ import annotations
 
 from ..dataset.lookup import every_seed, other_angles, reversals_of
 from ..errors import CalibrationError
-from . import global_fit
 
 
 def runs_of(chosen, angles: list[float] | None) -> tuple[list, tuple, tuple]:
@@ -21,22 +20,6 @@ def runs_of(chosen, angles: list[float] | None) -> tuple[list, tuple, tuple]:
     if angles:
         cross = only_angles(angles, reversals, cross)
     return reversals, cross, tuple(r for r in every if not r.default_rotation)
-
-
-def folder_name(angles: list[float] | None, jackknife: str, fit_from: float, stress: str,
-                weight: str = global_fit.WEIGHT_DEFAULT) -> str:
-    """The fit's folder in the data set's results: ``fit`` (``make fit`` keeps its options in ``fit/options.txt``),
-    or beside it ``fit-angles-<thetas>`` or ``fit-jackknife-<over>``, with ``-from<FIT_FROM>``, ``-<STRESS>`` and
-    ``-per-angle`` (``WEIGHT=angles``) when not the defaults, so that no fit replaces another's files."""
-    if angles:
-        name = "fit-angles-" + "-".join(f"{theta:g}" for theta in angles)
-    elif jackknife:
-        name = f"fit-jackknife-{jackknife}"
-    else:
-        return "fit"
-    return name + (f"-from{fit_from:g}" if fit_from else "") + (
-        f"-{stress}" if stress != global_fit.STRESS_DEFAULT else "") + (
-        f"-per-{weight.removesuffix('s')}" if weight != global_fit.WEIGHT_DEFAULT else "")
 
 
 def only_angles(angles: list[float], reversals: list, cross: tuple) -> tuple:

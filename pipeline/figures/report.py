@@ -9,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
+import model
+
 from ..dataset import drift
 from ..io import write_text
 from ..schema import FitSummary, Metrics
-
-NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
 
 
 def _strain_text(value: float) -> str:
@@ -63,28 +63,42 @@ def misfit_sentence(ident: dict) -> str:
             f"fits every run. {angles} (`make fit-jackknife OVER=angles`: each refit's shift).")
 
 
-def parameter_lines(ours: dict, paper: dict, fit: FitSummary | None) -> list[str]:
-    """Our parameters with their 68 % intervals and status beside Table 2; what the data fix; Table 2's test."""
+#: Table 2's parameters that ``make fit`` fits, shown where the fit's summary says nothing of them
+TABLE2_FITTED = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
+
+
+def fitted_names(fitted, ident: dict, se: dict) -> list[str]:
+    """The parameters the fit set, in the law's order (``Params.own_names``): those with an interval or a standard
+    error (Table 2's fitted ones where the summary has none), and every one the law adds to Eq. 13."""
+    known = (set(ident.get("parameters", {})) | set(se)) or set(TABLE2_FITTED)
+    return [n for n in fitted.own_names() if n in known or n not in model.Params.names()]
+
+
+def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
+    """Our parameters (every one the fitted law owns and the fit set) with their 68 % intervals and status beside
+    Table 2; what the data fix; Table 2's test."""
     ident = (fit.identifiability if fit else None) or {}
     params = ident.get("parameters", {})
     dilatancy = (fit.dilatancy if fit else None) or {"free": [], "standard_errors": []}
     se = dict(zip(dilatancy["free"], dilatancy["standard_errors"], strict=True))
+    ours = {n: getattr(fitted, n) for n in fitted.own_names()}
+    table2 = {n: f"{getattr(paper, n):+.4g}" if n in paper.own_names() else "–" for n in fitted.own_names()}
     noted = bool(ident.get("misfit_noted"))
     spread = (ident.get("spread_over_angles") or {}).get("ranges", {})  # only where the misfit is noted
     extra = ([f" 68 %, widened × {ident['misfit_widening']:.2f} (√misfit) |"] if noted else []) + (
         [" refits without one angle |"] if spread else [])
     lines = [f"| parameter | our fit | 68 % interval | status |{''.join(extra)} Table 2 |",
              "|---|---|---|---|" + "---|" * len(extra) + "---|"]
-    for name in NAMES:
+    for name in fitted_names(fitted, ident, se):
         p = params.get(name)
         if p:
             cells = ([f" {band_text(p['intervals_misfit_widened']['68'])} |"] if noted else []) + (
                 [f" {band_text(spread.get(name))} |"] if spread else [])
             lines.append(f"| {name} | {ours[name]:+.4g} | {band_text(p['intervals']['68'])} | {p['status']} |"
-                         f"{''.join(cells)} {paper[name]:+.4g} |")
+                         f"{''.join(cells)} {table2[name]} |")
         else:
             scatter = f"± {se[name]:.2g} (Φ scatter taken as white)" if name in se else ""
-            lines.append(f"| {name} | {ours[name]:+.4g} | {scatter} | |{' |' * len(extra)} {paper[name]:+.4g} |")
+            lines.append(f"| {name} | {ours[name]:+.4g} | {scatter} | |{' |' * len(extra)} {table2[name]} |")
     if not ident:
         return lines
     g, noise = fit.global_fit, fit.noise
@@ -284,18 +298,27 @@ def seed_spread_lines(spread: list[dict], components: list[str]) -> list[str]:
     return lines
 
 
+def law_sentence(fitted) -> str:
+    """The fabric law the fit is of (``docs/model.md``)."""
+    if fitted.variant == model.params.DEFAULT_VARIANT:
+        return "Fabric law: Eq. 13 as written (`rk2025`)."
+    added = ", ".join(f"`{n}`" for n in model.params.VARIANTS[fitted.variant])
+    return f"Fabric law: `{fitted.variant}`, Eq. 13 with {added} beyond it (docs/model.md)."
+
+
 def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int, fit_from: list | None = None) -> Path:
     """Write report.md from the comparison's ``metrics``, the calibration's summary ``fit`` and, where ``make
     fit-from`` has run, its rows."""
     sets = {label: p.to_dict() for label, p in metrics.param_sets.items()}
-    paper, ours = sets["Table 2"], sets["our fit"]
+    paper = sets["Table 2"]
     components = metrics.components
     lines = [f"# Model against our DEM: `{metrics.data_set}`", "",
              f"{n_runs} DEM run(s) compared, one per protocol"
              + (" (their other seeds: \"Over seeds\")" if metrics.seed_spread else "")
              + f"; the model runs in the fit's strain measure for each run's protocol.{fit_runs_sentence(fit)}",
              "",
-             "## Parameters", "", *parameter_lines(ours, paper, fit)]
+             "## Parameters", "", law_sentence(metrics.param_sets["our fit"]), "",
+             *parameter_lines(metrics.param_sets["our fit"], metrics.param_sets["Table 2"], fit)]
     lines += ["", "## Model against DEM", "",
               "RMSE over the cycle divided by the steady |A12| or |tau12/p|.", "",
               "| run | parameters | " + " | ".join(components) + " |", "|---|---|" + "---|" * len(components)]

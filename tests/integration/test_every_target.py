@@ -94,13 +94,18 @@ def test_the_data_targets_run_on_the_committed_data(project):
                                                                                    "SKIP_CYCLES=1")
     make(project, "figures", *paper, "SKIP_CYCLES=1")  # compare first, by the file rules
     folder = project / "results/paper-lammps-e29c082a"
-    assert "## Drift over the cycles" in (folder / "report.md").read_text()
+    # a fit with other options than the defaults: its fit, comparison and report in folders of their own
+    assert "## Drift over the cycles" in (folder / "compare-skip1/report.md").read_text()
+    assert (folder / "fit-skip1/params.json").exists() and not (folder / "fit").exists()
     make(project, "compare-seed", *paper, "SEED=2")
     assert (folder / "compare-seed2/metrics.json").exists()
     for target, extra in (("fit-bootstrap", "BOOT=2"), ("fit-jackknife", "OVER=angles"),
                           ("fit-angles", "ANGLES=180 90"), ("fit-definitions", None)):
         make(project, target, *paper, *([extra] if extra else []))
     assert (folder / "fit/definitions.md").exists() and (folder / "fit-angles-180-90/params.json").exists()
+    make(project, "fit-angles", *paper, "ANGLES=180 90", "VARIANT=jump")  # another law beside Eq. 13's
+    assert '"variant": "jump"' in (folder / "fit-angles-180-90-jump/params.json").read_text()
+    assert '"variant"' not in (folder / "fit-angles-180-90/params.json").read_text()
     make(project, "versus", "A=paper/lammps/n_cycles=1", "B=paper/lammps/inertial_number=0.001")
     assert "### θ = 180, cycle 1" in (project / "results/versus/versus.md").read_text()
     make(project, "cells")

@@ -378,3 +378,17 @@ def test_the_backstress_figure_names_each_part_once_however_many_reversal_seeds(
     reversal.backstress_figure(parts, -5.0, tmp_path / "fig8.png")
     left = drawn[0].axes[0]
     assert len(left.lines) == 9 and len(left.get_legend_handles_labels()[1]) == 3
+
+
+def test_the_report_names_the_fitted_law_and_prints_every_parameter_it_owns():
+    """A fit of the "jump" law shows the law and its k (jump_fabric) beside Eq. 13's nine; Table 2 has none."""
+    import model
+    from pipeline.figures.report import law_sentence, parameter_lines
+
+    fitted = model.Params(variant="jump", jump_fabric=-0.0143, C=-6.1)
+    lines = parameter_lines(fitted, model.PAPER, None)
+    rows = {line.split("|")[1].strip(): line for line in lines[2:]}
+    assert list(rows) == ["C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c", "jump_fabric"]
+    assert "-0.0143" in rows["jump_fabric"] and rows["jump_fabric"].rstrip().endswith("– |")
+    assert "`jump`" in law_sentence(fitted) and "`jump_fabric`" in law_sentence(fitted)
+    assert "Eq. 13 as written" in law_sentence(model.PAPER)

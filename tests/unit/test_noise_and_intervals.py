@@ -130,7 +130,6 @@ def test_a_model_that_misses_the_runs_says_so_beside_intervals_widened_by_the_ro
         assert p["intervals"] == near["parameters"][name]["intervals"], name
         assert wide_high - wide_low == pytest.approx(3 * (high - low)), name
         assert (wide_low + wide_high) / 2 == pytest.approx(p["value"]), name
-    ours = {**TRUE.to_dict(), "c2_coef": TRUE.c2_coef, "phi_c": TRUE.phi_c}
     said = {}
     for label, ident, misfit in (("near", near, fit.misfit), ("far", far, 9.0)):
         blank = {f.name: None for f in dataclasses.fields(FitSummary)}
@@ -138,7 +137,7 @@ def test_a_model_that_misses_the_runs_says_so_beside_intervals_widened_by_the_ro
                                "noise": nm.to_dict(), "global_runs": runs, "weight": "runs",
                                "persistence_exponent": 0.75})
         print_global(report)
-        said[label] = (capsys.readouterr().out, "\n".join(parameter_lines(ours, ours, report)))
+        said[label] = (capsys.readouterr().out, "\n".join(parameter_lines(TRUE, TRUE, report)))
     for printed, reported in (said["near"], said["far"]):
         assert ("sqrt(misfit) = 3.00 times" in printed) == (";  widened [" in printed) == (printed is said["far"][0])
         assert ("√misfit = 3.00 times" in reported) == ("widened × 3.00" in reported) == (reported is said["far"][1])

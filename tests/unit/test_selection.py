@@ -2,8 +2,10 @@
 
 import pytest
 
+import model
 from pipeline import spec as run_spec
-from pipeline.calibration.inputs import folder_name
+from pipeline.calibration import naming
+from pipeline.calibration.naming import fit_folder
 from pipeline.dataset import lookup, selection
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import PipelineError
@@ -78,17 +80,27 @@ def test_a_bad_declaration_is_one_line(tmp_path, text, message):
         selection.data_set("reduced", roots=(tmp_path,), datasets_file=declared(tmp_path, text))
 
 
-def test_each_fit_beside_the_main_one_writes_its_own_folder():
-    """Jackknives over angles and over seeds, fits on some angles, each over the whole cycle, past the jump and with
-    every stress component: each its own folder, so that one does not replace another's files."""
-    names = [folder_name(None, "angles", 0.0, "shear"), folder_name(None, "angles", 0.005, "shear"),
-             folder_name(None, "seeds", 0.0, "all"), folder_name([180.0, 90.0], "", 0.005, "shear"),
-             folder_name([180.0, 90.0], "", 0.0, "all"), folder_name([180.0, 90.0, 60.0, 30.0], "", 0.01, "all")]
+def test_each_fit_writes_a_folder_of_its_own_named_by_what_sets_its_numbers():
+    """Jackknives over angles and over seeds, fits on some angles, past the jump, with every stress component, per
+    angle, of another law, without the first cycles: each its own folder, so that one does not replace another's
+    files; the defaults name nothing."""
+    names = [fit_folder(None, "angles"), fit_folder(None, "angles", fit_from=0.005),
+             fit_folder(None, "seeds", stress="all"), fit_folder([180.0, 90.0], fit_from=0.005),
+             fit_folder([180.0, 90.0], stress="all"),
+             fit_folder([180.0, 90.0, 60.0, 30.0], fit_from=0.01, stress="all"),
+             fit_folder(), fit_folder(variant="jump"), fit_folder(None, "seeds", variant="loading"),
+             fit_folder(weight="angles", skip_cycles=1), fit_folder(stress="shear", weight="runs", variant="rk2025")]
     assert names == ["fit-jackknife-angles", "fit-jackknife-angles-from0.005", "fit-jackknife-seeds-all",
-                     "fit-angles-180-90-from0.005", "fit-angles-180-90-all", "fit-angles-180-90-60-30-from0.01-all"]
-    assert folder_name(None, "", 0.005, "all") == "fit"  # make fit's own: its options are in fit/options.txt
-    assert folder_name(None, "seeds", 0.0, "shear", "angles") == "fit-jackknife-seeds-per-angle"
-    assert folder_name([180.0, 90.0], "", 0.0, "all", "runs") == "fit-angles-180-90-all"
+                     "fit-angles-180-90-from0.005", "fit-angles-180-90-all", "fit-angles-180-90-60-30-from0.01-all",
+                     "fit", "fit-jump", "fit-jackknife-seeds-loading", "fit-per-angle-skip1", "fit"]
+
+
+def test_the_names_defaults_are_the_stages_defaults():
+    from pipeline.calibration import global_fit
+
+    assert naming.LAW_DEFAULT == model.params.DEFAULT_VARIANT
+    assert (naming.STRESS_DEFAULT, naming.WEIGHT_DEFAULT) == (global_fit.STRESS_DEFAULT, global_fit.WEIGHT_DEFAULT)
+    assert naming.STRESS_DEFAULT in global_fit.STRESS_FITS and naming.WEIGHT_DEFAULT in global_fit.WEIGHTS
 
 
 def test_a_data_set_given_its_presets_own_value_is_the_presets_own():

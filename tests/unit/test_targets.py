@@ -87,10 +87,21 @@ def test_a_target_refuses_a_bad_value_in_one_line_naming_it(target, variables, f
 
 
 def test_the_targets_pass_their_options_and_folders():
-    folder = run_spec.run_folder("paper", "lammps", {"inertial_number": 0.001})
+    folder = "results/" + run_spec.run_folder("paper", "lammps", {"inertial_number": 0.001})
     assert plan("compare-seed", PRESET="paper", SEED="2") == [
-        "python -m pipeline.comparison --preset paper --seed 2",
-        f"python -m pipeline.figures --preset paper --compare results/{folder}/compare-seed2"]
+        f"python -m pipeline.comparison --preset paper --seed 2 --params {folder}/fit/params.json "
+        f"--out {folder}/compare-seed2",
+        f"python -m pipeline.figures --preset paper --fit {folder}/fit --compare {folder}/compare-seed2"]
+    # a fit of another law or other options, its comparison and its figures: folders of their own
+    assert plan("fit", PRESET="paper", VARIANT="jump") == ["python -m pipeline.calibration --preset paper "
+                                                            "--variant jump"]
+    assert plan("compare", PRESET="paper", VARIANT="jump", SKIP_CYCLES="1") == [
+        f"python -m pipeline.comparison --preset paper --skip-cycles 1 --params {folder}/fit-jump-skip1/params.json "
+        f"--out {folder}/compare-jump-skip1"]
+    assert plan("figures", PRESET="paper", WEIGHT="angles") == [
+        f"python -m pipeline.figures --preset paper --fit {folder}/fit-per-angle --compare {folder}/compare-per-angle "
+        f"--out {folder}/compare-per-angle"]
+    assert plan("figures", PRESET="paper", STRESS="shear")[0].endswith(f"--compare {folder}/compare --out {folder}")
     assert plan("fit-angles", PRESET="reduced", ANGLES="180 90", FIT_FROM="0.005")[0].endswith(
         "--preset reduced --fit-from 0.005 --angles 180 90")
     assert plan("fit-jackknife", PRESET="reduced", STRESS="all")[0].endswith("--stress all --jackknife seeds")
