@@ -16,8 +16,10 @@ where its default one has none) and, for every change of direction, over strain 
 - at each window's end: the memory held by the strong and weak networks (each ``fraction x its fabric``) and by the
   contacts present since the change, by how the new shear loads them (compressed, neutral, stretched: their part of
   A); the persistence of the change's contacts by class; the rise of the packing fraction since the change;
-- the loss rate of contacts (lost per region contact per unit strain), Eq. 10's S on the measured fabric, and their
-  product with Lambda(S) = S^k: were Lambda the contacts' persistence, the product would not vanish after a reversal.
+- each class's survivors' mean normal force over all survivors' (their unloading);
+- the loss rate of the change's contacts, -d ln(persistence)/d gamma (read at the samples: it does not depend on the
+  tracking spacing), Eq. 10's S on the measured fabric, and the rate's product with Lambda(S) = S^k: were Eq. 13's
+  persistence the contacts', the rate would scale as 1/Lambda and the product would stay level.
 
 Events of one protocol (angle, rotation) are pooled over cycles, both turns of a cycle (the turn to theta and back
 are mirror images where both start from a steady state) and seeds; each value is the mean over events with its
@@ -154,7 +156,7 @@ def event_series(run, change: float, end: float, params: model.Params) -> dict |
     # Eq. 13 on the state at the start of each interval, along that interval's direction, per unit strain
     L = np.array([model.shear_velocity_gradient(phi) for phi in raw["direction_deg"][idx[:-1]]])
     terms = eq13_terms(A[idx[:-1]], L, params)
-    out = {"gamma": gamma, "step": step}
+    out = {"gamma": gamma, "step": step, "tol": 0.25 * fine}
     for name in MEASURED:
         out[name] = components(c[f"budget_{name}"][after], s_new, t, a0, t_old)
     out["exchange"] = tuple(m + lost for m, lost in zip(out["made"], out["lost"], strict=True))
@@ -168,7 +170,11 @@ def event_series(run, change: float, end: float, params: model.Params) -> dict |
         out[f"survivors_{name}"] = components(c["survivor_part"][idx, k], s_new, t, a0, t_old)
     out["persistence"] = c["persistence"][idx]
     out["packing"] = raw["packing_fraction"][idx] - raw["packing_fraction"][before].mean()
-    out["loss_rate"] = c["lost_count"][after] / np.maximum(raw["contacts"][after], 1) / step
+    # the change's contacts lost per unit strain, -d ln(persistence)/d gamma: read at the samples alone, it does not
+    # depend on the tracking spacing (the counts made and lost do)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out["loss_rate"] = -np.diff(np.log(c["persistence"][idx, 0])) / step
+    out["force"] = c["survivor_force"][idx] / c["survivor_force"][idx, :1]
     out["S"] = terms["S"]
     out["lambda"] = terms["S"] ** params.persistence_exponent
     return out
@@ -177,7 +183,7 @@ def event_series(run, change: float, end: float, params: model.Params) -> dict |
 def window_stats(events: list[dict], lo: float, hi: float, has_memory: bool) -> WindowBudget:
     """The events' rates over (lo, hi] and their state at hi."""
     def rate(e, name, part):
-        pick = (e["gamma"][1:] > lo + 1e-9) & (e["gamma"][1:] <= hi + 1e-9)
+        pick = (e["gamma"][1:] > lo + e["tol"]) & (e["gamma"][1:] <= hi + e["tol"])
         span = e["step"][pick].sum()
         return float(e[name][part][pick].sum() / span) if span > 0.5 * (hi - lo) else math.nan
 
@@ -207,13 +213,15 @@ def window_stats(events: list[dict], lo: float, hi: float, has_memory: bool) -> 
     for k, name in enumerate(("all", *CLASSES)):
         state[f"persistence_{name}"] = Stat.of([at_end(e, "persistence", (slice(None), k)) for e in events])
     state["packing_rise"] = Stat.of([at_end(e, "packing") for e in events])
+    for k, name in enumerate(CLASSES, start=1):  # each class's survivors' mean normal force over all survivors'
+        state[f"force_{name}"] = Stat.of([at_end(e, "force", (slice(None), k)) for e in events])
 
     def mean_in(e, key):
-        pick = (e["gamma"][1:] > lo + 1e-9) & (e["gamma"][1:] <= hi + 1e-9)
-        return float(np.nanmean(e[key][pick])) if pick.any() else math.nan
+        pick = (e["gamma"][1:] > lo + e["tol"]) & (e["gamma"][1:] <= hi + e["tol"])
+        return float(np.nansum(e[key][pick] * e["step"][pick]) / e["step"][pick].sum()) if pick.any() else math.nan
 
     def mean_before(e, key):  # S and Lambda at the start of each interval of the window
-        pick = (e["gamma"][:-1] >= lo - 1e-9) & (e["gamma"][:-1] < hi - 1e-9)
+        pick = (e["gamma"][:-1] >= lo - e["tol"]) & (e["gamma"][:-1] < hi - e["tol"])
         return float(np.nanmean(e[key][pick])) if pick.any() else math.nan
 
     state["loss_rate"] = Stat.of([mean_in(e, "loss_rate") for e in events])
@@ -292,13 +300,14 @@ def markdown(label: str, params_source: str, groups: list[BudgetGroup]) -> str:
         comp = "memory" if g.windows[0].memory else "shear"
         lines += [f"The {comp} fraction at each window's end, and who holds it:", "",
                   "| strain | A | strong | weak | survivors compressed | neutral | stretched | persistence all "
-                  "| compr. | neutral | stretched | ΔΦ | loss rate | S | loss rate × Λ(S) |",
-                  "|---|" + "---|" * 14]
+                  "| compr. | neutral | stretched | force compr. | neutral | stretched | ΔΦ | loss rate | S "
+                  "| loss rate × Λ(S) |", "|---|" + "---|" * 17]
         for w in g.windows:
             s = w.state
             cells = [s[f"{comp}_{k}"].text(3) for k in ("A", "strong", "weak", *(f"survivors_{c}" for c in CLASSES))]
             cells += [s[f"persistence_{k}"].text(3) for k in ("all", *CLASSES)]
-            cells += [s["packing_rise"].text(4), s["loss_rate"].text(1), s["S"].text(3),
+            cells += [s[f"force_{k}"].text(2) for k in CLASSES]
+            cells += [s["packing_rise"].text(4), s["loss_rate"].text(2), s["S"].text(3),
                       s["loss_rate_times_lambda"].text(2)]
             lines.append(f"| {w.hi:g} | " + " | ".join(cells) + " |")
         lines.append("")
