@@ -6,6 +6,7 @@ Rojas & Kamrin, Soft Matter (2025), Sections 3.2, 3.3 and 5; conventions in ``mo
 from .kernel_cache import keyed_by_sources
 
 with keyed_by_sources():
+    from . import laws
     from .equations import hardening_variable_stack
     from .kinematics import (
         PERIOD_STRAIN,
@@ -31,7 +32,7 @@ with keyed_by_sources():
 
 __all__ = [
     "PAPER", "PERIOD_STRAIN", "ROTATE_AT_STRAIN", "History", "HistoryError", "ParameterError", "Params", "Result",
-    "Segment", "SolverError", "deviator", "hardening_variable_stack", "integrate", "modulus", "periodic",
+    "Segment", "SolverError", "deviator", "laws", "hardening_variable_stack", "integrate", "modulus", "periodic",
     "periodic_cycle", "predict", "reversal", "reversal_start_rate", "rotation_about_e2", "shear_direction",
     "shear_segment", "shear_velocity_gradient", "spin", "steady_shear", "steady_state", "stretching", "Update",
     "update",

@@ -10,16 +10,13 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-# indices into Params.as_array()
-(C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C, VARIANT, CHI, MEMORY_SHARE, MEMORY_RATE,
- JUMP_FABRIC) = range(18)
-# values of p[VARIANT]: the index of the fabric law in model.params.VARIANTS
-RK2025, LOADING, MEMORY, JUMP = 0.0, 1.0, 2.0, 3.0
+from . import laws
+from .jit import jit
 
-jit = numba.njit(cache=True, fastmath=False, nogil=True)
+# indices into Params.as_array() of Eq. 13's parameters; the fabric law's code and its own follow (model.laws)
+(C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C) = range(13)
 
 
 @jit
@@ -72,72 +69,14 @@ def dilatancy_c2(S, p):
 
 
 @jit
-def stretching_square(d11, d22, d33, d12, d13, d23):
-    """E = Dh Dh packed (11, 22, 33, 12, 13, 23); for a simple shear's D', 2E projects on the plane of the shear
-    (its tensile and compressive directions)."""
-    return (d11 * d11 + d12 * d12 + d13 * d13, d12 * d12 + d22 * d22 + d23 * d23, d13 * d13 + d23 * d23 + d33 * d33,
-            d11 * d12 + d12 * d22 + d13 * d23, d11 * d13 + d12 * d23 + d13 * d33, d12 * d13 + d22 * d23 + d23 * d33)
-
-
-@jit
-def loading_removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, chi):
-    """The part of A that the "loading" law removes: R = A - 2 chi (A - Q), Q = dev(E A + A E), E = Dh Dh.
-
-    In the frame of a simple shear's D' (tensile t, compressive c, neutral v directions) Q keeps the t-c part of
-    A, halves the parts that couple v to t or c (which D' neither compresses nor stretches) and keeps a third of
-    dev(v v): R removes them by the factors 1, 1 - chi and 1 - 4 chi / 3. Returns R packed (11, 22, 12, 13, 23).
-    """
-    a33 = -a11 - a22
-    e11, e22, e33, e12, e13, e23 = stretching_square(d11, d22, d33, d12, d13, d23)
-    x = a11 * e11 + a22 * e22 + a33 * e33 + 2.0 * (a12 * e12 + a13 * e13 + a23 * e23)
-    q11 = 2.0 * (e11 * a11 + e12 * a12 + e13 * a13) - 2.0 * x / 3.0
-    q22 = 2.0 * (e12 * a12 + e22 * a22 + e23 * a23) - 2.0 * x / 3.0
-    q12 = e11 * a12 + e12 * a22 + e13 * a23 + a11 * e12 + a12 * e22 + a13 * e23
-    q13 = e11 * a13 + e12 * a23 + e13 * a33 + a11 * e13 + a12 * e23 + a13 * e33
-    q23 = e12 * a13 + e22 * a23 + e23 * a33 + a12 * e13 + a22 * e23 + a23 * e33
-    f = 2.0 * chi
-    return (a11 - f * (a11 - q11), a22 - f * (a22 - q22), a12 - f * (a12 - q12), a13 - f * (a13 - q13),
-            a23 - f * (a23 - q23))
-
-
-@jit
-def neutral_part(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23):
-    """N = A - dev(P A P), P = 2 Dh Dh: for a simple shear's D', the part of A outside the plane of the shear (the
-    couplings of the neutral direction v with the plane, and two thirds of dev(v v)), which D' neither compresses
-    nor stretches; zero for a fabric in that plane (a reversal's). Packed (11, 22, 12, 13, 23)."""
-    a33 = -a11 - a22
-    e11, e22, e33, e12, e13, e23 = stretching_square(d11, d22, d33, d12, d13, d23)
-    p11, p22, p33, p12, p13, p23 = 2.0 * e11, 2.0 * e22, 2.0 * e33, 2.0 * e12, 2.0 * e13, 2.0 * e23
-    b00 = a11 * p11 + a12 * p12 + a13 * p13
-    b01 = a11 * p12 + a12 * p22 + a13 * p23
-    b02 = a11 * p13 + a12 * p23 + a13 * p33
-    b10 = a12 * p11 + a22 * p12 + a23 * p13
-    b11 = a12 * p12 + a22 * p22 + a23 * p23
-    b12 = a12 * p13 + a22 * p23 + a23 * p33
-    b20 = a13 * p11 + a23 * p12 + a33 * p13
-    b21 = a13 * p12 + a23 * p22 + a33 * p23
-    b22 = a13 * p13 + a23 * p23 + a33 * p33
-    m11 = p11 * b00 + p12 * b10 + p13 * b20
-    m22 = p12 * b01 + p22 * b11 + p23 * b21
-    m33 = p13 * b02 + p23 * b12 + p33 * b22
-    m12 = p11 * b01 + p12 * b11 + p13 * b21
-    m13 = p11 * b02 + p12 * b12 + p13 * b22
-    m23 = p12 * b02 + p22 * b12 + p23 * b22
-    third = (m11 + m22 + m33) / 3.0
-    return a11 - (m11 - third), a22 - (m22 - third), a12 - m12, a13 - m13, a23 - m23
-
-
-@jit
 def fabric_rates(y, Dh, Wn, p):
     """Rates per unit |D'| t of the packed fabric and the two dilatancy integrals.
 
     Returns (n11, n22, n12, n13, n23, lam, g, c2) with
-    Lambda(S) dA/d(|D'|t) = (n11, ..., n23) (Eqs. 13/23 with the Jaumann rate A_dot + A W - W A; with the
-    "loading" variant, beta2 removes ``loading_removal``'s R in place of A; with "memory", beta2 removes
-    A - memory_share N and the neutral part N (``neutral_part``) is removed at memory_share * memory_rate per
-    unit |D'| t besides),
-    g = c1 A:Dh + c2 (phi_c + c3) and c2, from which (Eq. 18, with u = 1/Phi)
-    du/d(|D'|t) = -g u + c2.
+    Lambda(S) dA/d(|D'|t) = (n11, ..., n23) (Eqs. 13/23 with the Jaumann rate A_dot + A W - W A, beta2 removing the
+    law's ``removal`` in place of A and the law's ``extra_rate`` added beside the spin: ``model.laws``),
+    g = c1 (A + kappa Dh):Dh + c2 (phi_c + c3) and c2 (kappa the law's ``offset``), from which (Eq. 18, with
+    u = 1/Phi) du/d(|D'|t) = -g u + c2.
     """
     a11, a22, a12, a13, a23 = y[0], y[1], y[2], y[3], y[4]
     d11, d22, d33, d12, d13, d23 = Dh[0], Dh[1], Dh[2], Dh[3], Dh[4], Dh[5]
@@ -147,9 +86,7 @@ def fabric_rates(y, Dh, Wn, p):
     lam = persistence(S, p)
     beta1 = p[A1] + p[B1] * S
     beta2 = p[A2] + p[B2] * S
-    r11, r22, r12, r13, r23 = a11, a22, a12, a13, a23
-    if p[VARIANT] == LOADING:
-        r11, r22, r12, r13, r23 = loading_removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p[CHI])
+    r11, r22, r12, r13, r23 = laws.removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
     # W A - A W = 2 sym(W A) for symmetric A, antisymmetric W
     m00 = w12 * a12 + w13 * a13
     m01 = w12 * a22 + w13 * a23
@@ -159,14 +96,8 @@ def fabric_rates(y, Dh, Wn, p):
     m12 = -w12 * a13 + w23 * a33
     m20 = -w13 * a11 - w23 * a12
     m21 = -w13 * a12 - w23 * a22
-    j11, j22, j12, j13, j23 = 2.0 * m00, 2.0 * m11, m01 + m10, m02 + m20, m12 + m21
-    if p[VARIANT] == MEMORY:
-        share, rate = p[MEMORY_SHARE], p[MEMORY_SHARE] * p[MEMORY_RATE]
-        q11, q22, q12, q13, q23 = neutral_part(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
-        r11, r22, r12, r13, r23 = a11 - share * q11, a22 - share * q22, a12 - share * q12, a13 - share * q13, \
-            a23 - share * q23
-        j11, j22, j12, j13, j23 = j11 - rate * q11, j22 - rate * q22, j12 - rate * q12, j13 - rate * q13, \
-            j23 - rate * q23
+    e11, e22, e12, e13, e23 = laws.extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
+    j11, j22, j12, j13, j23 = 2.0 * m00 + e11, 2.0 * m11 + e22, m01 + m10 + e12, m02 + m20 + e13, m12 + m21 + e23
     n11 = beta1 * d11 + beta2 * r11 + lam * j11
     n22 = beta1 * d22 + beta2 * r22 + lam * j22
     n12 = beta1 * d12 + beta2 * r12 + lam * j12
@@ -174,22 +105,15 @@ def fabric_rates(y, Dh, Wn, p):
     n23 = beta1 * d23 + beta2 * r23 + lam * j23
     c2 = dilatancy_c2(S, p)
     g = p[C1] * double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23) + c2 * (p[PHI_C] + p[C3])
-    if p[VARIANT] == JUMP:
-        g += p[C1] * p[JUMP_FABRIC]  # Eq. 18 on the fabric A + kappa Dh: (A + kappa Dh):Dh = A:Dh + kappa
+    g += p[C1] * laws.offset(p)  # Eq. 18 on the fabric A + kappa Dh: (A + kappa Dh):Dh = A:Dh + kappa
     return n11, n22, n12, n13, n23, lam, g, c2
 
 
 @jit
-def jump_part(p):
-    """kappa of the "jump" variant (the fabric is the state A plus kappa D'/|D'|), 0 for every other law."""
-    return p[JUMP_FABRIC] if p[VARIANT] == JUMP else 0.0
-
-
-@jit
 def observables_into(A, Dh, p, S, tau, w_shear, w_vol_base):
-    """Fill S, tau/p (Eq. 14), tau:D'/(p |D'|) and c1 A:Dh for stacks of states A and Dh = D'/|D'| (n, 3, 3); with
-    the "jump" variant the fabric in Eqs. 14 and 18 is A + kappa Dh (``jump_part``), S that of A."""
-    kappa = jump_part(p)
+    """Fill S, tau/p (Eq. 14), tau:D'/(p |D'|) and c1 A:Dh for stacks of states A and Dh = D'/|D'| (n, 3, 3); the
+    fabric in Eqs. 14 and 18 is A + kappa Dh, kappa the law's ``offset`` (``model.laws``), S that of A."""
+    kappa = laws.offset(p)
     for i in range(A.shape[0]):
         a = A[i]
         d = Dh[i]

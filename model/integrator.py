@@ -25,7 +25,9 @@ import math
 import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
-from .equations import C3, PHI_C, dilatancy_c2, fabric_rates, jit, jump_part, observables_into
+from . import laws
+from .equations import C3, PHI_C, dilatancy_c2, fabric_rates, observables_into
+from .jit import jit
 
 N_STATE = 8
 ROUNDOFF = 1e-13  # relative time difference treated as equal (segment ends vs output times)
@@ -443,7 +445,7 @@ def outputs(y_out, t_out, seg_end, D_unit, rate, shear_rate, p, phi, A, Dh, seg,
 
     A, Dh: (n, 3, 3) fabric and D'/|D'|; seg: (n,) acting segment (a segment owns [start, end), the
     last one its end too); S, tau (Eq. 14) and the work rates of Eqs. 17-18 per unit p*gamma_dot.
-    With the "jump" variant A is the state plus kappa Dh (``equations.jump_part``).
+    A is the state plus kappa Dh, kappa the fabric law's ``offset`` (``model.laws``: 0 but for the "jump" law).
     Returns (all finite, min S, max |state|^2) for the caller's checks.
     """
     k = 0
@@ -468,7 +470,7 @@ def outputs(y_out, t_out, seg_end, D_unit, rate, shear_rate, p, phi, A, Dh, seg,
         max_norm2 = max(max_norm2, norm2)
         finite = finite and math.isfinite(norm2) and math.isfinite(phi[i])
     observables_into(A, Dh, p, S, tau, w_shear, w_vol)
-    kappa = jump_part(p)
+    kappa = laws.offset(p)
     if kappa != 0.0:
         for i in range(y_out.shape[0]):
             for j in range(3):

@@ -18,10 +18,12 @@ PACKAGE = Path(__file__).resolve().parent
 
 
 def source_digest(folder: Path = PACKAGE) -> str:
-    """SHA-256 (16 hex) of the names and contents of the ``*.py`` files in ``folder``."""
+    """SHA-256 (16 hex) of the names and contents of the ``*.py`` files in ``folder`` and its subfolders (the fabric
+    laws, ``model/laws``)."""
     digest = hashlib.sha256()
-    for path in sorted(folder.glob("*.py")):
-        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    for path in sorted(folder.rglob("*.py")):
+        name = path.relative_to(folder).as_posix()
+        digest.update(name.encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()[:16]
 
 

@@ -22,9 +22,10 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from . import integrator, stepper
-from .equations import K_PERSIST, hardening_variable, jit, jump_part, yield_function
+from . import integrator, laws, stepper
+from .equations import K_PERSIST, hardening_variable, yield_function
 from .equations import C as C_INDEX
+from .jit import jit
 from .params import Params
 from .solver import DEFAULT_S_REF, SolverError, _params
 
@@ -127,8 +128,8 @@ def _co_rotate(a, w12, w13, w23, dt, k, r, out):
 
 @jit
 def _write_state(y, Dh, p, A_out, tau_out):
-    """The packed state y into A_out (3, 3), tau/p of Eq. 14 into tau_out (on the fabric y + kappa Dh with the
-    "jump" variant); returns S (Eq. 10) of the state."""
+    """The packed state y into A_out (3, 3), tau/p of Eq. 14 into tau_out (on the fabric y + kappa Dh, kappa the law's
+    offset); returns S (Eq. 10) of the state."""
     a11, a22, a12, a13, a23 = y[0], y[1], y[2], y[3], y[4]
     a33 = -a11 - a22
     A_out[0, 0], A_out[1, 1], A_out[2, 2] = a11, a22, a33
@@ -138,7 +139,7 @@ def _write_state(y, Dh, p, A_out, tau_out):
     S = hardening_variable(a11, a22, a12, a13, a23, Dh[0], Dh[1], Dh[2], Dh[3], Dh[4], Dh[5])
     Y = yield_function(S, p)
     c = p[C_INDEX]  # Eq. 14: tau/p = C A + Y(S) D'/|D'|
-    Y += c * jump_part(p)  # the "jump" variant: C (A + kappa Dh) + Y Dh
+    Y += c * laws.offset(p)  # C (A + kappa Dh) + Y Dh, kappa the law's offset (model.laws)
     tau_out[0, 0] = c * a11 + Y * Dh[0]
     tau_out[1, 1] = c * a22 + Y * Dh[1]
     tau_out[2, 2] = c * a33 + Y * Dh[2]

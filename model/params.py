@@ -8,40 +8,40 @@ Every parameter is dimensionless. Names follow the paper:
 - dilatancy (Eq. 18):                dPhi/dt / Phi = c1 A:D' + c2(S) (phi_c - Phi + c3) |D'|,
                                      c2(S) = c2_coef * S**c2_exponent
 
-A parameter set names its fabric law, ``variant`` (``VARIANTS``): ``rk2025`` is Eq. 13 as written; every other
-adds at most two parameters, and reduces to Eq. 13 where they are zero (``docs/model.md``, "Variants").
+A parameter set names its fabric law, ``variant`` (``model.laws``, the registry): ``rk2025`` is Eq. 13 as written;
+every other owns at most two parameters, declared in its module, and reduces to Eq. 13 where they vanish
+(``docs/model.md``, "Variants").
 """
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .laws import CODE, LAWS, law_parameters
+from .laws import DEFAULT as DEFAULT_LAW
+
 
 class ParameterError(ValueError):
     """Invalid model parameters; the message names every bad value."""
 
 
-#: the fabric laws: name -> the parameters it adds to Eq. 13 (each law is Eq. 13 where they are zero)
-VARIANTS = {
-    "rk2025": (),  # Eq. 13 (paper Table 1)
-    "loading": ("chi",),  # removal weighted by how D' loads each part of A (docs/model.md)
-    "memory": ("memory_share", "memory_rate"),  # the part of A that D' does not load, removed at its own rate
-    "jump": ("jump_fabric",),  # a part of the fabric, kappa D'/|D'|, that follows D' at once
-}
-DEFAULT_VARIANT = "rk2025"
-#: the closed range of each added parameter: where the law keeps A bounded (chi < 3/4, docs/model.md), and a
-#: memory rate up to a removal within 0.001 strain
-EXTRA_RANGES = {"chi": (-0.5, 0.7), "memory_share": (0.0, 1.0), "memory_rate": (0.0, 1e3), "jump_fabric": (-0.1, 0.1)}
+#: the fabric laws by name -> the parameters each owns beyond Eq. 13 (``model.laws``, the registry)
+VARIANTS = {name: tuple(q.name for q in law.PARAMETERS) for name, law in LAWS.items()}
+DEFAULT_VARIANT = DEFAULT_LAW
+#: the closed range of every law's own parameters (each law's declaration)
+EXTRA_RANGES = {q.name: (q.low, q.high) for law in LAWS.values() for q in law.PARAMETERS}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Params:
-    """Parameters of the kinematic-hardening fabric model (paper Table 2 and Sec. 5)."""
+    """Parameters of the kinematic-hardening fabric model (paper Table 2 and Sec. 5): Eq. 13's, shared by every law,
+    then the fabric law (``variant``, a name in ``model.laws.LAWS``) and the values of the parameters it owns, in its
+    declaration's order (``law_values``; each also read as an attribute, ``params.jump_fabric``). Built by name:
+    ``Params(variant="jump", jump_fabric=-0.013, C=-6.1)``; a parameter of another law is an error."""
 
     C: float = -5.6  # backstress constant (Eq. 14)
     n: float = 0.18  # yield function Y = n + m S (Eq. 22)
@@ -56,82 +56,103 @@ class Params:
     c2_exponent: float = 1.0 / 3.0
     c3: float = 0.14
     phi_c: float = 0.652  # critical packing fraction
-    variant: str = DEFAULT_VARIANT  # the fabric law (VARIANTS)
-    chi: float = 0.0  # "loading": the removal of a part of A that D' does not load, less by this fraction
-    memory_share: float = 0.0  # "memory": the share of that part taken from beta2's removal ...
-    memory_rate: float = 0.0  # ... and removed instead at this rate per unit |D'| t
-    jump_fabric: float = 0.0  # "jump": the fabric is the state A plus this times D'/|D'|
+    variant: str = DEFAULT_VARIANT  # the fabric law (model.laws)
+    law_values: tuple = ()  # the law's own parameters, in its declaration's order
 
-    def __post_init__(self):
+    def __init__(self, variant: str = DEFAULT_VARIANT, law_values: tuple | None = None, **values):
+        if not isinstance(variant, str) or variant not in LAWS:
+            raise ParameterError(f"invalid model parameters: variant={variant!r:.40} is not one of "
+                                 f"{', '.join(LAWS)}")
+        own = law_parameters(variant)
+        if law_values is not None:
+            if len(law_values) != len(own):
+                raise ParameterError(f"invalid model parameters: {variant} owns {len(own)} parameter(s), "
+                                     f"{len(law_values)} given")
+            values = {**{q.name: v for q, v in zip(own, law_values, strict=True)}, **values}
         problems = []
-        if self.variant not in VARIANTS:
-            raise ParameterError(f"invalid model parameters: variant={self.variant!r:.40} is not one of "
-                                 f"{', '.join(VARIANTS)}")
-        for f in fields(self):
-            if f.name == "variant":
-                continue
-            value = getattr(self, f.name)
+        unknown = sorted(set(values) - set(self.names()) - {q.name for q in own})
+        for name in unknown:
+            owner = next((law for law, names in VARIANTS.items() if name in names), None)
+            problems.append(f"{name}={values[name]} belongs to another variant than {variant}" if owner
+                            else f"{name} is not a parameter")
+        if problems:
+            raise ParameterError("invalid model parameters: " + "; ".join(problems))
+        shared = {f.name: values.get(f.name, f.default) for f in fields(self) if f.name in self.names()}
+        mine = {q.name: values.get(q.name, q.neutral) for q in own}
+        for name, value in {**shared, **mine}.items():
             if isinstance(value, bool) or not isinstance(value, (int, float)):
-                problems.append(f"{f.name}={value!r:.40} is not a number")
+                problems.append(f"{name}={value!r:.40} is not a number")
                 continue
             try:
                 value = float(value)
             except OverflowError:
-                problems.append(f"{f.name}={str(value)[:20]}... is too large")
+                problems.append(f"{name}={str(value)[:20]}... is too large")
                 continue
             if not math.isfinite(value):
-                problems.append(f"{f.name}={value!r} is not finite")
+                problems.append(f"{name}={value!r} is not finite")
+            elif name in shared:
+                shared[name] = value
             else:
-                object.__setattr__(self, f.name, value)
+                mine[name] = value
         if not problems:
-            if self.persistence_exponent <= 0:
-                problems.append(f"persistence_exponent={self.persistence_exponent} must be > 0")
-            if self.c2_exponent < 0:
-                problems.append(f"c2_exponent={self.c2_exponent} must be >= 0")
-            if not 0 < self.phi_c < 1:
-                problems.append(f"phi_c={self.phi_c} must lie in (0, 1)")
-            for name in self.extra_names():
-                low, high = EXTRA_RANGES[name]
-                value = getattr(self, name)
-                if name not in VARIANTS[self.variant] and value != 0:
-                    problems.append(f"{name}={value} belongs to another variant than {self.variant}")
-                elif not low <= value <= high:
-                    problems.append(f"{name}={value} must lie in [{low}, {high}]")
+            if shared["persistence_exponent"] <= 0:
+                problems.append(f"persistence_exponent={shared['persistence_exponent']} must be > 0")
+            if shared["c2_exponent"] < 0:
+                problems.append(f"c2_exponent={shared['c2_exponent']} must be >= 0")
+            if not 0 < shared["phi_c"] < 1:
+                problems.append(f"phi_c={shared['phi_c']} must lie in (0, 1)")
+            for q in own:
+                if not q.low <= mine[q.name] <= q.high:
+                    problems.append(f"{q.name}={mine[q.name]} must lie in [{q.low}, {q.high}]")
         if problems:
             raise ParameterError("invalid model parameters: " + "; ".join(problems))
-        values = [getattr(self, name) for name in self.names()]
-        values += [list(VARIANTS).index(self.variant)] + [getattr(self, name) for name in self.extra_names()]
-        array = np.array(values, dtype=float)
+        for name, value in shared.items():
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "variant", variant)
+        object.__setattr__(self, "law_values", tuple(mine[q.name] for q in own))
+        array = np.array([shared[name] for name in self.names()] + [CODE[variant]] + list(self.law_values),
+                         dtype=float)
         array.setflags(write=False)
         object.__setattr__(self, "_array", array)
 
+    def __getattr__(self, name: str):
+        """A law's own parameter by name (only called where no field has the name)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        own = [q.name for q in law_parameters(object.__getattribute__(self, "variant"))]
+        if name in own:
+            return object.__getattribute__(self, "law_values")[own.index(name)]
+        raise AttributeError(f"{name!r} is not a parameter of the {self.variant} law")
+
     @classmethod
     def names(cls) -> tuple[str, ...]:
-        """The parameters of Eq. 13's model (Tables 1-2, Sec. 5), every variant's."""
-        return tuple(f.name for f in fields(cls) if f.name != "variant" and f.name not in cls.extra_names())
-
-    @staticmethod
-    def extra_names() -> tuple[str, ...]:
-        """Every parameter a variant adds, in declaration order."""
-        return tuple(name for names in VARIANTS.values() for name in names)
+        """The parameters of Eq. 13's model (Tables 1-2, Sec. 5), every law's."""
+        return tuple(f.name for f in fields(cls) if f.name not in ("variant", "law_values"))
 
     def own_names(self) -> tuple[str, ...]:
-        """The parameters of this set's variant: Eq. 13's, then its additions."""
+        """The parameters of this set's law: Eq. 13's, then its own."""
         return self.names() + VARIANTS[self.variant]
 
     def as_array(self) -> np.ndarray:
-        """As the compiled kernels expect them (read-only): ``names()`` in order, the variant's index in
-        ``VARIANTS``, then ``extra_names()``."""
+        """As the compiled kernels expect them (read-only): ``names()`` in order, the law's code in the registry, then
+        its own parameters (``model.laws``)."""
         return self._array
 
     def replace(self, **changes) -> Params:
-        return dataclasses.replace(self, **changes)
+        """The same parameters with ``changes`` (names of Eq. 13's or of the law's own; ``variant`` another law, whose
+        own parameters then start where it is Eq. 13 unless given)."""
+        variant = changes.pop("variant", self.variant)
+        kept = self.to_dict()
+        kept.pop("variant", None)
+        if variant != self.variant:
+            kept = {name: value for name, value in kept.items() if name in self.names()}
+        return Params(variant=variant, **{**kept, **changes})
 
     def to_dict(self) -> dict:
-        """The values by name; a variant other than the default adds its name and its parameters."""
+        """The values by name; a law other than Eq. 13 adds its name and its parameters."""
         values = {name: getattr(self, name) for name in self.names()}
         if self.variant != DEFAULT_VARIANT:
-            values.update(variant=self.variant, **{name: getattr(self, name) for name in VARIANTS[self.variant]})
+            values.update(variant=self.variant, **dict(zip(VARIANTS[self.variant], self.law_values, strict=True)))
         return values
 
     @classmethod

@@ -8,12 +8,20 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from . import laws
 from .kinematics import History
 from .params import Params
 
 
+def law_parts(params: Params) -> laws.ReferenceParts:
+    """The fabric law's parts on 3x3 tensors (``model.laws``), with the set's own parameters."""
+    return laws.reference_parts(params.variant, dict(zip(params.own_names()[len(Params.names()):],
+                                                         params.law_values, strict=True)))
+
+
 def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params) -> np.ndarray:
-    """dA/dt from Eq. 13 (or its variant, ``removed``) with the Jaumann rate A_dot + A W - W A."""
+    """dA/dt from Eq. 13 with the Jaumann rate A_dot + A W - W A; beta2 removes the law's ``removal`` in place of A
+    and the law's ``extra`` rate adds beside the spin (Eq. 13: A and none)."""
     D = 0.5 * (L + L.T)
     W = 0.5 * (L - L.T)
     Dd = D - np.trace(D) * np.eye(3) / 3
@@ -22,39 +30,15 @@ def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params) -> np.ndarray:
     beta1 = params.a1 + params.b1 * S
     beta2 = params.a2 + params.b2 * S
     lam = S**params.persistence_exponent
-    rate = (beta1 * Dd + beta2 * nD * removed(A, Dd / nD, params)) / lam - A @ W + W @ A
-    if params.variant == "memory":
-        rate -= params.memory_share * params.memory_rate * nD * neutral(A, Dd / nD)
-    return rate
-
-
-def neutral(A: np.ndarray, Dh: np.ndarray) -> np.ndarray:
-    """A - dev(P A P), P = 2 Dh Dh: the part of A outside the plane of a simple shear's D'."""
-    P = 2 * Dh @ Dh
-    M = P @ A @ P
-    return A - (M - np.trace(M) * np.eye(3) / 3)
-
-
-def removed(A: np.ndarray, Dh: np.ndarray, params: Params) -> np.ndarray:
-    """What beta2 |D'| removes: A in Eq. 13; A - 2 chi (A - dev(E A + A E)), E = Dh Dh, in the "loading" law;
-    A - memory_share N (``neutral``) in the "memory" law."""
-    if params.variant == "rk2025":
-        return A
-    if params.variant == "memory":
-        return A - params.memory_share * neutral(A, Dh)
-    E = Dh @ Dh
-    Q = E @ A + A @ E
-    Q -= np.trace(Q) * np.eye(3) / 3
-    return A - 2 * params.chi * (A - Q)
+    law = law_parts(params)
+    return (beta1 * Dd + beta2 * nD * law.removal(A, Dd / nD)) / lam - A @ W + W @ A + nD * law.extra(A, Dd / nD)
 
 
 def jump(L: np.ndarray, params: Params) -> np.ndarray:
-    """kappa D'/|D'|, the part of the "jump" variant's fabric beyond its state (zero for every other law)."""
-    if params.variant != "jump":
-        return np.zeros((3, 3))
+    """kappa D'/|D'|, the part of the fabric beyond the state (kappa the law's ``offset``: zero but for "jump")."""
     D = 0.5 * (L + L.T)
     Dd = D - np.trace(D) * np.eye(3) / 3
-    return params.jump_fabric * Dd / np.linalg.norm(Dd)
+    return law_parts(params).offset * Dd / np.linalg.norm(Dd)
 
 
 def packing_rate(A: np.ndarray, phi: float, L: np.ndarray, params: Params) -> float:

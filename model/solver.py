@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import integrator
+from . import integrator, laws
 from .equations import fabric_rates
 from .kinematics import (
     ROTATE_AT_STRAIN,
@@ -101,10 +101,10 @@ def unpack_fabric(y: np.ndarray) -> np.ndarray:
 
 
 def jump_offset(params: Params, D_unit) -> np.ndarray:
-    """kappa D'/|D'| (3, 3): what the "jump" variant adds to its state to give the fabric under the unit stretching
-    ``D_unit`` (packed 11, 22, 33, 12, 13, 23); zero for every other law."""
+    """kappa D'/|D'| (3, 3): what the fabric law adds to its state to give the fabric under the unit stretching
+    ``D_unit`` (packed 11, 22, 33, 12, 13, 23); kappa is the law's ``offset`` (``model.laws``: zero but for "jump")."""
     d = np.asarray(D_unit, dtype=float)
-    kappa = params.jump_fabric if params.variant == "jump" else 0.0
+    kappa = laws.offset(params.as_array())
     return kappa * np.array([[d[0], d[3], d[4]], [d[3], d[1], d[5]], [d[4], d[5], d[2]]])
 
 

@@ -45,7 +45,7 @@ class Settings:
         return tuple(n for n in global_fit.free_names(self.variant) if n not in self.hold)
 
     def start(self) -> model.Params:
-        """Where the global fit starts: Table 2, the variant's parameters at ``global_fit.VARIANT_START``, the held
+        """Where the global fit starts: Table 2, the law's own parameters where its declaration starts them, the held
         ones at their values."""
         return global_fit.start_of(self.variant, persistence_exponent=self.persistence_exponent, **self.hold)
 

@@ -39,20 +39,16 @@ def free_names(variant: str = model.params.DEFAULT_VARIANT) -> tuple[str, ...]:
     return FREE + model.params.VARIANTS[variant]
 
 
-#: where a variant's added parameters start a fit: inside their range, where each one moves the model (at
-#: memory_share = 0 the memory rate does nothing); the others start at 0, which is Eq. 13
-VARIANT_START = {"memory_share": 0.5, "memory_rate": 5.0}
-
-
 def start_of(variant: str, **given) -> model.Params:
-    """Table 2 with ``variant``'s added parameters at ``VARIANT_START`` (else 0) and ``given`` on top."""
-    extras = {n: VARIANT_START.get(n, 0.0) for n in model.params.VARIANTS[variant]}
-    return model.Params(variant=variant, **extras).replace(**given)
+    """Table 2 with the law's own parameters where its declaration starts a fit (``model.laws``: inside their range,
+    where each moves the model) and ``given`` on top."""
+    starts = {q.name: q.start for q in model.laws.law_parameters(variant)}
+    return model.Params(variant=variant, **starts).replace(**given)
 
 
 def bounds_of(names) -> tuple[np.ndarray, np.ndarray]:
-    """The fit's bounds: a variant's added parameters within their range (``model.params.EXTRA_RANGES``), the
-    others free."""
+    """The fit's bounds: a law's own parameters within their declared range (``model.params.EXTRA_RANGES``), Eq. 13's
+    free."""
     ranges = [model.params.EXTRA_RANGES.get(n, (-np.inf, np.inf)) for n in names]
     return np.array([lo for lo, _ in ranges]), np.array([hi for _, hi in ranges])
 

@@ -1,0 +1,22 @@
+"""A fabric law's own parameter, declared in its module (``model.laws``)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+#: where a law's own parameters start in the model's parameter array (after Eq. 13's thirteen and the law's code)
+OWN = 14
+
+
+@dataclasses.dataclass(frozen=True)
+class Parameter:
+    """``name``; ``neutral``, the value at which the law is Eq. 13; ``start``, where a fit starts (inside the range,
+    where the parameter moves the model); ``low``..``high``, the closed range in which the law keeps A bounded and
+    its rates finite; ``meaning``, in a line."""
+
+    name: str
+    neutral: float
+    start: float
+    low: float
+    high: float
+    meaning: str

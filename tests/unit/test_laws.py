@@ -1,0 +1,51 @@
+"""The registry of fabric laws (``model.laws``): each law owns its parameters, is chosen once by name, and is Eq. 13
+where its parameters take their neutral values; nothing outside the registry asks which law it is."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import model
+from model import Params, laws, predict
+
+MODEL = Path(model.__file__).parent
+
+
+@pytest.mark.parametrize("name", list(laws.LAWS))
+def test_every_law_declares_parameters_in_range_whose_neutral_values_are_eq13_bit_for_bit(name):
+    own = laws.law_parameters(name)
+    assert len(own) <= 2 and len({q.name for q in own}) == len(own)
+    for q in own:
+        assert q.low <= q.neutral <= q.high and q.low <= q.start <= q.high and q.meaning
+        assert q.name not in Params.names()
+    neutral = Params(variant=name, **{q.name: q.neutral for q in own})
+    for theta in (180, 150):
+        paper, law = predict(theta), predict(theta, params=neutral)
+        assert np.array_equal(law.A, paper.A) and np.array_equal(law.tau, paper.tau)
+
+
+def test_a_parameter_set_holds_eq13s_parameters_and_its_laws_own_alone():
+    p = Params(variant="memory", memory_share=0.4, C=-6.0)
+    assert p.law_values == (0.4, 0.0) and p.memory_share == 0.4 and p.C == -6.0
+    assert p.own_names() == (*Params.names(), "memory_share", "memory_rate")
+    assert len(p.as_array()) == len(Params.names()) + 1 + 2
+    with pytest.raises(model.ParameterError, match="jump_fabric=0.01 belongs to another variant than memory"):
+        Params(variant="memory", jump_fabric=0.01)
+    with pytest.raises(AttributeError, match="not a parameter of the memory law"):
+        p.chi  # noqa: B018
+    moved = p.replace(variant="jump", jump_fabric=-0.01)
+    assert (moved.variant, moved.jump_fabric, moved.C) == ("jump", -0.01, -6.0)
+    assert Params.from_dict(p.to_dict()) == p and Params(variant="memory", law_values=(0.4, 0.0), C=-6.0) == p
+    with pytest.raises(model.ParameterError, match="memory_rate=2000.0 must lie in"):
+        p.replace(memory_rate=2000.0)
+
+
+def test_no_module_of_the_model_but_the_registry_asks_which_law_it_is():
+    """A law is chosen once by name: outside ``model/laws`` no code compares a law's name or code."""
+    names = "|".join(map(re.escape, laws.LAWS))
+    asking = re.compile(rf"""(==|!=|\bin)\s*\(?["']({names})["']|["']({names})["']\s*(==|!=)|p\[VARIANT\]""")
+    for path in sorted(MODEL.glob("*.py")):
+        code = "\n".join(line.split("#")[0] for line in path.read_text().splitlines())
+        assert not asking.search(code), f"{path.name} asks which law it is"
