@@ -3,9 +3,11 @@
 An engine is a package under ``dem/`` that implements the adapter contract of ``dem/core/contract.py`` plus one
 entry of ``ENGINES`` here: the module its scene runs as (``python3 -m <scene> RUN_DIR``, Debian's python3), the files
 of its checkpoint, its own log (where it writes the errors it stops on), the make target that installs it and the
-code that fails where it cannot start, whether it runs on MPI ranks or on threads, and the starts of the lines it
-prints that are not the scene's. The first entry is the reference, the default everywhere. Standard library
-only: the Makefile's checks read it before anything is installed.
+code that fails where it cannot start, whether it runs on MPI ranks or on threads, the starts of the lines it
+prints that are not the scene's, the modules of ``dem/`` that run in its interpreter, and the launcher whose first
+line names that interpreter (Debian's python3 the engine is built for; ``/usr/bin/python3`` without one). The first
+entry is the reference, the default everywhere. Standard library only: the Makefile's checks read it before anything
+is installed.
 """
 
 from __future__ import annotations
@@ -29,6 +31,8 @@ class Engine:
     mpi: bool = False
     threads: bool = False  # the scene uses OpenMP threads (THREADS=)
     noise: tuple[str, ...] = ()
+    modules: tuple[str, ...] = ()  # the starts of the module names of dem/ that run in its interpreter
+    launcher: str | None = None  # the command whose first line (#!) names its interpreter
 
     def last_error(self, run_dir: Path) -> str:
         """The engine's own last error in its log, where it stopped the scene without one of ours; else ''."""
@@ -41,15 +45,21 @@ class Engine:
 
 ENGINES: dict[str, Engine] = {e.name: e for e in (
     Engine("yade", "dem.yade.scene", ("checkpoint.yade.gz",), "system", "import dem.yade.lib", threads=True,
-           noise=("Using python version",)),
+           noise=("Using python version",), modules=("dem.yade.", "dem.tools.yade_"), launcher="yade"),
     Engine("lammps", "dem.lammps.scene", ("restart_*.lmp",), "system-lammps",
-           "from dem.lammps.lib import new_lammps; new_lammps().close()", log="lammps.log", mpi=True),
+           "from dem.lammps.lib import new_lammps; new_lammps().close()", log="lammps.log", mpi=True,
+           modules=("dem.lammps.", "dem.tools.lammps_")),
 )}
 #: the engines that run on MPI ranks, and those that run on threads, as a message names them
 MPI_ENGINES = " or ".join(e.name for e in ENGINES.values() if e.mpi)
 THREADED_ENGINES = " or ".join(e.name for e in ENGINES.values() if e.threads)
 #: the reference engine: the default of every run and data set, and the one whose runs' folders carry no suffix
 DEFAULT_ENGINE = next(iter(ENGINES))
+
+
+def engine_of_module(module: str) -> Engine:
+    """The engine a module of ``dem/`` runs in (the reference engine's for one of none: ``dem.core``'s)."""
+    return next((e for e in ENGINES.values() if module.startswith(e.modules)), ENGINES[DEFAULT_ENGINE])
 
 
 def engine(name: str) -> Engine:

@@ -67,39 +67,6 @@ def tangential_damping_number(spec):
     return ct * dt / (2 / 7 * pair_reduced_mass(d, d))
 
 
-def contact_material(spec):
-    """The Yade material of every sphere. ViscElMat combines two materials' kn, ks, cn, cs in series,
-    so each material carries twice the contact value (given kn/ks it must not be given en/et:
-    Yade then silently derives the stiffness from Young's modulus instead)."""
-    from yade.wrapper import ViscElMat
-
-    kn, kt, cn, ct = contact_constants(spec)
-    return ViscElMat(kn=2 * kn, ks=2 * kt, cn=2 * cn, cs=2 * ct, frictionAngle=math.radians(spec.friction_deg),
-                     density=1.0)
-
-
-def contact_engines():
-    """The engines of a scene of spheres with this contact law: no gravity, no numerical damping."""
-    from yade.wrapper import (
-        Bo1_Sphere_Aabb,
-        ForceResetter,
-        Ig2_Sphere_Sphere_ScGeom,
-        InsertionSortCollider,
-        InteractionLoop,
-        Ip2_ViscElMat_ViscElMat_ViscElPhys,
-        Law2_ScGeom_ViscElPhys_Basic,
-        NewtonIntegrator,
-    )
-
-    return [
-        ForceResetter(),
-        InsertionSortCollider([Bo1_Sphere_Aabb()]),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_ViscElMat_ViscElMat_ViscElPhys()],
-                        [Law2_ScGeom_ViscElPhys_Basic()]),
-        NewtonIntegrator(damping=0.0, gravity=(0, 0, 0)),
-    ]
-
-
 def collision_report(argv, restitution_of, shear_of):
     """The command line of an engine's contact check (``dem.tools.yade_collision``, ``dem.tools.lammps_collision``):
     read the spec ``argv[1]``, measure the smallest, mean and largest pairs with the engine's ``restitution_of(spec,

@@ -362,7 +362,7 @@ class Scene:
             driver.damaged(f"the samples of the checkpoint cannot be read ({type(exc).__name__})")
 
     def meta(self):
-        return {"engine": "lammps", "engine_version": self.lmp.version(), "yade_version": "",
+        return {"engine": "lammps", "engine_version": self.lmp.version(),
                 "n_wall_spheres": self.run.state.n_wall_spheres}
 
 

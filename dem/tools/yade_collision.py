@@ -9,7 +9,8 @@ and the ratio |F_t|/|F_n| once the contact slides (Coulomb: tan of the friction 
 import math
 import sys
 
-from dem.core.contact import collision_report, contact_constants, contact_engines, contact_material
+from dem.core.contact import collision_report, contact_constants
+from dem.yade.contact import contact_engines, contact_material
 from dem.yade.lib import O, Vector3, utils
 
 

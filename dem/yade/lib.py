@@ -35,9 +35,10 @@ sys.path.insert(1, library_dir())
 
 import yade  # noqa: E402
 import yade.config  # noqa: E402
+import yade.wrapper as wrapper  # noqa: E402
 from yade import O, pack, utils  # noqa: E402
 from yade._minieigenHP import Vector3  # noqa: E402
 from yade.wrapper import PyRunner  # noqa: E402
 
 VERSION = yade.config.version
-__all__ = ["O", "PyRunner", "VERSION", "Vector3", "pack", "utils"]
+__all__ = ["O", "PyRunner", "VERSION", "Vector3", "pack", "utils", "wrapper"]

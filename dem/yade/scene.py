@@ -19,11 +19,12 @@ import numpy as np
 
 from dem.core import driver, protocol, watchdog
 from dem.core.cell import ROUGH_HEIGHT, WALL_RADIUS, Y_BOTTOM, initial_cloud, wall_centres
-from dem.core.contact import contact_constants, contact_engines, contact_material
+from dem.core.contact import contact_constants
 from dem.core.rawfile import DiskError, complete_gzip, sync
 from dem.core.spec import DemSpec, read_spec
 from dem.core.state import RunState
 from dem.yade import active
+from dem.yade.contact import contact_engines, contact_material
 from dem.yade.lib import VERSION, O, PyRunner, Vector3, utils
 
 

@@ -85,8 +85,7 @@ def describe(path: Path, root: Path) -> dict:
         raise DemFileError(f"{path}: not a readable run file ({exc})") from None
     spec = DemSpec.from_dict(json.loads(prov["spec_json"]))
     engine = spec.engine
-    version = prov.get("engine_version", prov.get("yade_version", "")) if engine == "lammps" else prov.get(
-        "yade_version", "")
+    version = prov.get("engine_version", prov.get("yade_version", ""))  # files before engines were named: Yade
     runs = sessions(prov)
     commits = [str(prov.get("git_commit", "unknown"))] + [str(s["git_commit"]) for s in runs if "git_commit" in s]
     overrides = {k: v for k, v in spec.overrides.items() if k != "seed"}

@@ -4,7 +4,8 @@ Layout (schema ``granular-backstress/dem-run`` v3; H5MD in spirit: a version at 
 on every dataset):
 
 ``/`` attrs ``schema``, ``schema_version``, ``creator``, ``created``, ``conventions``
-``/provenance`` attrs: preset, theta_deg, seed, Yade version, git commit, commands, timestamps, spec
+``/provenance`` attrs: preset, theta_deg, seed, engine and its version (and ``yade_version`` for a Yade run), git
+commit, commands, timestamps, spec
 ``/parameters`` attrs: every spec value, plus the contact constants and the time step; ``grain_diameter``
 ``/raw/...`` the samples as taken, named and unit-tagged by ``config/raw_schema.toml`` [samples]
 ``/contacts/...`` the contact budget of every sample (``dem/core/budget.py``; [contacts]), in runs that track their
@@ -89,12 +90,14 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
         prov.attrs.update(
             preset=spec.preset, theta_deg=spec.theta_deg, rotate_at_strain=spec.rotate_at_strain,
             seed=spec.seed, engine=meta.get("engine", LEGACY_ENGINE),
-            engine_version=str(meta.get("engine_version", meta["yade_version"])), yade_version=meta["yade_version"],
+            engine_version=str(meta.get("engine_version", meta.get("yade_version", ""))),
             git_commit=provenance.get("git_commit", "unknown"),
             started=provenance.get("started", ""), finished=provenance.get("finished", ""),
             sessions=json.dumps(provenance.get("sessions", [])), spec_json=json.dumps(meta["spec"], sort_keys=True),
             overrides=json.dumps(spec.overrides, sort_keys=True),
         )
+        if meta.get("yade_version"):  # a Yade run's (the reference engine's files have always named it)
+            prov.attrs["yade_version"] = meta["yade_version"]
         params = f.create_group("parameters")
         params.attrs.update({k: v for k, v in meta["spec"].items()
                              if isinstance(v, (int, float)) and not isinstance(v, bool)})

@@ -1,8 +1,8 @@
 """How the project starts a script of ``dem/``: Debian's python3 running ``python3 -m dem.<package>.<module>``.
 
 The scenes import their engine as a library (``dem/yade/lib.py``, ``dem/lammps/lib.py``), so Yade's launcher and its
-remote consoles never start. The interpreter is the one Debian's ``yade`` launcher names in its first line (the
-python3 that Yade and ``python3-lammps`` are built for), else ``/usr/bin/python3``.
+remote consoles never start. The interpreter is the engine's (``pipeline.engines``): the one its launcher names in its
+first line (Debian's ``yade``: the python3 Yade is built for), else ``/usr/bin/python3`` (``python3-lammps``'s).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from ..engines import engine
+from ..engines import DEFAULT_ENGINE, engine, engine_of_module
 from ..errors import PipelineError
 from ..paths import ROOT
 from .state import STATUS
@@ -24,9 +24,11 @@ class EngineMissing(RuntimeError):
     """An engine is not installed; the message says how to install it."""
 
 
-def engine_python() -> str:
-    """Debian's python3 of the engines (the ``yade`` launcher's interpreter where there is one)."""
-    launcher = shutil.which("yade")
+def engine_python(name: str | None = None) -> str:
+    """Debian's python3 of the engine ``name`` (the reference engine's by default): its launcher's interpreter where
+    it has one and it is installed, else ``/usr/bin/python3``."""
+    chosen = engine(name or DEFAULT_ENGINE)
+    launcher = shutil.which(chosen.launcher) if chosen.launcher else None
     if launcher is None:
         return "/usr/bin/python3"
     with open(launcher, encoding="utf-8", errors="replace") as fh:
@@ -39,17 +41,18 @@ def require(name: str) -> None:
     """Raise ``EngineMissing`` with one line, naming the make target that installs it, where Debian's python3
     cannot start the engine ``name``."""
     chosen = engine(name)
-    proc = subprocess.run([engine_python(), "-c", chosen.start_check], capture_output=True, text=True,
-                          env=environment())
+    python = engine_python(name)
+    proc = subprocess.run([python, "-c", chosen.start_check], capture_output=True, text=True, env=environment())
     if proc.returncode != 0:
         last = (proc.stderr.strip().splitlines() or [f"{name} cannot start"])[-1]
-        raise EngineMissing(f"{name} cannot start in {engine_python()} ({last.split(': ', 1)[-1]}): run "
+        raise EngineMissing(f"{name} cannot start in {python} ({last.split(': ', 1)[-1]}): run "
                             f"`make {chosen.install}`")
 
 
 def command(module: str, *args) -> list[str]:
-    """The command line running the module ``module`` (``dem.<package>.<module>``) with ``args``."""
-    return [engine_python(), "-m", module, *map(str, args)]
+    """The command line running the module ``module`` (``dem.<package>.<module>``) with ``args``, in its engine's
+    interpreter."""
+    return [engine_python(engine_of_module(module).name), "-m", module, *map(str, args)]
 
 
 def environment(threads: int = 1, ranks: int = 1) -> dict[str, str]:
