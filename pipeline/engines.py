@@ -53,6 +53,27 @@ ENGINES: dict[str, Engine] = {e.name: e for e in (
 #: the engines that run on MPI ranks, and those that run on threads, as a message names them
 MPI_ENGINES = " or ".join(e.name for e in ENGINES.values() if e.mpi)
 THREADED_ENGINES = " or ".join(e.name for e in ENGINES.values() if e.threads)
+#: the most MPI ranks and OpenMP threads a run may ask for (one bound for a run, a sweep and a SLURM job)
+MAX_RANKS = MAX_THREADS = 256
+
+
+def check_parallel(name: str, ranks: int = 1, threads: int = 1, words: tuple[str, str] = ("ranks", "threads"),
+                   hints: tuple[str, str] = ("RANKS=", "THREADS=")) -> None:
+    """A one-line ``SpecError`` where ``ranks`` or ``threads`` lie outside 1..256 or ask engine ``name`` for what it
+    does not run on (MPI ranks, OpenMP threads). ``words`` name the two values as the caller's user gave them,
+    ``hints`` what to give instead."""
+    for word, value, bound in ((words[0], ranks, MAX_RANKS), (words[1], threads, MAX_THREADS)):
+        if not 1 <= value <= bound:
+            raise SpecError(f"{word}={value} must be between 1 and {bound}")
+    chosen = engine(name)
+    if ranks != 1 and not chosen.mpi:
+        raise SpecError(f"{words[0]}={ranks}: MPI ranks are for ENGINE={MPI_ENGINES} ({name} runs on threads: "
+                        f"{hints[1]})")
+    if threads != 1 and not chosen.threads:
+        raise SpecError(f"{words[1]}={threads}: threads are for ENGINE={THREADED_ENGINES} ({name} runs on MPI ranks: "
+                        f"{hints[0]})")
+
+
 #: the reference engine: the default of every run and data set, and the one whose runs' folders carry no suffix
 DEFAULT_ENGINE = next(iter(ENGINES))
 

@@ -256,12 +256,7 @@ def run(spec: run_spec.DemSpec, results_dir: Path = RESULTS_DIR, fresh: bool = F
         ranks: int = 1) -> Path:
     """Run (or resume) one DEM run and write its HDF5 file; returns the file's path. ``ranks``: MPI ranks of a
     LAMMPS run."""
-    if ranks != 1 and not engines.ENGINES[spec.engine].mpi:
-        raise SpecError(f"ranks={ranks}: MPI ranks are for ENGINE={engines.MPI_ENGINES} ({spec.engine} runs on "
-                        "threads: THREADS=)")
-    if threads != 1 and not engines.ENGINES[spec.engine].threads:
-        raise SpecError(f"threads={threads}: threads are for ENGINE={engines.THREADED_ENGINES} ({spec.engine} runs "
-                        "on MPI ranks: RANKS=)")
+    engines.check_parallel(spec.engine, ranks, threads)
     out = run_spec.output_path(spec, results_dir)
     if out.exists() and not fresh:
         stored = stored_spec(out)
@@ -331,10 +326,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     spec = run_spec.resolve(args.theta, args.preset, args.rotate_at, run_spec.parse_overrides(args.set),
                             allow_inertial=args.allow_inertial, engine=args.engine)
-    if not 1 <= args.threads <= 256:
-        raise SpecError(f"threads={args.threads} must be between 1 and 256")
-    if not 1 <= args.ranks <= 1024:
-        raise SpecError(f"ranks={args.ranks} must be between 1 and 1024")
+    engines.check_parallel(spec.engine, args.ranks, args.threads)
     if args.print_path:
         print(run_spec.output_path(spec, args.results))
         return 0

@@ -57,8 +57,8 @@ def main(argv=None) -> int:
     if args.ranks is not None and any(o.startswith("ranks_per_run=") for o in args.slurm) \
             and args.ranks != slurm["ranks_per_run"]:
         raise SpecError(f"ranks={args.ranks} and slurm ranks_per_run={slurm['ranks_per_run']} disagree: give one")
-    if not 1 <= ranks <= 256:
-        raise SpecError(f"ranks={ranks} must be between 1 and 256")
+    if not 1 <= ranks <= engines.MAX_RANKS:
+        raise SpecError(f"ranks={ranks} must be between 1 and {engines.MAX_RANKS}")
     jobs = args.jobs if args.jobs is not None else max(1, config["local"]["jobs"] // ranks)
     if jobs < 1:
         raise SpecError(f"jobs={jobs} must be >= 1")
@@ -67,9 +67,8 @@ def main(argv=None) -> int:
     slurm["ranks_per_run"] = ranks
     if args.launch == "slurm":
         check_slurm(slurm, sweep, config["throughput"])
-    elif ranks > 1 and not engines.ENGINES[sweep.tasks[0].engine].mpi:
-        raise SpecError(f"ranks={ranks}: MPI ranks are for ENGINE={engines.MPI_ENGINES} ({sweep.tasks[0].engine} "
-                        "runs on threads)")
+    else:
+        engines.check_parallel(sweep.tasks[0].engine, ranks)
     write_plan(sweep)
     print(f"sweep {sweep.ident}: {len(sweep.tasks)} run(s) of preset {sweep.preset} "
           f"({sum(t.output.exists() for t in sweep.tasks)} done)")

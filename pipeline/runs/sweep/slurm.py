@@ -64,16 +64,9 @@ def check_slurm(config: dict, sweep: Sweep, throughput: dict) -> None:
             raise SpecError(f"slurm {key}={config[key]!r} is not a valid name")
     if not MEMORY.fullmatch(config["memory"]):
         raise SpecError(f"slurm memory={config['memory']!r} is not a size such as 2G")
-    for key in ("threads_per_run", "ranks_per_run"):
-        if not 1 <= config[key] <= 256:
-            raise SpecError(f"slurm {key}={config[key]} must be between 1 and 256")
     spec = sweep.tasks[0].spec()
-    if config["ranks_per_run"] > 1 and not engines.ENGINES[spec.engine].mpi:
-        raise SpecError(f"slurm ranks_per_run={config['ranks_per_run']}: MPI ranks are for "
-                        f"ENGINE={engines.MPI_ENGINES} ({spec.engine} runs on threads: threads_per_run)")
-    if config["threads_per_run"] > 1 and not engines.ENGINES[spec.engine].threads:
-        raise SpecError(f"slurm threads_per_run={config['threads_per_run']}: threads are for "
-                        f"ENGINE={engines.THREADED_ENGINES} ({spec.engine} runs on MPI ranks: ranks_per_run)")
+    engines.check_parallel(spec.engine, config["ranks_per_run"], config["threads_per_run"],
+                           ("slurm ranks_per_run", "slurm threads_per_run"), ("ranks_per_run", "threads_per_run"))
     limit = time_limit_seconds(config["time_limit"])
     lead = config["signal_lead_seconds"]
     rates = throughput[spec.engine]
