@@ -20,6 +20,8 @@ import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
+from dem.lammps import settings
+
 from .engines import DEFAULT_ENGINE
 from .engines import ENGINES as ENGINE_REGISTRY
 from .errors import PipelineError
@@ -33,9 +35,6 @@ _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 _SETTING = re.compile(r"[A-Za-z_][A-Za-z0-9_]*=[A-Za-z0-9_.:+-]+")
 _DATA_SET = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*(/[A-Za-z0-9_.=+-]+)*")
 _PATH = re.compile(r"[A-Za-z0-9_./-]+")
-_LAMMPS_WORD = re.compile(r"[A-Za-z0-9_.+-]+")
-#: the LAMMPS commands a settings benchmark may change: how LAMMPS sorts, communicates and builds neighbour lists
-LAMMPS_SETTINGS = ("atom_modify", "comm_modify", "neighbor", "neigh_modify", "balance", "newton")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -134,26 +133,19 @@ class Variables:
         return self._one(name, _PATH, "a run folder (letters, digits, _ . - /)", None)
 
     def lammps_settings(self, name: str, default: str) -> str:
-        """LAMMPS commands separated by ``;``, each one that sets how LAMMPS runs (``LAMMPS_SETTINGS``), never one
+        """LAMMPS commands separated by ``;``, each one that sets how LAMMPS runs (``dem.lammps.settings``), never one
         that runs a program or reads a file."""
         value = self.text(name)
         if value is None:
             return default
-        lammps_settings(value, name)
+        try:
+            settings.parse(value, name)
+        except ValueError as exc:
+            raise PipelineError(str(exc)) from None
         return value
 
 
 ENGINES = tuple(ENGINE_REGISTRY)
-
-
-def lammps_settings(text: str, name: str) -> list[str]:
-    """The LAMMPS commands of a setting (``;``-separated), each one of ``LAMMPS_SETTINGS``; else a one-line error."""
-    commands = [c.strip() for c in text.split(";") if c.strip()]
-    if not commands or not all(c.split()[0] in LAMMPS_SETTINGS and all(_LAMMPS_WORD.fullmatch(w) for w in c.split())
-                               for c in commands):
-        raise PipelineError(f"{name}={text!r} is not LAMMPS settings (commands separated by ';', each one of "
-                            f"{', '.join(LAMMPS_SETTINGS)})")
-    return commands
 
 
 def data_args(v: Variables) -> list[str]:

@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 from dem.core.spec import LEGACY_ENGINE
+from dem.lammps import settings
 
 from .. import io
 from ..cli import Parser, one_line_errors
@@ -23,7 +24,6 @@ from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..runs import scripts
 from ..runs.state import read_json
-from ..targets import lammps_settings
 
 
 def checked_run_dir(run_dir: Path) -> Path:
@@ -70,7 +70,10 @@ def main(argv=None) -> int:
         raise PipelineError(f"--steps {args.steps} must be at least 100")
     if args.rounds < 1:
         raise PipelineError(f"--rounds {args.rounds} must be at least 1")
-    settings = {"a": lammps_settings(args.a, "--a"), "b": lammps_settings(args.b, "--b")}
+    try:
+        chosen = {"a": settings.parse(args.a, "--a"), "b": settings.parse(args.b, "--b")}
+    except ValueError as exc:
+        raise PipelineError(str(exc)) from None
     run_dir = checked_run_dir(args.run_dir)
     try:
         scripts.require("lammps")
@@ -81,12 +84,12 @@ def main(argv=None) -> int:
     start = time.perf_counter()
     for i in range(args.rounds):
         for name in ("a", "b") if i % 2 == 0 else ("b", "a"):
-            rates[name].append(timed(run_dir, args.steps, settings[name]))
+            rates[name].append(timed(run_dir, args.steps, chosen[name]))
         eta = (time.perf_counter() - start) / (i + 1) * (args.rounds - i - 1)
         print(f"[{100 * (i + 1) // args.rounds:3d}%] round {i + 1}/{args.rounds}: A {rates['a'][-1]:.0f}, "
               f"B {rates['b'][-1]:.0f} steps/s, B / A {rates['b'][-1] / rates['a'][-1]:.3f}  ETA {eta:.0f} s",
               flush=True)
-    record = {"run_dir": str(run_dir), "steps": args.steps, "rounds": args.rounds, **settings,
+    record = {"run_dir": str(run_dir), "steps": args.steps, "rounds": args.rounds, **chosen,
               "a_steps_per_second": rates["a"], "b_steps_per_second": rates["b"],
               "ratios": [b / a for a, b in zip(rates["a"], rates["b"], strict=True)]}
     io.write_json(out / "lammps_settings.json", record)

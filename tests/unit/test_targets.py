@@ -166,3 +166,15 @@ def test_every_user_variable_has_a_reader_and_a_check_that_refuses_every_payload
             text = targets.goals_makefile(variables, [target])
             error = [line for line in text.splitlines() if line.startswith("CHECK_ERROR := ")]
             assert len(error) == 1 and name in error[0], (name, payload[:30], text[-300:])
+
+
+def test_no_stage_imports_the_front_door():
+    """``pipeline.targets`` calls the stages; a stage that imported it would run the front door's code."""
+    import re
+
+    from pipeline.paths import ROOT
+
+    for path in sorted((ROOT / "pipeline").rglob("*.py")):
+        if path.name != "targets.py":
+            assert not re.search(r"^\s*(from\s+\S*targets\s+import|import\s+\S*targets)", path.read_text(),
+                                 flags=re.MULTILINE), path
