@@ -75,8 +75,9 @@ def fabric_rates(y, Dh, Wn, p):
     Returns (n11, n22, n12, n13, n23, lam, g, c2) with
     Lambda(S) dA/d(|D'|t) = (n11, ..., n23) (Eqs. 13/23 with the Jaumann rate A_dot + A W - W A, beta2 removing the
     law's ``removal`` in place of A and the law's ``extra_rate`` added beside the spin: ``model.laws``),
-    g = c1 (A + kappa Dh):Dh + c2 (phi_c + c3) and c2 (kappa the law's ``offset``), from which (Eq. 18, with
-    u = 1/Phi) du/d(|D'|t) = -g u + c2.
+    g = c1 (A + kappa Dh + K):Dh + c2 (phi_c + c3) and c2 (kappa the law's ``offset``, K the part of the fabric
+    its own state holds, ``state_fabric``), from which (Eq. 18, with u = 1/Phi) du/d(|D'|t) = -g u + c2. ``y`` is
+    the kernels' state (``model.integrator``), the law's own after its first ``laws.BASE`` components.
     """
     a11, a22, a12, a13, a23 = y[0], y[1], y[2], y[3], y[4]
     d11, d22, d33, d12, d13, d23 = Dh[0], Dh[1], Dh[2], Dh[3], Dh[4], Dh[5]
@@ -106,6 +107,9 @@ def fabric_rates(y, Dh, Wn, p):
     c2 = dilatancy_c2(S, p)
     g = p[C1] * double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23) + c2 * (p[PHI_C] + p[C3])
     g += p[C1] * laws.offset(p)  # Eq. 18 on the fabric A + kappa Dh: (A + kappa Dh):Dh = A:Dh + kappa
+    if y.shape[0] > laws.BASE:  # and on the part of the fabric the law's own state holds
+        k11, k22, k12, k13, k23 = laws.state_fabric(y, p)
+        g += p[C1] * double_dot(k11, k22, k12, k13, k23, d11, d22, d33, d12, d13, d23)
     return n11, n22, n12, n13, n23, lam, g, c2
 
 

@@ -26,10 +26,10 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from . import laws
-from .equations import C3, PHI_C, dilatancy_c2, fabric_rates, observables_into
+from .equations import C1, C3, PHI_C, C, dilatancy_c2, fabric_rates, observables_into
 from .jit import jit
 
-N_STATE = 8
+N_STATE = laws.BASE  # A packed (5), t, G, v; a fabric law's own state follows (model.laws)
 ROUNDOFF = 1e-13  # relative time difference treated as equal (segment ends vs output times)
 NEAR_END = 1e-3  # a crossing this close to a step's end is taken from the interpolant
 T_INDEX, G_INDEX, V_INDEX = 5, 6, 7
@@ -64,6 +64,8 @@ def _rhs_s(y, Dh, Wn, rate, p, lam_ref, out):
     out[T_INDEX] = dgam / rate
     out[G_INDEX] = g * dgam
     out[V_INDEX] = (c2 - g * y[V_INDEX]) * dgam
+    if y.shape[0] > N_STATE:  # the fabric law's own state (model.laws)
+        laws.state_rates(y, Dh, Wn, p, out, dgam)
 
 
 @jit
@@ -398,6 +400,7 @@ def explicit_euler(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, strain_step,
     n = y0.shape[0]
     y, y_out, iout = _begin(y0, t_out)
     y_prev = y0.copy()
+    own = np.zeros(n)
     nfev = 0
     status = SUCCESS
     for iseg in range(seg_end.shape[0]):
@@ -415,8 +418,12 @@ def explicit_euler(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, strain_step,
             if lam == 0.0:
                 status = EULER_SINGULAR
                 break
+            if n > N_STATE:  # the law's own state's increments, from the state before this step
+                laws.state_rates(y, Dh, Wn, p, own, dgam)
             for i in range(n):
                 y_prev[i] = y[i]
+            for i in range(N_STATE, n):
+                y[i] += own[i]
             y[0] += dgam * n11 / lam
             y[1] += dgam * n22 / lam
             y[2] += dgam * n12 / lam
@@ -445,7 +452,8 @@ def outputs(y_out, t_out, seg_end, D_unit, rate, shear_rate, p, phi, A, Dh, seg,
 
     A, Dh: (n, 3, 3) fabric and D'/|D'|; seg: (n,) acting segment (a segment owns [start, end), the
     last one its end too); S, tau (Eq. 14) and the work rates of Eqs. 17-18 per unit p*gamma_dot.
-    A is the state plus kappa Dh, kappa the fabric law's ``offset`` (``model.laws``: 0 but for the "jump" law).
+    A is the fabric: the state plus kappa Dh, kappa the fabric law's ``offset`` (``model.laws``: 0 but for the "jump"
+    law), plus the part the law's own state holds (``laws.state_fabric``; S is the state's, as Eq. 13 evolves it).
     Returns (all finite, min S, max |state|^2) for the caller's checks.
     """
     k = 0
@@ -476,6 +484,18 @@ def outputs(y_out, t_out, seg_end, D_unit, rate, shear_rate, p, phi, A, Dh, seg,
             for j in range(3):
                 for m in range(3):
                     A[i, j, m] += kappa * Dh[i, j, m]
+    if y_out.shape[1] > N_STATE:  # the part of the fabric the law's own state holds, K: in Eqs. 14, 17 and 18 too
+        for i in range(y_out.shape[0]):
+            k11, k22, k12, k13, k23 = laws.state_fabric(y_out[i], p)
+            K = np.array([[k11, k12, k13], [k12, k22, k23], [k13, k23, -k11 - k22]])
+            x = 0.0
+            for j in range(3):
+                for m in range(3):
+                    A[i, j, m] += K[j, m]
+                    tau[i, j, m] += p[C] * K[j, m]
+                    x += K[j, m] * Dh[i, j, m]
+            w_shear[i] += p[C] * x
+            w_vol[i] += p[C1] * x
     min_S = math.inf
     for i in range(y_out.shape[0]):
         scale = rate[seg[i]] / shear_rate  # per-|D'| rates to per-gamma_dot

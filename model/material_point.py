@@ -47,10 +47,11 @@ _PROBLEMS = {
 
 @dataclass
 class Update:
-    """State after a step, per point: ``A`` (N, 3, 3) fabric; ``phi`` (N,) packing fraction; ``tau_over_p``
+    """State after a step, per point: ``A`` (N, 3, 3) fabric (the fabric law's state: the fabric less the part the
+    law holds beyond it, kappa D'/|D'| of "jump", K of "elastic"); ``phi`` (N,) packing fraction; ``tau_over_p``
     (N, 3, 3) tau/p of Eq. 14 (tension positive); ``S`` (N,) hardening variable of Eq. 10 (both NaN where
     ``stationary``); ``substeps`` (N,) integrator steps taken (accepted and rejected); ``stationary`` (N,)
-    D' = 0 over the step."""
+    D' = 0 over the step; ``law_state`` (N, k) the fabric law's own state (``model.laws``; k = 0 for most laws)."""
 
     A: np.ndarray
     phi: np.ndarray
@@ -58,12 +59,19 @@ class Update:
     S: np.ndarray
     substeps: np.ndarray
     stationary: np.ndarray
+    law_state: np.ndarray = None
+
+    def __post_init__(self):
+        if self.law_state is None:
+            self.law_state = np.empty((self.phi.shape[0], 0))
 
     @classmethod
-    def empty(cls, n: int) -> Update:
-        """Arrays for ``n`` points, to pass as ``out`` and reuse step after step."""
+    def empty(cls, n: int, params: Params | None = None) -> Update:
+        """Arrays for ``n`` points (and the fabric law of ``params``), to pass as ``out`` and reuse step after
+        step."""
+        own = len(laws.state_names(_params(params).variant))
         return cls(np.empty((n, 3, 3)), np.empty(n), np.empty((n, 3, 3)), np.empty(n),
-                   np.empty(n, dtype=np.int64), np.empty(n, dtype=np.bool_))
+                   np.empty(n, dtype=np.int64), np.empty(n, dtype=np.bool_), np.empty((n, own)))
 
     def __len__(self) -> int:
         return self.phi.shape[0]
@@ -140,6 +148,9 @@ def _write_state(y, Dh, p, A_out, tau_out):
     Y = yield_function(S, p)
     c = p[C_INDEX]  # Eq. 14: tau/p = C A + Y(S) D'/|D'|
     Y += c * laws.offset(p)  # C (A + kappa Dh) + Y Dh, kappa the law's offset (model.laws)
+    if y.shape[0] > integrator.N_STATE:  # C (A + K) + Y Dh, K the part of the fabric the law's own state holds
+        k11, k22, k12, k13, k23 = laws.state_fabric(y, p)
+        a11, a22, a33, a12, a13, a23 = a11 + k11, a22 + k22, a33 - k11 - k22, a12 + k12, a13 + k13, a23 + k23
     tau_out[0, 0] = c * a11 + Y * Dh[0]
     tau_out[1, 1] = c * a22 + Y * Dh[1]
     tau_out[2, 2] = c * a33 + Y * Dh[2]
@@ -150,12 +161,14 @@ def _write_state(y, Dh, p, A_out, tau_out):
 
 
 @jit
-def _update_range(start, stop, A, phi, L, dt, p, lam_ref, rtol, atol,
-                  A_out, phi_out, tau_out, S_out, steps_out, stationary_out):
+def _update_range(start, stop, A, phi, X, L, dt, p, lam_ref, rtol, atol,
+                  A_out, phi_out, X_out, tau_out, S_out, steps_out, stationary_out):
     """Points start..stop-1; returns (failures, first failing point, its status). A failing point keeps
-    its input state. Scratch is allocated once per call, not per point; ``A_out`` may be ``A``."""
-    y = np.empty(integrator.N_STATE)
-    work = np.empty((stepper.WORK_ROWS, integrator.N_STATE))
+    its input state. Scratch is allocated once per call, not per point; ``A_out`` may be ``A``, ``X_out`` ``X``
+    (the fabric law's own state per point, (N, k); k = 0 for most laws)."""
+    n_own = X.shape[1]
+    y = np.empty(integrator.N_STATE + n_own)
+    work = np.empty((stepper.WORK_ROWS, integrator.N_STATE + n_own))
     Dh = np.empty(6)
     Wn = np.empty(3)
     rotation = np.empty((3, 3, 3))  # the co-rotated fabric and two scratch matrices
@@ -190,6 +203,8 @@ def _update_range(start, stop, A, phi, L, dt, p, lam_ref, rtol, atol,
             S_out[i] = math.nan
             steps_out[i] = 0
             stationary_out[i] = True
+            for j in range(n_own):  # the law's own state is held
+                X_out[i, j] = X[i, j]
             continue
         Dh[0], Dh[1], Dh[2] = d11 / rate, d22 / rate, d33 / rate
         Dh[3], Dh[4], Dh[5] = d12 / rate, d13 / rate, d23 / rate
@@ -201,6 +216,8 @@ def _update_range(start, stop, A, phi, L, dt, p, lam_ref, rtol, atol,
         y[integrator.T_INDEX] = 0.0
         y[integrator.G_INDEX] = 0.0
         y[integrator.V_INDEX] = 0.0
+        for j in range(n_own):
+            y[integrator.N_STATE + j] = X[i, j]
         steps, status = stepper.advance(y, Dh, Wn, rate, p, lam_ref, dti, rtol, atol, MAX_STEPS, work)
         steps_out[i] = steps
         stationary_out[i] = False
@@ -215,21 +232,24 @@ def _update_range(start, stop, A, phi, L, dt, p, lam_ref, rtol, atol,
             continue  # A_out[i] and phi_out[i] are left alone: the input state, when out is the input
         # Eq. 18 in closed form: 1/Phi(dt) = exp(-G)/Phi(0) + v (see model.integrator)
         phi_out[i] = 1.0 / (math.exp(-y[integrator.G_INDEX]) / phi[i] + y[integrator.V_INDEX])
+        for j in range(n_own):
+            X_out[i, j] = y[integrator.N_STATE + j]
         S_out[i] = _write_state(y, Dh, p, A_out[i], tau_out[i])
     return failures, first_failure, first_status
 
 
 @jit
-def _update_serial(A, phi, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, tau_out, S_out, steps_out, stationary_out):
-    return _update_range(0, A.shape[0], A, phi, L, dt, p, lam_ref, rtol, atol,
-                         A_out, phi_out, tau_out, S_out, steps_out, stationary_out)
+def _update_serial(A, phi, X, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, X_out, tau_out, S_out, steps_out,
+                   stationary_out):
+    return _update_range(0, A.shape[0], A, phi, X, L, dt, p, lam_ref, rtol, atol,
+                         A_out, phi_out, X_out, tau_out, S_out, steps_out, stationary_out)
 
 
 CHUNK = 256  # points per parallel task
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
-def _update_parallel(A, phi, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, tau_out, S_out, steps_out,
+def _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, X_out, tau_out, S_out, steps_out,
                      stationary_out):
     n = A.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
@@ -238,8 +258,8 @@ def _update_parallel(A, phi, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, tau_
     status = np.zeros(n_chunks, dtype=np.int64)
     for c in numba.prange(n_chunks):
         failures[c], first[c], status[c] = _update_range(
-            c * CHUNK, min(n, (c + 1) * CHUNK), A, phi, L, dt, p, lam_ref, rtol, atol,
-            A_out, phi_out, tau_out, S_out, steps_out, stationary_out)
+            c * CHUNK, min(n, (c + 1) * CHUNK), A, phi, X, L, dt, p, lam_ref, rtol, atol,
+            A_out, phi_out, X_out, tau_out, S_out, steps_out, stationary_out)
     total = 0
     first_failure, first_status = -1, 0
     for c in range(n_chunks):
@@ -264,13 +284,17 @@ def _array(name: str, value, shapes: tuple[tuple, ...]) -> np.ndarray:
     return view
 
 
-def _out(out, n: int) -> Update:
+#: every array of an ``Update``
+OUTPUTS = ("A", "phi", "tau_over_p", "S", "substeps", "stationary", "law_state")
+
+
+def _out(out, n: int, params: Params) -> Update:
     if out is None:
-        return Update.empty(n)
+        return Update.empty(n, params)
     if not isinstance(out, Update):
         raise SolverError(f"out must be a model.Update (see Update.empty), got {type(out).__name__}")
-    expected = Update.empty(0)
-    for name in ("A", "phi", "tau_over_p", "S", "substeps", "stationary"):
+    expected = Update.empty(0, params)
+    for name in OUTPUTS:
         array, like = getattr(out, name), getattr(expected, name)
         if (not isinstance(array, np.ndarray) or array.shape != (n,) + like.shape[1:] or array.dtype != like.dtype
                 or not array.flags.c_contiguous or not array.flags.writeable):
@@ -280,14 +304,14 @@ def _out(out, n: int) -> Update:
 
 
 #: the outputs that may be their input itself, for an update in place
-IN_PLACE = {("A", "A"), ("phi", "phi")}
+IN_PLACE = {("A", "A"), ("phi", "phi"), ("law_state", "law_state")}
 
 
 def _check_overlaps(inputs: dict, out: Update) -> None:
     """No two outputs share memory, and no output shares memory with an input, but ``out.A`` and ``out.phi`` each
     with its own input when it is that very array: the kernels read a point's input after writing other points'
     outputs, so an overlap would return wrong numbers without a word."""
-    outs = {name: getattr(out, name) for name in ("A", "phi", "tau_over_p", "S", "substeps", "stationary")}
+    outs = {name: getattr(out, name) for name in OUTPUTS if getattr(out, name).size}
     names = list(outs)
     for k, a in enumerate(names):
         for b in names[k + 1:]:
@@ -305,7 +329,26 @@ def _same_memory(a: np.ndarray, b: np.ndarray) -> bool:
             and a.strides == b.strides)
 
 
-def update(A, phi, L, dt, params: Params | None = None, out: Update | None = None, *,
+def _law_state(law_state, params: Params, L: np.ndarray, n: int) -> np.ndarray:
+    """The fabric law's own state per point, (n, k): as given, checked, or where a history starts under each
+    point's L."""
+    own = len(laws.state_names(params.variant))
+    if law_state is not None and own:
+        X = _array("law_state", law_state, ((n, own),))
+        if not np.all(np.isfinite(X)):
+            raise SolverError(f"law_state[{int(np.argmin(np.isfinite(X).all(axis=1)))}] is not finite")
+        return X
+    if not own:
+        return np.empty((n, 0))
+    D = 0.5 * (L + np.swapaxes(L, 1, 2))
+    D = D - np.trace(D, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
+    norm = np.sqrt(np.sum(D * D, axis=(1, 2)))[:, None, None]
+    Dh = np.divide(D, norm, out=np.zeros_like(D), where=norm > 0)
+    _, X = laws.start(params.variant, Dh, params.law_dict())
+    return np.ascontiguousarray(np.broadcast_to(X, (n, own)))
+
+
+def update(A, phi, L, dt, params: Params | None = None, out: Update | None = None, *, law_state=None,
            rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL, s_ref: float = DEFAULT_S_REF,
            fabric_tol: float = FABRIC_TOL, threads: int = 1) -> Update:
     """Advance N material points over one step of constant velocity gradient (Eqs. 13, 14, 18).
@@ -318,8 +361,11 @@ def update(A, phi, L, dt, params: Params | None = None, out: Update | None = Non
     L : (N, 3, 3) or (3, 3) velocity gradient dv_i/dx_j over the step (1/time), constant in the step.
     dt : float or (N,) step duration (time, >= 0); the step's strain is |D'| dt (``model.kinematics``).
     params : model.Params (default Table 2).
-    out : an ``Update`` to fill (``Update.empty(N)``); ``out.A`` and ``out.phi`` may be the inputs
-        themselves, for an update in place.
+    out : an ``Update`` to fill (``Update.empty(N, params)``); ``out.A``, ``out.phi`` and ``out.law_state`` may be
+        the inputs themselves, for an update in place.
+    law_state : (N, k) the fabric law's own state at the start of the step (``Update.law_state`` of the step
+        before; ``model.laws``); default, for a law that has one, its value where a history starts under each
+        point's L (for "elastic": K = kappa D'/|D'|). Ignored by a law without (k = 0).
     rtol, atol, s_ref : per-step tolerances and regularisation of the integrator
         (``model.stepper``); see docs/model.md for their cost against accuracy.
     threads : 1 (default) or more: points are shared among that many numba threads.
@@ -328,7 +374,8 @@ def update(A, phi, L, dt, params: Params | None = None, out: Update | None = Non
     before any work, and after the step if a point could not be integrated (those points keep their
     start state).
     """
-    p = _params(params).as_array()
+    params = _params(params)
+    p = params.as_array()
     if not (np.ndim(A) == 3 and np.shape(A)[0] > 0 and np.shape(A)[1:] == (3, 3)):
         raise SolverError(f"A has shape {np.shape(A)}, expected (N, 3, 3) with N >= 1")
     A = _array("A", A, (np.shape(A),))
@@ -348,18 +395,19 @@ def update(A, phi, L, dt, params: Params | None = None, out: Update | None = Non
     code, index, value = _check_inputs(A, phi, L, dt, fabric_tol)
     if code:
         raise SolverError(_PROBLEMS[code].format(i=index, value=float(value)))
-    out = _out(out, n)
-    _check_overlaps({"A": A, "phi": phi, "L": L, "dt": dt}, out)
+    X = _law_state(law_state, params, L, n)
+    out = _out(out, n, params)
+    _check_overlaps({"A": A, "phi": phi, "L": L, "dt": dt, "law_state": X}, out)
     lam_ref = s_ref ** p[K_PERSIST]
-    arrays = (out.A, out.phi, out.tau_over_p, out.S, out.substeps, out.stationary)
+    arrays = (out.A, out.phi, out.law_state, out.tau_over_p, out.S, out.substeps, out.stationary)
     if threads == 1 and (n < CHUNK or threading.current_thread() is not threading.main_thread()):
         # a few points, or a caller's own thread (numba's workqueue pool takes one caller at a time): no pool
-        failures, first, status = _update_serial(A, phi, L, dt, p, lam_ref, rtol, atol, *arrays)
+        failures, first, status = _update_serial(A, phi, X, L, dt, p, lam_ref, rtol, atol, *arrays)
     else:  # the pool's kernel, on one thread too: compiled as a parallel loop it runs about 15 % faster per thread
         previous = numba.get_num_threads()
         numba.set_num_threads(threads)
         try:
-            failures, first, status = _update_parallel(A, phi, L, dt, p, lam_ref, rtol, atol, *arrays)
+            failures, first, status = _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, *arrays)
         finally:
             numba.set_num_threads(previous)
     if failures:

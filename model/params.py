@@ -133,6 +133,10 @@ class Params:
         """The parameters of this set's law: Eq. 13's, then its own."""
         return self.names() + VARIANTS[self.variant]
 
+    def law_dict(self) -> dict:
+        """The law's own parameters by name."""
+        return dict(zip(VARIANTS[self.variant], self.law_values, strict=True))
+
     def as_array(self) -> np.ndarray:
         """As the compiled kernels expect them (read-only): ``names()`` in order, the law's code in the registry, then
         its own parameters (``model.laws``)."""

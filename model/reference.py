@@ -41,24 +41,34 @@ def jump(L: np.ndarray, params: Params) -> np.ndarray:
     return law_parts(params).offset * Dd / np.linalg.norm(Dd)
 
 
-def packing_rate(A: np.ndarray, phi: float, L: np.ndarray, params: Params) -> float:
-    """dPhi/dt from Eq. 18, on the fabric A + ``jump`` (S from the state A)."""
+def packing_rate(A: np.ndarray, phi: float, L: np.ndarray, params: Params, K=None) -> float:
+    """dPhi/dt from Eq. 18, on the fabric A + ``jump`` + K (K the part the law's own state holds; S from the state
+    A)."""
     D = 0.5 * (L + L.T)
     Dd = D - np.trace(D) * np.eye(3) / 3
     nD = np.linalg.norm(Dd)
     S = np.linalg.norm(A) - np.sum(A * Dd) / nD
     c2 = params.c2_coef * S**params.c2_exponent
-    return phi * (params.c1 * np.sum((A + jump(L, params)) * Dd) + c2 * (params.phi_c - phi + params.c3) * nD)
+    fabric = A + jump(L, params) + (0.0 if K is None else K)
+    return phi * (params.c1 * np.sum(fabric * Dd) + c2 * (params.phi_c - phi + params.c3) * nD)
 
 
 def solve(history: History, A0: np.ndarray, phi0: float, params: Params, strains: np.ndarray,
           rtol: float = 1e-13, atol: float = 1e-15, method: str = "DOP853"):
-    """Fabric (n, 3, 3), packing fraction (n,) and the number of right-hand-side calls. The "jump" variant's state
-    is the fabric less ``jump`` of the segment acting (``A0``: of the first)."""
+    """Fabric (n, 3, 3), packing fraction (n,) and the number of right-hand-side calls. The law's state A is the
+    fabric less ``jump`` of the segment acting and less K, the law's own state where it has one (``A0``: the fabric
+    at the start, where K starts at its value under the first segment, ``model.laws.start``)."""
     t_out = np.asarray(strains, dtype=float) / history.shear_rate
     A_out = np.full((t_out.size, 3, 3), np.nan)
     phi_out = np.full(t_out.size, np.nan)
-    y = np.concatenate([(np.asarray(A0, float) - jump(history.segments[0].L, params)).ravel(), [phi0]])
+    law = law_parts(params)
+    L0 = history.segments[0].L
+    D0 = 0.5 * (L0 + L0.T)
+    Dd0 = D0 - np.trace(D0) * np.eye(3) / 3
+    part, _ = laws.start(params.variant, Dd0 / np.linalg.norm(Dd0), params.law_dict())
+    K0 = part - jump(L0, params)  # the law's own part, beyond kappa D'/|D'|
+    own = law.state_rate is not None
+    y = np.concatenate([(np.asarray(A0, float) - part).ravel(), [phi0], K0.ravel() if own else []])
     bounds = history.boundaries
     nfev = 0
     for k, seg in enumerate(history.segments):
@@ -68,7 +78,9 @@ def solve(history: History, A0: np.ndarray, phi0: float, params: Params, strains
 
         def rhs(_t, z, L=seg.L):
             A = z[:9].reshape(3, 3)
-            return np.concatenate([fabric_rate(A, L, params).ravel(), [packing_rate(A, z[9], L, params)]])
+            K = z[10:].reshape(3, 3) if own else None
+            rates = [fabric_rate(A, L, params).ravel(), [packing_rate(A, z[9], L, params, K)]]
+            return np.concatenate(rates + ([law.state_rate(K, A, L).ravel()] if own else []))
 
         sol = solve_ivp(rhs, (t0, t1), y, method=method, rtol=rtol, atol=atol,
                         t_eval=t_out[mask] if mask.any() else None, dense_output=False)
@@ -77,6 +89,8 @@ def solve(history: History, A0: np.ndarray, phi0: float, params: Params, strains
         nfev += sol.nfev
         if mask.any():
             A_out[mask] = sol.y[:9].T.reshape(-1, 3, 3) + jump(seg.L, params)
+            if own:
+                A_out[mask] += sol.y[10:].T.reshape(-1, 3, 3)
             phi_out[mask] = sol.y[9]
         end = solve_ivp(rhs, (t0, t1), y, method=method, rtol=rtol, atol=atol, t_eval=[t1]) if sol.t[-1] != t1 else sol
         y = end.y[:, -1]

@@ -60,6 +60,8 @@ class Result:
     cycle_residual : max |A(T) - A(0)| of the last period (periodic solutions).
     phi_contraction : exp(-int g) over one period, the factor by which a period shrinks an error
         in 1/Phi; plain period iteration would need log(tol)/log(factor) periods for Phi.
+    law_state : (n, k) the fabric law's own state (``model.laws``; k = 0 for most laws): with the fabric
+        ``A`` at a strain, what ``integrate`` (``law_state0``) needs to go on from there.
     method, success, message.
     """
 
@@ -82,6 +84,7 @@ class Result:
     phi_contraction: float = float("nan")
     success: bool = True
     message: str = "integration successful"
+    law_state: np.ndarray | None = None
 
 
 def pack_fabric(A: np.ndarray) -> np.ndarray:
@@ -100,19 +103,33 @@ def unpack_fabric(y: np.ndarray) -> np.ndarray:
     return A
 
 
-def jump_offset(params: Params, D_unit) -> np.ndarray:
-    """kappa D'/|D'| (3, 3): what the fabric law adds to its state to give the fabric under the unit stretching
-    ``D_unit`` (packed 11, 22, 33, 12, 13, 23); kappa is the law's ``offset`` (``model.laws``: zero but for "jump")."""
+def _start(params: Params, D_unit) -> tuple[np.ndarray, np.ndarray]:
+    """Where a history starts under the unit stretching ``D_unit`` (packed 11, 22, 33, 12, 13, 23): the part of the
+    fabric beyond the law's state A (3x3; zero but for "jump" and "elastic") and the law's own state (``model.laws``:
+    empty for most laws)."""
     d = np.asarray(D_unit, dtype=float)
-    kappa = laws.offset(params.as_array())
-    return kappa * np.array([[d[0], d[3], d[4]], [d[3], d[1], d[5]], [d[4], d[5], d[2]]])
+    Dh = np.array([[d[0], d[3], d[4]], [d[3], d[1], d[5]], [d[4], d[5], d[2]]])
+    return laws.start(params.variant, Dh, params.law_dict())
 
 
-def _initial_state(A: np.ndarray) -> np.ndarray:
-    """Kernel state at t = 0: packed fabric, G = v = 0 (see ``model.integrator``)."""
-    y0 = np.zeros(integrator.N_STATE)
+def _initial_state(A: np.ndarray, own=()) -> np.ndarray:
+    """Kernel state at t = 0: packed fabric, G = v = 0 (see ``model.integrator``), the law's own state after."""
+    y0 = np.zeros(integrator.N_STATE + len(own))
     y0[:5] = pack_fabric(A)
+    y0[integrator.N_STATE:] = own
     return y0
+
+
+def _fabric(y: np.ndarray, params: Params, D_unit) -> np.ndarray:
+    """The fabric of a kernel state under the unit stretching ``D_unit``: the state A plus kappa D'/|D'| and the
+    part the law's own state holds."""
+    A = unpack_fabric(y[:5])
+    kappa = laws.offset(params.as_array())
+    d = np.asarray(D_unit, dtype=float)
+    A = A + kappa * np.array([[d[0], d[3], d[4]], [d[3], d[1], d[5]], [d[4], d[5], d[2]]])
+    if y.shape[0] > integrator.N_STATE:
+        A = A + unpack_fabric(np.array(laws.state_fabric(y, params.as_array())))
+    return A
 
 
 def _check_fabric(A0) -> np.ndarray:
@@ -213,7 +230,7 @@ def _assemble(history, strains, y_out, p, packing_fraction, stats, method, **ext
         _check_bounds(A, f"{method}: the fabric")
     return Result(
         strain=strains, t=t, A=A, tau=tau, S=S, packing_fraction=phi, D_dev=packed.D_dev[seg] / history.shear_rate,
-        w_shear=w_shear, w_vol=w_vol, w_total=w_shear + w_vol,
+        w_shear=w_shear, w_vol=w_vol, w_total=w_shear + w_vol, law_state=y_out[:, integrator.N_STATE:].copy(),
         nfev=int(stats[0]), nsteps=int(stats[1]), nrejected=int(stats[2]), method=method, **extra,
     )
 
@@ -239,6 +256,7 @@ def integrate(
     s_ref: float = DEFAULT_S_REF,
     strain_step: float | None = None,
     max_steps: int = 1_000_000,
+    law_state0=None,
 ) -> Result:
     """Integrate the model (Eqs. 13, 14, 18) along ``history`` from a given state.
 
@@ -252,58 +270,72 @@ def integrate(
     method : 'dop853' (adaptive, regularised; default) or 'euler' (the paper's fixed-step baseline,
         needs ``strain_step``).
     rtol, atol : local error tolerances of 'dop853'.
+    law_state0 : the fabric law's own state at the start (``Result.law_state`` of an earlier run; ``model.laws``);
+        default its value where a history starts under the first segment (K = kappa D'/|D'| for "elastic").
     """
     params = _params(params)
     _check_tolerances(rtol, atol)
     p = params.as_array()
-    # the "jump" variant's state is the fabric less kappa D'/|D'| of the first segment; an isotropic start is a
-    # state of zero, before any shear
-    A0 = np.zeros((3, 3)) if A0 is None else _check_fabric(A0) - jump_offset(params, history.packed.D_unit[0])
+    # the law's state A is the fabric less the part the law holds beyond it where the history starts (kappa D'/|D'|
+    # of "jump", K of "elastic"); an isotropic start is a state of zero, before any shear
+    part, own = _start(params, history.packed.D_unit[0])
+    if law_state0 is not None:  # the law's own state given: the fabric less kappa D'/|D'| and its part is A
+        own = np.asarray(law_state0, dtype=float).reshape(-1)
+        if own.shape != (len(laws.state_names(params.variant)),) or not np.all(np.isfinite(own)):
+            raise SolverError(f"law_state0 must be {len(laws.state_names(params.variant))} finite number(s) "
+                              f"({', '.join(laws.state_names(params.variant)) or 'none for this law'})")
+        part = _fabric(_initial_state(np.zeros((3, 3)), own), params, history.packed.D_unit[0])
+    A0 = np.zeros((3, 3)) if A0 is None else _check_fabric(A0) - part
     phi0 = params.phi_c if packing_fraction0 is None else float(packing_fraction0)
     if not (math.isfinite(phi0) and 0 < phi0 < 1):
         raise SolverError(f"packing_fraction0={packing_fraction0!r} must lie in (0, 1)")
     strains = _output_strains(history, times)
-    y_out, _, stats = _run(history, _initial_state(A0), p, strains, method, rtol, atol, s_ref, strain_step, max_steps)
+    y_out, _, stats = _run(history, _initial_state(A0, own), p, strains, method, rtol, atol, s_ref, strain_step,
+                           max_steps)
     phi = 1.0 / (np.exp(-y_out[:, integrator.G_INDEX]) / phi0 + y_out[:, integrator.V_INDEX])
     return _assemble(history, strains, y_out, p, phi, stats, method)
 
 
 @functools.lru_cache(maxsize=256)
-def _steady_state_cached(L_bytes: bytes, p_bytes: bytes, tol: float) -> tuple[np.ndarray, float]:
+def _steady_state_cached(L_bytes: bytes, p_bytes: bytes, tol: float) -> tuple[np.ndarray, float, np.ndarray]:
     L = np.frombuffer(L_bytes).reshape(3, 3)
     p = np.frombuffer(p_bytes)
     segment = Segment(1.0 / modulus(deviator(stretching(L))), L)  # strain |D'| t = 1 per chunk
     history = History((segment,))
-    y = _initial_state(np.zeros((3, 3)))
+    y = _initial_state(np.zeros((3, 3)), np.zeros(len(laws.state_names(laws.name_of(p)))))
+    base = integrator.N_STATE
     for _ in range(200):
         y0 = y.copy()
-        y0[integrator.T_INDEX:] = 0.0
+        y0[integrator.T_INDEX:base] = 0.0
         _, y, _ = _run(history, y0, p, np.empty(0), "dop853", 1e-12, 1e-14, DEFAULT_S_REF, None, 1_000_000)
-        if np.max(np.abs(y[:5] - y0[:5])) < tol:
+        if max(np.max(np.abs(y[:5] - y0[:5])), np.max(np.abs(y[base:] - y0[base:]), initial=0.0)) < tol:
             break
     else:
         raise SolverError("no steady state reached for this velocity gradient")
     A = unpack_fabric(y[:5])
     _, _, _, _, _, _, g, c2 = fabric_rates(y, history.packed.D_unit[0], np.zeros(3), p)
-    return A, g / c2  # du/dt = 0 in Eq. 18 with u = 1/Phi: Phi = g / c2
+    return A, g / c2, y[base:].copy()  # du/dt = 0 in Eq. 18 with u = 1/Phi: Phi = g / c2
 
 
 def steady_state(L, params: Params | None = None, tol: float = 1e-13) -> tuple[np.ndarray, float]:
     """Steady fabric A and packing fraction Phi under a constant velocity gradient L.
 
-    Found by integrating from the isotropic state until A changes by less than ``tol`` over a
-    strain |D'| t = 1; Phi then solves Eq. 18 with Phi_dot = 0.
+    Found by integrating from the isotropic state until A (and the fabric law's own state) changes by less than
+    ``tol`` over a strain |D'| t = 1; Phi then solves Eq. 18 with Phi_dot = 0.
     """
-    A, phi = _steady_state(L, _params(params), tol)
+    params = _params(params)
+    A, phi, own = _steady_state(L, params, tol)
     L = np.ascontiguousarray(L, dtype=float)
-    return A + jump_offset(_params(params), History((Segment(1.0, L),)).packed.D_unit[0]), phi
+    state = _initial_state(A, own)
+    return _fabric(state, params, History((Segment(1.0, L),)).packed.D_unit[0]), phi
 
 
-def _steady_state(L, params: Params, tol: float = 1e-13) -> tuple[np.ndarray, float]:
-    """The steady state (the model's state: for the "jump" variant, the fabric less kappa D'/|D'|) and Phi."""
+def _steady_state(L, params: Params, tol: float = 1e-13) -> tuple[np.ndarray, float, np.ndarray]:
+    """The steady state (the model's state A: the fabric less the part the law holds beyond it), Phi and the law's
+    own state."""
     L = np.ascontiguousarray(L, dtype=float)
-    A, phi = _steady_state_cached(L.tobytes(), params.as_array().tobytes(), tol)
-    return A.copy(), phi
+    A, phi, own = _steady_state_cached(L.tobytes(), params.as_array().tobytes(), tol)
+    return A.copy(), phi, own.copy()
 
 
 def reversal_start_rate(params: Params | None = None) -> float:
@@ -313,7 +345,7 @@ def reversal_start_rate(params: Params | None = None) -> float:
     direction, S stays near 0 where Lambda = S^k vanishes, and the model's own reversal can run away (Table 2:
     +3e-5, on the edge)."""
     params = _params(params)
-    A, _ = _steady_state(shear_velocity_gradient(0.0), params)
+    A, _, _ = _steady_state(shear_velocity_gradient(0.0), params)
     return float(params.a1 + params.a2 * modulus(A))
 
 
@@ -367,24 +399,26 @@ def _off_table2(params: Params) -> str:
 
 def _periodic(history, params, strains, rtol, atol, cycle_tol, max_periods, s_ref) -> Result:
     p = params.as_array()
-    A_start, _ = _steady_state(history.segments[-1].L, params)
+    A_start, _, own = _steady_state(history.segments[-1].L, params)
+    base = integrator.N_STATE
     residual = math.inf
     no_output = np.empty(0)
     nfev = nsteps = nrejected = periods = 0
     while periods < max_periods:
         # iterate without outputs; the converged start is then integrated once more with them
         periods += 1
-        y0 = _initial_state(A_start)
+        y0 = _initial_state(A_start, own)
         _, y_end, stats = _run(history, y0, p, no_output, "dop853", rtol, atol, s_ref, None, 1_000_000)
         nfev, nsteps, nrejected = nfev + stats[0], nsteps + stats[1], nrejected + stats[2]
-        residual = float(np.max(np.abs(y_end[:5] - y0[:5])))
-        A_start = unpack_fabric(y_end[:5])
+        residual = float(max(np.max(np.abs(y_end[:5] - y0[:5])), np.max(np.abs(y_end[base:] - y0[base:]),
+                                                                           initial=0.0)))
+        A_start, own = unpack_fabric(y_end[:5]), y_end[base:].copy()
         if residual < cycle_tol:
             break
     if not residual < cycle_tol:
         raise SolverError(f"the cycle did not converge in {max_periods} periods (residual {residual:.3g} "
                           f"> cycle_tol {cycle_tol:g})")
-    y0 = _initial_state(A_start)
+    y0 = _initial_state(A_start, own)
     y_out, y_end, stats = _run(history, y0, p, strains, "dop853", rtol, atol, s_ref, None, 1_000_000)
     nfev, nsteps, nrejected = nfev + stats[0], nsteps + stats[1], nrejected + stats[2]
     periods += 1

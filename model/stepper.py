@@ -25,7 +25,7 @@ import numpy as np
 from scipy.integrate._ivp.rk import RK45
 
 from .equations import hardening_variable, jit, persistence
-from .integrator import N_STATE, NOT_FINITE, STEP_UNDERFLOW, SUCCESS, T_INDEX, TOO_MANY_STEPS, _rhs_s, _stage
+from .integrator import NOT_FINITE, STEP_UNDERFLOW, SUCCESS, T_INDEX, TOO_MANY_STEPS, _rhs_s, _stage
 
 OVERSHOOT = 1.02  # a step aims this far past the end in t; most updates then take one step
 NEAR_END = 0.9  # an end this close to the step's end is taken from the interpolant without a defect check
@@ -55,7 +55,7 @@ ERROR_EXPONENT = -1.0 / 5.0
 @jit
 def _combine(weights, y, h, K, out):
     """out = y + h sum_j weights_j K[j]."""
-    for i in range(N_STATE):
+    for i in range(y.shape[0]):
         acc = 0.0
         for j in range(weights.shape[0]):
             acc += weights[j] * K[j, i]
@@ -67,12 +67,13 @@ def _error_norm(weights, y, y_new, K, h, rtol, atol):
     """RMS over the components of the embedded error estimate h sum_j weights_j K[j], scaled by
     atol + rtol max(|y|, |y_new|)."""
     acc = 0.0
-    for i in range(N_STATE):
+    n = y.shape[0]
+    for i in range(n):
         e = 0.0
         for j in range(weights.shape[0]):
             e += weights[j] * K[j, i]
         acc += (h * e / (atol + rtol * max(abs(y[i]), abs(y_new[i])))) ** 2
-    return math.sqrt(acc / N_STATE)
+    return math.sqrt(acc / n)
 
 
 @jit

@@ -9,12 +9,16 @@ the law's code, then its own, read at ``OWN + k``):
 - ``removal``: what beta2 |D'| removes in place of A (Eq. 13's recovery term), packed (11, 22, 12, 13, 23);
 - ``extra_rate``: a rate per unit |D'| t added beside the Jaumann spin (scaled by Lambda as it is), packed alike;
 - ``offset``: kappa, where the fabric of Eqs. 14 and 18 is the state A plus kappa D'/|D'|;
+- a state of its own (``STATE``, its names; after the kernels' ``BASE`` components): ``state_rates(y, Dh, Wn, p, out,
+  scale)`` writes its rates per unit |D'| t times ``scale``, ``state_fabric(y)`` the part of the fabric it holds
+  beyond A (packed), ``start(Dh, values)`` that part where a history starts (3x3);
 
-and for the independent reference (``model.reference``, plain numpy on 3x3 tensors) the same three as
-``reference_removal``, ``reference_extra`` and ``reference_offset``. A part a law leaves out is Eq. 13's (A, zero,
-zero). The kernels call ``removal``, ``extra_rate`` and ``offset`` below, which branch on the law's code: nothing
-outside this module asks which law it is. Adding a law is its module, its entry in ``LAWS`` and a branch in each of
-the three parts it defines (``docs/extending.md``).
+and for the independent reference (``model.reference``, plain numpy on 3x3 tensors) the same as
+``reference_removal``, ``reference_extra``, ``reference_offset`` and ``reference_state_rate``. A part a law leaves
+out is Eq. 13's (A, zero, zero, no state). The kernels call ``removal``, ``extra_rate``, ``offset``,
+``state_rates`` and ``state_fabric`` below, which branch on the law's code: nothing outside this module asks which law
+it is. Adding a law is its module, its entry in ``LAWS`` and a branch in each part it defines
+(``docs/extending.md``).
 """
 
 from __future__ import annotations
@@ -24,18 +28,20 @@ import dataclasses
 import numpy as np
 
 from ..jit import jit
-from . import jump, loading, memory, rk2025
+from . import elastic, jump, loading, memory, rk2025
 from .parameter import OWN, Parameter
 
 #: the registry: every fabric law, Eq. 13's first (its code is its place here)
-LAWS = {law.NAME: law for law in (rk2025, loading, memory, jump)}
+LAWS = {law.NAME: law for law in (rk2025, loading, memory, jump, elastic)}
 DEFAULT = rk2025.NAME
 CODE = {name: float(k) for k, name in enumerate(LAWS)}
-_LOADING, _MEMORY, _JUMP = CODE[loading.NAME], CODE[memory.NAME], CODE[jump.NAME]
+_LOADING, _MEMORY, _JUMP, _ELASTIC = CODE[loading.NAME], CODE[memory.NAME], CODE[jump.NAME], CODE[elastic.NAME]
 LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
+#: the kernels' state before a law's own (``model.integrator``: A packed, t, G, v)
+BASE = 8
 
-__all__ = ["DEFAULT", "LAWS", "OWN", "Parameter", "extra_rate", "law_parameters", "offset", "reference_parts",
-           "removal"]
+__all__ = ["BASE", "DEFAULT", "LAWS", "OWN", "Parameter", "extra_rate", "law_parameters", "offset",
+           "reference_parts", "removal", "start", "state_fabric", "state_names", "state_rates"]
 
 
 def law_parameters(name: str) -> tuple[Parameter, ...]:
@@ -70,14 +76,51 @@ def offset(p):
     return 0.0
 
 
+def name_of(p) -> str:
+    """The law whose code a parameter array holds."""
+    return list(LAWS)[int(p[LAW_INDEX])]
+
+
+def state_names(name: str) -> tuple[str, ...]:
+    """The law's own state variables (none for a law without)."""
+    return getattr(LAWS[name], "STATE", ())
+
+
+def start(name: str, Dh, values: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Where a history starts under the unit stretching ``Dh`` (3x3, or a stack): the part of the fabric beyond the
+    state A (kappa Dh of "jump", K of "elastic") and the law's own state (packed, empty for none)."""
+    law, Dh = LAWS[name], np.asarray(Dh, dtype=float)
+    part = law.reference_offset(values) * Dh if hasattr(law, "reference_offset") else np.zeros(Dh.shape)
+    if not state_names(name):
+        return part, np.zeros(Dh.shape[:-2] + (0,))
+    K = law.start(Dh, values)
+    return part + K, np.stack([K[..., 0, 0], K[..., 1, 1], K[..., 0, 1], K[..., 0, 2], K[..., 1, 2]], axis=-1)
+
+
+@jit
+def state_rates(y, Dh, Wn, p, out, scale):
+    """The law's own state's rates per unit |D'| t, times ``scale``, into ``out[BASE:]`` (none for most laws)."""
+    if p[LAW_INDEX] == _ELASTIC:
+        elastic.state_rates(y, Dh, Wn, p, out, scale)
+
+
+@jit
+def state_fabric(y, p):
+    """The part of the fabric the law's state holds beyond A, packed (zero for most laws)."""
+    if p[LAW_INDEX] == _ELASTIC:
+        return elastic.state_fabric(y)
+    return 0.0, 0.0, 0.0, 0.0, 0.0
+
+
 @dataclasses.dataclass(frozen=True)
 class ReferenceParts:
     """A law's parts on 3x3 tensors for ``model.reference``: ``removal(A, Dh)``, ``extra(A, Dh)`` (per unit
-    |D'| t) and ``offset`` (kappa)."""
+    |D'| t), ``offset`` (kappa) and ``state_rate(K, A, L)`` (dK/dt of its own state, 3x3; None for none)."""
 
     removal: object
     extra: object
     offset: float
+    state_rate: object = None
 
 
 def reference_parts(name: str, values: dict) -> ReferenceParts:
@@ -85,7 +128,9 @@ def reference_parts(name: str, values: dict) -> ReferenceParts:
     law = LAWS[name]
     removal_of = getattr(law, "reference_removal", None)
     extra_of = getattr(law, "reference_extra", None)
+    state_of = getattr(law, "reference_state_rate", None)
     return ReferenceParts(
         (lambda A, Dh: removal_of(A, Dh, values)) if removal_of else (lambda A, Dh: A),
         (lambda A, Dh: extra_of(A, Dh, values)) if extra_of else (lambda A, Dh: np.zeros((3, 3))),
-        float(law.reference_offset(values)) if hasattr(law, "reference_offset") else 0.0)
+        float(law.reference_offset(values)) if hasattr(law, "reference_offset") else 0.0,
+        (lambda K, A, L: state_of(K, A, L, values)) if state_of else None)

@@ -14,7 +14,9 @@ MODEL = Path(model.__file__).parent
 
 
 @pytest.mark.parametrize("name", list(laws.LAWS))
-def test_every_law_declares_parameters_in_range_whose_neutral_values_are_eq13_bit_for_bit(name):
+def test_every_law_declares_parameters_in_range_whose_neutral_values_are_eq13(name):
+    """Bit for bit for a law without a state of its own; to the integrator's tolerance for one with (its state,
+    zero throughout, joins the step size control)."""
     own = laws.law_parameters(name)
     assert len(own) <= 2 and len({q.name for q in own}) == len(own)
     for q in own:
@@ -23,7 +25,11 @@ def test_every_law_declares_parameters_in_range_whose_neutral_values_are_eq13_bi
     neutral = Params(variant=name, **{q.name: q.neutral for q in own})
     for theta in (180, 150):
         paper, law = predict(theta), predict(theta, params=neutral)
-        assert np.array_equal(law.A, paper.A) and np.array_equal(law.tau, paper.tau)
+        if laws.state_names(name):
+            assert np.max(np.abs(law.A - paper.A)) < 1e-10 and np.max(np.abs(law.tau - paper.tau)) < 1e-9
+            assert np.all(law.law_state == 0.0)
+        else:
+            assert np.array_equal(law.A, paper.A) and np.array_equal(law.tau, paper.tau)
 
 
 def test_a_parameter_set_holds_eq13s_parameters_and_its_laws_own_alone():
