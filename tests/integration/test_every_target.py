@@ -22,7 +22,7 @@ RUN_HERE = {
                      "model-cycles", "sweep", "runs", "sweep-status", "fidelity"),
                     "test_the_dem_and_engine_targets_run_at_the_tiny_size"),
     **dict.fromkeys(("fit", "compare", "figures", "compare-seed", "fit-bootstrap", "fit-jackknife", "fit-angles",
-                     "fit-definitions", "versus", "cells", "jump", "fidelity-table", "data-card", "clean"),
+                     "fit-definitions", "versus", "cells", "jump", "budget", "fidelity-table", "data-card", "clean"),
                     "test_the_data_targets_run_on_the_committed_data"),
     # the demo (its DEM runs, demo-dem, first) and what follows it on its data set
     **dict.fromkeys(("demo", "demo-dem", "sweep-collect", "fit-from", "fit-profile", "models", "bench"), LANE_TEST),
@@ -111,6 +111,10 @@ def test_the_data_targets_run_on_the_committed_data(project):
     make(project, "cells")
     make(project, "jump")
     assert (project / "results/cells/cells.md").exists() and (project / "results/jump/jump.md").exists()
+    said = make(project, "budget", "PRESET=reduced")  # the reduced cell's LAMMPS runs with the contact budget
+    budget = (project / "results/reduced-lammps/budget/budget.md").read_text()
+    assert "run(s) of reduced (lammps) with a contact budget" in said and "## 150°" in budget and "## 180°" in budget
+    assert (project / "results/reduced-lammps/budget/budget.png").stat().st_size > 10_000
     assert "run(s) of the ladder" in make(project, "fidelity-table")
     make(project, "data-card")
     assert (project / "data/reference/README.md").read_text() == (ROOT / "data/reference/README.md").read_text()
