@@ -212,3 +212,11 @@ class Params:
 
 
 PAPER = Params()
+
+
+def table2_value(name: str) -> float:
+    """Table 2's value of one of Eq. 13's parameters; for a law's own parameter, its neutral value (where the law is
+    Eq. 13): what "Table 2" means for any law's parameter set."""
+    if name in Params.names():
+        return getattr(PAPER, name)
+    return next(q.neutral for law in LAWS.values() for q in law.PARAMETERS if q.name == name)

@@ -393,7 +393,8 @@ def _packing_suspect(y_out: np.ndarray, history: History, params: Params) -> str
 def _off_table2(params: Params) -> str:
     """The parameters that differ from Table 2, for a failure's message: the suspects."""
     changed = [f"{name} = {value:+.4g}" if isinstance(value, float) else f"{name} = {value}"
-               for name, value in params.to_dict().items() if value != getattr(PAPER, name)]
+               for name, value in params.to_dict().items()
+               if name not in PAPER.to_dict() or value != getattr(PAPER, name)]
     return f" (parameters off Table 2: {', '.join(changed)})" if changed else ""
 
 

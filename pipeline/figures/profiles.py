@@ -7,6 +7,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+import model
+
 from .output import save
 
 
@@ -32,7 +34,8 @@ def plot(result: dict, paper, out: Path) -> Path:
             ax.axhline(factor, color="grey", lw=0.6, ls=":")
             ax.text(p["grid"][0], factor, f" {level} %", fontsize=6, va="bottom")
         ax.axvline(p["best"], color="C0", lw=0.6)
-        ax.axvline(getattr(paper, name), color="k", ls="--", lw=0.8, label="Table 2")
+        ax.axvline(getattr(paper, name) if name in paper.own_names() else model.params.table2_value(name), color="k",
+                   ls="--", lw=0.8, label="Table 2")
         ax.set_xlabel(name)
         ax.set_ylim(0, 6)
     axes[0, 0].set_ylabel(r"$\Delta\chi^2$ / noise factor")
