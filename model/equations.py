@@ -14,6 +14,7 @@ import numpy as np
 
 from . import laws
 from .jit import jit
+from .tensors import spin_rate
 
 # indices into Params.as_array() of Eq. 13's parameters; the fabric law's code and its own follow (model.laws)
 (C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C) = range(13)
@@ -82,23 +83,14 @@ def fabric_rates(y, Dh, Wn, p):
     a11, a22, a12, a13, a23 = y[0], y[1], y[2], y[3], y[4]
     d11, d22, d33, d12, d13, d23 = Dh[0], Dh[1], Dh[2], Dh[3], Dh[4], Dh[5]
     w12, w13, w23 = Wn[0], Wn[1], Wn[2]
-    a33 = -a11 - a22
     S = hardening_variable(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
     lam = persistence(S, p)
     beta1 = p[A1] + p[B1] * S
     beta2 = p[A2] + p[B2] * S
     r11, r22, r12, r13, r23 = laws.removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
-    # W A - A W = 2 sym(W A) for symmetric A, antisymmetric W
-    m00 = w12 * a12 + w13 * a13
-    m01 = w12 * a22 + w13 * a23
-    m02 = w12 * a23 + w13 * a33
-    m10 = -w12 * a11 + w23 * a13
-    m11 = -w12 * a12 + w23 * a23
-    m12 = -w12 * a13 + w23 * a33
-    m20 = -w13 * a11 - w23 * a12
-    m21 = -w13 * a12 - w23 * a22
+    s11, s22, s12, s13, s23 = spin_rate(w12, w13, w23, a11, a22, a12, a13, a23)
     e11, e22, e12, e13, e23 = laws.extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
-    j11, j22, j12, j13, j23 = 2.0 * m00 + e11, 2.0 * m11 + e22, m01 + m10 + e12, m02 + m20 + e13, m12 + m21 + e23
+    j11, j22, j12, j13, j23 = s11 + e11, s22 + e22, s12 + e12, s13 + e13, s23 + e23
     n11 = beta1 * d11 + beta2 * r11 + lam * j11
     n22 = beta1 * d22 + beta2 * r22 + lam * j22
     n12 = beta1 * d12 + beta2 * r12 + lam * j12

@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from ..jit import jit
+from ..tensors import spin_rate
 from .parameter import OWN, Parameter
 
 NAME = "elastic"
@@ -33,24 +34,14 @@ FIRST = 8  # where the law's state sits in the kernels' state (model.integrator:
 def state_rates(y, Dh, Wn, p, out, scale):
     """dK/d(|D'| t) times ``scale`` into ``out[FIRST:FIRST + 5]``: the relaxation and the Jaumann spin."""
     k11, k22, k12, k13, k23 = y[FIRST], y[FIRST + 1], y[FIRST + 2], y[FIRST + 3], y[FIRST + 4]
-    k33 = -k11 - k22
-    w12, w13, w23 = Wn[0], Wn[1], Wn[2]
+    s11, s22, s12, s13, s23 = spin_rate(Wn[0], Wn[1], Wn[2], k11, k22, k12, k13, k23)
     c = math.sqrt(2.0) / p[STRAIN]
     kappa = p[KAPPA]
-    # W K - K W = 2 sym(W K), W per |D'|
-    m00 = w12 * k12 + w13 * k13
-    m01 = w12 * k22 + w13 * k23
-    m02 = w12 * k23 + w13 * k33
-    m10 = -w12 * k11 + w23 * k13
-    m11 = -w12 * k12 + w23 * k23
-    m12 = -w12 * k13 + w23 * k33
-    m20 = -w13 * k11 - w23 * k12
-    m21 = -w13 * k12 - w23 * k22
-    out[FIRST] = scale * (c * (kappa * Dh[0] - k11) + 2.0 * m00)
-    out[FIRST + 1] = scale * (c * (kappa * Dh[1] - k22) + 2.0 * m11)
-    out[FIRST + 2] = scale * (c * (kappa * Dh[3] - k12) + m01 + m10)
-    out[FIRST + 3] = scale * (c * (kappa * Dh[4] - k13) + m02 + m20)
-    out[FIRST + 4] = scale * (c * (kappa * Dh[5] - k23) + m12 + m21)
+    out[FIRST] = scale * (c * (kappa * Dh[0] - k11) + s11)
+    out[FIRST + 1] = scale * (c * (kappa * Dh[1] - k22) + s22)
+    out[FIRST + 2] = scale * (c * (kappa * Dh[3] - k12) + s12)
+    out[FIRST + 3] = scale * (c * (kappa * Dh[4] - k13) + s13)
+    out[FIRST + 4] = scale * (c * (kappa * Dh[5] - k23) + s23)
 
 
 @jit
