@@ -296,6 +296,11 @@ def integrate(
     return _assemble(history, strains, y_out, p, phi, stats, method)
 
 
+#: how still a fabric law's own state must be, chunk to chunk, for the steady state: its fast relaxation leaves
+#: about 1e-12 of the integrator's round-off in it at a high shear rate
+OWN_STATE_TOL = 1e-10
+
+
 @functools.lru_cache(maxsize=256)
 def _steady_state_cached(L_bytes: bytes, p_bytes: bytes, tol: float) -> tuple[np.ndarray, float, np.ndarray]:
     L = np.frombuffer(L_bytes).reshape(3, 3)
@@ -308,7 +313,9 @@ def _steady_state_cached(L_bytes: bytes, p_bytes: bytes, tol: float) -> tuple[np
         y0 = y.copy()
         y0[integrator.T_INDEX:base] = 0.0
         _, y, _ = _run(history, y0, p, np.empty(0), "dop853", 1e-12, 1e-14, DEFAULT_S_REF, None, 1_000_000)
-        if max(np.max(np.abs(y[:5] - y0[:5])), np.max(np.abs(y[base:] - y0[base:]), initial=0.0)) < tol:
+        # the law's own state relaxes fast and settles within the integrator's round-off, not within ``tol``
+        if (np.max(np.abs(y[:5] - y0[:5])) < tol
+                and np.max(np.abs(y[base:] - y0[base:]), initial=0.0) < max(tol, OWN_STATE_TOL)):
             break
     else:
         raise SolverError("no steady state reached for this velocity gradient")
