@@ -119,9 +119,10 @@ def test_the_spec_has_one_typed_field_per_key_of_the_presets_and_reads_older_fil
         assert DemSpec.value_keys() == tuple(tomllib.load(fh)["defaults"])
     spec = resolve(90, "reduced")
     assert DemSpec.from_dict(spec.to_dict()) == spec and isinstance(spec.n_cycles, int)
-    legacy = ("engine", "dense_window_strain", "dense_sample_strain")
+    legacy = ("engine", "dense_window_strain", "dense_sample_strain", "contact_track_strain")
     older = {k: v for k, v in spec.to_dict().items() if k not in legacy}
-    assert DemSpec.from_dict(older) == dataclasses.replace(spec, dense_window_strain=0.0, dense_sample_strain=0.0)
+    assert DemSpec.from_dict(older) == dataclasses.replace(spec, dense_window_strain=0.0, dense_sample_strain=0.0,
+                                                           contact_track_strain=0.0)  # no contact budget
     with pytest.raises(ValueError, match=r"unknown \['colour'\]"):
         DemSpec.from_dict({**spec.to_dict(), "colour": 3})
     with pytest.raises(ValueError, match=r"missing \['gap_d'\]"):
