@@ -21,7 +21,7 @@ MODEL_DIR := results/model
 # argument lists (`--plan TARGET` prints them).
 USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM STRESS \
 	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS \
-	SKIP_CYCLES CASES POINTS LADDER
+	LAWS SKIP_CYCLES CASES POINTS LADDER
 $(foreach v,$(USER_VARIABLES),$(eval override $(v) := $$(value $(v))))
 export $(USER_VARIABLES)
 TARGETS := $(PY) -m pipeline.targets
@@ -135,7 +135,7 @@ cells: venv ## the reduced cell against the paper's (its data set, config/datase
 jump: venv ## the reversal jump: fabric and wall stress right after each change of direction, every run -> results/jump/
 stability: system venv ## the DEM on stiff and extreme cases, small cells (about 15 min; CASES=baseline,dt0.5 for some) -> results/fidelity/stability.md
 budget: venv ## what the contacts do after each change of direction (made, lost, kept; networks; persistence) against Eq. 13 [PRESET] [ENGINE] -> results/<data set>/budget/
-models: venv ## every fabric law fitted and judged on runs it was not fitted on [PRESET] [ACROSS=reduced, or none] -> results/<data set>/models/
+models: venv ## every fabric law fitted and judged on runs it was not fitted on [PRESET] [ACROSS=reduced, or none] [LAWS=rk2025,elastic] -> results/<data set>/models/
 $(STAGES): check
 	$(TARGETS) $@
 

@@ -200,6 +200,12 @@ def across_args(v: Variables) -> list[str]:
     return [a for item in v.presets_engines("ACROSS") for a in ("--across", item)]
 
 
+def laws_args(v: Variables) -> list[str]:
+    """``make models``' LAWS: the fabric laws judged, comma-separated (the stage checks the names)."""
+    laws = v.names("LAWS")
+    return ["--laws", ",".join(laws)] if laws else []
+
+
 def weight_option(v: Variables) -> list[str]:
     weight = v.choice("WEIGHT", ("runs", "angles"))
     return ["--weight", weight] if weight else []
@@ -360,7 +366,7 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
     "data-card": lambda v: [Call("pipeline.dataset.card")],
     "jump": lambda v: [Call("pipeline.studies.jump")],
     "budget": lambda v: [Call("pipeline.studies.budget", data_args(v))],
-    "models": lambda v: [Call("pipeline.comparison.models", (*data_args(v), *across_args(v))),
+    "models": lambda v: [Call("pipeline.comparison.models", (*data_args(v), *across_args(v), *laws_args(v))),
                          Call("pipeline.figures.models", data_args(v))],
     "stability": lambda v: [Call("pipeline.studies.stability", tuple(
         ["--cases", ",".join(v.names("CASES"))] if v.names("CASES") else []))],

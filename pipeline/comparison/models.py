@@ -19,6 +19,7 @@ run's noise and per the DEM's steady value. Writes ``models.json``, ``models.md`
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 from dataclasses import dataclass
@@ -367,6 +368,15 @@ def other_data_sets(chosen, across: list[str]) -> dict[str, list]:
     return out
 
 
+def law_list(text: str) -> list[str]:
+    """``--laws``: known law names, comma-separated, in the registry's order with Eq. 13's first."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    known = model.params.VARIANTS
+    if not names or not set(names) <= set(known):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of {', '.join(known)}")
+    return [v for v in known if v in names or v == model.params.DEFAULT_VARIANT]
+
+
 @one_line_errors
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.comparison.models", description=__doc__.splitlines()[0])
@@ -374,6 +384,8 @@ def main(argv=None) -> int:
     parser.add_argument("--across", action="append", default=[], metavar="PRESET[:ENGINE]",
                         help="another data set to predict from this one and back (repeatable; default: the most "
                              "faithful other preset with a reversal run; none: no other)")
+    parser.add_argument("--laws", type=law_list, default=list(model.params.VARIANTS), metavar="LAW,LAW...",
+                        help="the fabric laws judged (default every one; Eq. 13's, rk2025, is always judged, first)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<data set>/models)")
     args = parser.parse_args(argv)
     chosen = selection.from_arguments(args)
@@ -382,7 +394,7 @@ def main(argv=None) -> int:
         raise CalibrationError(f"no reversal run of {chosen.label}: make one with `make dem THETA=180 ...`")
     others = other_data_sets(chosen, args.across)
     out = io.check_writable_dir(args.out or preset_output(chosen.folder, "models"))
-    variants = list(model.params.VARIANTS)
+    variants = args.laws
     total, done, began = len(variants) * (1 + len(splits(runs)) + len(others)), [0], time.monotonic()
 
     def progress():

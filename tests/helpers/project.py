@@ -18,7 +18,7 @@ LANE_TEST = "test_the_long_targets_run_in_a_lane_beside_the_session"
 #: sweep of the same runs (done: nothing runs) and its collection, the fit past the jump, a three-point profile, the
 #: fabric laws judged within the data set, and every benchmark at the smallest size
 LANE = [("demo",), ("sweep", "PRESET=quick", "THETAS=180 90"), ("sweep-collect",), ("fit-from", "PRESET=quick"),
-        ("fit-profile", "PRESET=quick", "POINTS=3"), ("models", "PRESET=quick", "ACROSS=none"),
+        ("fit-profile", "PRESET=quick", "POINTS=3"), ("models", "PRESET=quick", "ACROSS=none", "LAWS=elastic"),
         ("bench", "PRESETS=tiny", "POINTS=2000")]
 
 

@@ -329,10 +329,10 @@ def over_quota(path, columns):
     save_npz(path, columns)
 
 
-def sample_then_fault(self, strain):
+def sample_then_fault(self, *args):
     if first_time_at_rank_0():
         raise RuntimeError("a fault at rank 0 alone")
-    sample(self, strain)
+    sample(self, *args)
 
 
 if sys.argv[2] == "warning":

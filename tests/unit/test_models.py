@@ -135,3 +135,11 @@ def test_the_comparisons_z_is_a_unit_normal_about_its_noise_free_value(tmp_path)
         for r in runs:
             r.path.unlink()
     assert abs(np.mean(shifts)) < 0.6 and 0.6 < np.std(shifts, ddof=1) < 1.5, shifts
+
+
+def test_the_laws_asked_for_are_judged_in_the_registrys_order_with_eq13s_first_and_an_unknown_one_is_refused():
+    assert models.law_list("elastic") == [model.params.DEFAULT_VARIANT, "elastic"]
+    assert models.law_list(" jump,loading ") == [model.params.DEFAULT_VARIANT, "loading", "jump"]
+    for bad in ("", "elastic,nope"):
+        with pytest.raises(models.argparse.ArgumentTypeError, match="is not a comma-separated list of rk2025"):
+            models.law_list(bad)

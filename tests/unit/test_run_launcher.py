@@ -3,14 +3,21 @@
 
 import dataclasses
 import json
+import os
 import signal
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
 
 import h5py
 import pytest
 
 from dem.core.rawfile import write_raw
+from dem.lammps import lib as lammps_lib
 from pipeline import spec as run_spec
 from pipeline.errors import SpecError
+from pipeline.paths import ROOT
 from pipeline.runs import launch as dem
 from tests.helpers.synthetic import synthetic_raw
 
@@ -136,3 +143,29 @@ def test_ranks_on_one_machine_talk_through_shared_memory_and_open_no_port(monkey
     assert scripts.environment(ranks=1)["OMPI_MCA_btl"] == "self,vader"
     monkeypatch.setenv("OMPI_MCA_btl", "self,tcp")
     assert scripts.environment(ranks=2)["OMPI_MCA_btl"] == "self,tcp"
+
+
+
+SESSION_BASE = """
+import os
+from dem.lammps import lib
+base = lib.singleton_session_base()
+assert lib.singleton_session_base() == base  # again, as after the exec at a checkpoint
+print(base, oct(os.stat(base).st_mode & 0o777))
+"""
+
+
+def test_a_lammps_singleton_keeps_open_mpis_session_in_a_private_folder_of_its_own_removed_at_its_end(
+        tmp_path, monkeypatch):
+    """Two runs of a sweep never share (and remove) one session directory; a folder in its place that is not this
+    user's private one is refused."""
+    env = {**os.environ, "TMPDIR": str(tmp_path), "PYTHONPATH": str(ROOT)}
+    said = subprocess.run([sys.executable, "-c", SESSION_BASE], capture_output=True, text=True, env=env, check=True)
+    base, mode = said.stdout.split()
+    assert Path(base).parent == tmp_path and mode == "0o700" and not Path(base).exists()
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    squatted = tmp_path / f"dem-mpi-{os.getuid()}-{os.getpid()}"
+    squatted.mkdir()
+    squatted.chmod(0o777)
+    with pytest.raises(OSError, match="is not a private folder of this user"):
+        lammps_lib.singleton_session_base()

@@ -58,6 +58,7 @@ def test_the_include_file_names_the_data_sets_folder_and_its_runs(tmp_path):
     (["runs", "versus"], {"A": "reduced yade", "B": "paper"}, "A='reduced yade' is not a data set"),
     (["fit"], {"VARIANT": "loading;touch x"}, "VARIANT='loading;touch x' is not a name"),
     (["models"], {"ACROSS": "reduced:gromacs"}, "ACROSS='reduced:gromacs' is not a list of PRESET[:ENGINE]"),
+    (["models"], {"LAWS": "elastic jump"}, "LAWS='elastic jump' is not a comma-separated list of names"),
 ])
 def test_a_bad_value_becomes_one_make_line_that_expands_to_the_text_given(goals, variables, message):
     """CHECK_ERROR holds the message with ``$`` and ``#`` escaped, so that Make prints the value as given."""
@@ -144,7 +145,8 @@ READER = {"THETA": "dem", "PRESET": "dem", "ENGINE": "dem", "RANKS": "dem", "ROT
           "PHI": "fit-profile",
           "THETAS": "sweep", "ROTATE_ATS": "sweep", "SEEDS": "sweep", "LAUNCH": "sweep", "SLURM": "sweep",
           "JOBS": "sweep", "MANY": "sweep", "SWEEP": "sweep-status", "SEED": "compare-seed", "A": "versus",
-          "B": "versus", "RUN_DIR": "bench-lammps-settings", "ACROSS": "models", "POINTS": "fit-profile",
+          "B": "versus", "RUN_DIR": "bench-lammps-settings", "ACROSS": "models", "LAWS": "models",
+          "POINTS": "fit-profile",
           "LADDER": "fidelity"}
 PAYLOADS = ("$(shell touch INJECTED)", "x;touch INJECTED", "x\ntouch INJECTED", "`touch INJECTED`",
             "$(touch INJECTED)", "x' \"y", "x" * 5000, "ü→∞")
