@@ -70,7 +70,7 @@ demo: system venv model-cycles demo-dem ## set up everything, then run the pipel
 
 # ---------------------------------------------------------------- tests and lint
 test: system system-lammps system-slurm venv lint ## lint, then every test (the real Yade and LAMMPS, a real one-node SLURM): what CI runs
-	$(PY) -m pytest -q --durations=25
+	$(PY) -m pytest -q --durations=40
 
 test-unit: venv ## the fast unit tests (no Yade, LAMMPS or SLURM, nothing marked slow): under a minute of CPU
 	$(PY) -m pytest -q tests/unit -m "not slow and not yade and not lammps and not slurm"

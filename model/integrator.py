@@ -65,7 +65,7 @@ def _rhs_s(y, Dh, Wn, rate, p, lam_ref, out):
     out[G_INDEX] = g * dgam
     out[V_INDEX] = (c2 - g * y[V_INDEX]) * dgam
     if y.shape[0] > N_STATE:  # the fabric law's own state (model.laws)
-        laws.state_rates(y, Dh, Wn, p, out, dgam)
+        laws.state_rates(y, Dh, Wn, p, g, c2, out, dgam)
 
 
 @jit
@@ -419,7 +419,7 @@ def explicit_euler(y0, seg_end, seg_Dh, seg_Wn, seg_rate, p, t_out, strain_step,
                 status = EULER_SINGULAR
                 break
             if n > N_STATE:  # the law's own state's increments, from the state before this step
-                laws.state_rates(y, Dh, Wn, p, own, dgam)
+                laws.state_rates(y, Dh, Wn, p, g, c2, own, dgam)
             for i in range(n):
                 y_prev[i] = y[i]
             for i in range(N_STATE, n):

@@ -218,6 +218,7 @@ def _update_range(start, stop, A, phi, X, L, dt, p, lam_ref, rtol, atol,
         y[integrator.V_INDEX] = 0.0
         for j in range(n_own):
             y[integrator.N_STATE + j] = X[i, j]
+        laws.set_packing(y, 1.0 / phi[i], p)  # what the law holds of the packing is the point's phi
         steps, status = stepper.advance(y, Dh, Wn, rate, p, lam_ref, dti, rtol, atol, MAX_STEPS, work)
         steps_out[i] = steps
         stationary_out[i] = False
@@ -329,9 +330,9 @@ def _same_memory(a: np.ndarray, b: np.ndarray) -> bool:
             and a.strides == b.strides)
 
 
-def _law_state(law_state, params: Params, L: np.ndarray, n: int) -> np.ndarray:
+def _law_state(law_state, params: Params, L: np.ndarray, phi: np.ndarray, n: int) -> np.ndarray:
     """The fabric law's own state per point, (n, k): as given, checked, or where a history starts under each
-    point's L."""
+    point's L at its packing fraction."""
     own = len(laws.state_names(params.variant))
     if law_state is not None and own:
         X = _array("law_state", law_state, ((n, own),))
@@ -344,8 +345,8 @@ def _law_state(law_state, params: Params, L: np.ndarray, n: int) -> np.ndarray:
     D = D - np.trace(D, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
     norm = np.sqrt(np.sum(D * D, axis=(1, 2)))[:, None, None]
     Dh = np.divide(D, norm, out=np.zeros_like(D), where=norm > 0)
-    _, X = laws.start(params.variant, Dh, params.law_dict())
-    return np.ascontiguousarray(np.broadcast_to(X, (n, own)))
+    _, X = laws.start(params.variant, Dh, params.law_dict(), phi)
+    return np.array(np.broadcast_to(X, (n, own)), order="C")  # a writable copy, whatever start returned
 
 
 def update(A, phi, L, dt, params: Params | None = None, out: Update | None = None, *, law_state=None,
@@ -395,7 +396,7 @@ def update(A, phi, L, dt, params: Params | None = None, out: Update | None = Non
     code, index, value = _check_inputs(A, phi, L, dt, fabric_tol)
     if code:
         raise SolverError(_PROBLEMS[code].format(i=index, value=float(value)))
-    X = _law_state(law_state, params, L, n)
+    X = _law_state(law_state, params, L, phi, n)
     out = _out(out, n, params)
     _check_overlaps({"A": A, "phi": phi, "L": L, "dt": dt, "law_state": X}, out)
     lam_ref = s_ref ** p[K_PERSIST]

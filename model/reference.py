@@ -19,16 +19,17 @@ def law_parts(params: Params) -> laws.ReferenceParts:
                                                          params.law_values, strict=True)))
 
 
-def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params) -> np.ndarray:
-    """dA/dt from Eq. 13 with the Jaumann rate A_dot + A W - W A; beta2 removes the law's ``removal`` in place of A
-    and the law's ``extra`` rate adds beside the spin (Eq. 13: A and none)."""
+def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params, gate: float = 1.0) -> np.ndarray:
+    """dA/dt from Eq. 13 with the Jaumann rate A_dot + A W - W A; beta2 removes the law's ``removal`` in place of A,
+    times the law's ``gate`` on the recovery, and the law's ``extra`` rate adds beside the spin (Eq. 13: A, 1 and
+    none)."""
     D = 0.5 * (L + L.T)
     W = 0.5 * (L - L.T)
     Dd = D - np.trace(D) * np.eye(3) / 3
     nD = np.linalg.norm(Dd)
     S = np.linalg.norm(A) - np.sum(A * Dd) / nD
     beta1 = params.a1 + params.b1 * S
-    beta2 = params.a2 + params.b2 * S
+    beta2 = (params.a2 + params.b2 * S) * gate
     lam = S**params.persistence_exponent
     law = law_parts(params)
     return (beta1 * Dd + beta2 * nD * law.removal(A, Dd / nD)) / lam - A @ W + W @ A + nD * law.extra(A, Dd / nD)
@@ -56,8 +57,8 @@ def packing_rate(A: np.ndarray, phi: float, L: np.ndarray, params: Params, K=Non
 def solve(history: History, A0: np.ndarray, phi0: float, params: Params, strains: np.ndarray,
           rtol: float = 1e-13, atol: float = 1e-15, method: str = "DOP853"):
     """Fabric (n, 3, 3), packing fraction (n,) and the number of right-hand-side calls. The law's state A is the
-    fabric less ``jump`` of the segment acting and less K, the law's own state where it has one (``A0``: the fabric
-    at the start, where K starts at its value under the first segment, ``model.laws.start``)."""
+    fabric less ``jump`` of the segment acting and less the part its own state X holds where it has one (``A0``: the
+    fabric at the start, where X starts at its value under the first segment at ``phi0``, ``model.laws.start``)."""
     t_out = np.asarray(strains, dtype=float) / history.shear_rate
     A_out = np.full((t_out.size, 3, 3), np.nan)
     phi_out = np.full(t_out.size, np.nan)
@@ -65,10 +66,10 @@ def solve(history: History, A0: np.ndarray, phi0: float, params: Params, strains
     L0 = history.segments[0].L
     D0 = 0.5 * (L0 + L0.T)
     Dd0 = D0 - np.trace(D0) * np.eye(3) / 3
-    part, _ = laws.start(params.variant, Dd0 / np.linalg.norm(Dd0), params.law_dict())
-    K0 = part - jump(L0, params)  # the law's own part, beyond kappa D'/|D'|
-    own = law.state_rate is not None
-    y = np.concatenate([(np.asarray(A0, float) - part).ravel(), [phi0], K0.ravel() if own else []])
+    part, _ = laws.start(params.variant, Dd0 / np.linalg.norm(Dd0), params.law_dict(), phi0)
+    X0 = law.state_start(Dd0 / np.linalg.norm(Dd0), phi0) if law.state_rate else np.empty(0)
+    y = np.concatenate([(np.asarray(A0, float) - part).ravel(), [phi0], X0])
+    held = (lambda X: law.state_fabric(X)) if law.state_rate else (lambda X: 0.0)
     bounds = history.boundaries
     nfev = 0
     for k, seg in enumerate(history.segments):
@@ -77,10 +78,9 @@ def solve(history: History, A0: np.ndarray, phi0: float, params: Params, strains
         mask = (t_out >= t0) & ((t_out < t1) | (last & (t_out <= t1)))
 
         def rhs(_t, z, L=seg.L):
-            A = z[:9].reshape(3, 3)
-            K = z[10:].reshape(3, 3) if own else None
-            rates = [fabric_rate(A, L, params).ravel(), [packing_rate(A, z[9], L, params, K)]]
-            return np.concatenate(rates + ([law.state_rate(K, A, L).ravel()] if own else []))
+            A, phi, X = z[:9].reshape(3, 3), z[9], z[10:]
+            rates = [fabric_rate(A, L, params, law.gate(X, phi)).ravel(), [packing_rate(A, phi, L, params, held(X))]]
+            return np.concatenate(rates + ([law.state_rate(X, A, phi, L)] if law.state_rate else []))
 
         sol = solve_ivp(rhs, (t0, t1), y, method=method, rtol=rtol, atol=atol,
                         t_eval=t_out[mask] if mask.any() else None, dense_output=False)
@@ -89,8 +89,7 @@ def solve(history: History, A0: np.ndarray, phi0: float, params: Params, strains
         nfev += sol.nfev
         if mask.any():
             A_out[mask] = sol.y[:9].T.reshape(-1, 3, 3) + jump(seg.L, params)
-            if own:
-                A_out[mask] += sol.y[10:].T.reshape(-1, 3, 3)
+            A_out[mask] += np.array([held(X) for X in sol.y[10:].T]).reshape(-1, 3, 3) if law.state_rate else 0.0
             phi_out[mask] = sol.y[9]
         end = solve_ivp(rhs, (t0, t1), y, method=method, rtol=rtol, atol=atol, t_eval=[t1]) if sol.t[-1] != t1 else sol
         y = end.y[:, -1]

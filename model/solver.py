@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import integrator, laws
-from .equations import fabric_rates
+from .equations import PHI_C, fabric_rates
 from .kinematics import (
     ROTATE_AT_STRAIN,
     History,
@@ -24,7 +24,7 @@ from .kinematics import (
     shear_velocity_gradient,
     stretching,
 )
-from .params import PAPER, Params
+from .params import PAPER, VARIANTS, Params
 
 DEFAULT_RTOL = 1e-10
 DEFAULT_ATOL = 1e-12
@@ -103,13 +103,13 @@ def unpack_fabric(y: np.ndarray) -> np.ndarray:
     return A
 
 
-def _start(params: Params, D_unit) -> tuple[np.ndarray, np.ndarray]:
-    """Where a history starts under the unit stretching ``D_unit`` (packed 11, 22, 33, 12, 13, 23): the part of the
-    fabric beyond the law's state A (3x3; zero but for "jump" and "elastic") and the law's own state (``model.laws``:
-    empty for most laws)."""
+def _start(params: Params, D_unit, phi: float) -> tuple[np.ndarray, np.ndarray]:
+    """Where a history starts under the unit stretching ``D_unit`` (packed 11, 22, 33, 12, 13, 23) at the packing
+    fraction ``phi``: the part of the fabric beyond the law's state A (3x3; zero but for "jump" and "elastic") and
+    the law's own state (``model.laws``: empty for most laws)."""
     d = np.asarray(D_unit, dtype=float)
     Dh = np.array([[d[0], d[3], d[4]], [d[3], d[1], d[5]], [d[4], d[5], d[2]]])
-    return laws.start(params.variant, Dh, params.law_dict())
+    return laws.start(params.variant, Dh, params.law_dict(), phi)
 
 
 def _initial_state(A: np.ndarray, own=()) -> np.ndarray:
@@ -278,7 +278,10 @@ def integrate(
     p = params.as_array()
     # the law's state A is the fabric less the part the law holds beyond it where the history starts (kappa D'/|D'|
     # of "jump", K of "elastic"); an isotropic start is a state of zero, before any shear
-    part, own = _start(params, history.packed.D_unit[0])
+    phi0 = params.phi_c if packing_fraction0 is None else float(packing_fraction0)
+    if not (math.isfinite(phi0) and 0 < phi0 < 1):
+        raise SolverError(f"packing_fraction0={packing_fraction0!r} must lie in (0, 1)")
+    part, own = _start(params, history.packed.D_unit[0], phi0)
     if law_state0 is not None:  # the law's own state given: the fabric less kappa D'/|D'| and its part is A
         own = np.asarray(law_state0, dtype=float).reshape(-1)
         if own.shape != (len(laws.state_names(params.variant)),) or not np.all(np.isfinite(own)):
@@ -286,12 +289,10 @@ def integrate(
                               f"({', '.join(laws.state_names(params.variant)) or 'none for this law'})")
         part = _fabric(_initial_state(np.zeros((3, 3)), own), params, history.packed.D_unit[0])
     A0 = np.zeros((3, 3)) if A0 is None else _check_fabric(A0) - part
-    phi0 = params.phi_c if packing_fraction0 is None else float(packing_fraction0)
-    if not (math.isfinite(phi0) and 0 < phi0 < 1):
-        raise SolverError(f"packing_fraction0={packing_fraction0!r} must lie in (0, 1)")
     strains = _output_strains(history, times)
-    y_out, _, stats = _run(history, _initial_state(A0, own), p, strains, method, rtol, atol, s_ref, strain_step,
-                           max_steps)
+    y0 = _initial_state(A0, own)
+    laws.set_packing(y0, 1.0 / phi0, p)  # what the law holds of the packing is packing_fraction0
+    y_out, _, stats = _run(history, y0, p, strains, method, rtol, atol, s_ref, strain_step, max_steps)
     phi = 1.0 / (np.exp(-y_out[:, integrator.G_INDEX]) / phi0 + y_out[:, integrator.V_INDEX])
     return _assemble(history, strains, y_out, p, phi, stats, method)
 
@@ -307,7 +308,10 @@ def _steady_state_cached(L_bytes: bytes, p_bytes: bytes, tol: float) -> tuple[np
     p = np.frombuffer(p_bytes)
     segment = Segment(1.0 / modulus(deviator(stretching(L))), L)  # strain |D'| t = 1 per chunk
     history = History((segment,))
-    y = _initial_state(np.zeros((3, 3)), np.zeros(len(laws.state_names(laws.name_of(p)))))
+    name = laws.name_of(p)
+    values = dict(zip(VARIANTS[name], p[laws.OWN:], strict=True))
+    _, own = laws.start(name, unpack_fabric(history.packed.D_unit[0][[0, 1, 3, 4, 5]]), values, p[PHI_C])
+    y = _initial_state(np.zeros((3, 3)), own)
     base = integrator.N_STATE
     for _ in range(200):
         y0 = y.copy()

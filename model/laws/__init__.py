@@ -9,12 +9,15 @@ the law's code, then its own, read at ``OWN + k``):
 - ``removal``: what beta2 |D'| removes in place of A (Eq. 13's recovery term), packed (11, 22, 12, 13, 23);
 - ``extra_rate``: a rate per unit |D'| t added beside the Jaumann spin (scaled by Lambda as it is), packed alike;
 - ``offset``: kappa, where the fabric of Eqs. 14 and 18 is the state A plus kappa D'/|D'|;
-- a state of its own (``STATE``, its names; after the kernels' ``BASE`` components): ``state_rates(y, Dh, Wn, p, out,
-  scale)`` writes its rates per unit |D'| t times ``scale``, ``state_fabric(y)`` the part of the fabric it holds
-  beyond A (packed), ``start(Dh, values)`` that part where a history starts (3x3);
+- ``gate``: the fraction g(y) of Eq. 13's recovery the law keeps, from the kernels' state (Eq. 13: 1);
+- a state of its own (``STATE``, its names; after the kernels' ``BASE`` components): ``state_rates`` writes its
+  rates per unit |D'| t times ``scale`` (given Eq. 18's g and c2), ``state_fabric(y)`` the part of the fabric it
+  holds beyond A (packed), ``set_packing(y, u)`` sets what it holds of the packing fraction 1/u where a history or
+  step starts, ``start(Dh, phi, values)`` that part (3x3) and the state where a history starts;
 
 and for the independent reference (``model.reference``, plain numpy on 3x3 tensors) the same as
-``reference_removal``, ``reference_extra``, ``reference_offset`` and ``reference_state_rate``. A part a law leaves
+``reference_removal``, ``reference_extra``, ``reference_offset``, ``reference_gate``, and for a state
+``reference_start``, ``reference_state_rate`` and ``reference_fabric``. A part a law leaves
 out is Eq. 13's (A, zero, zero, no state). The kernels call ``removal``, ``extra_rate``, ``offset``,
 ``state_rates`` and ``state_fabric`` below, which branch on the law's code: nothing outside this module asks which law
 it is. Adding a law is its module, its entry in ``LAWS`` and a branch in each part it defines
@@ -28,20 +31,22 @@ import dataclasses
 import numpy as np
 
 from ..jit import jit
-from . import elastic, jump, loading, memory, rk2025
+from . import compaction, elastic, jump, loading, memory, rk2025
 from .parameter import OWN, Parameter
 
 #: the registry: every fabric law, Eq. 13's first (its code is its place here)
-LAWS = {law.NAME: law for law in (rk2025, loading, memory, jump, elastic)}
+LAWS = {law.NAME: law for law in (rk2025, loading, memory, jump, elastic, compaction)}
 DEFAULT = rk2025.NAME
 CODE = {name: float(k) for k, name in enumerate(LAWS)}
-_LOADING, _MEMORY, _JUMP, _ELASTIC = CODE[loading.NAME], CODE[memory.NAME], CODE[jump.NAME], CODE[elastic.NAME]
+_LOADING, _MEMORY, _JUMP = CODE[loading.NAME], CODE[memory.NAME], CODE[jump.NAME]
+_ELASTIC, _COMPACTION = CODE[elastic.NAME], CODE[compaction.NAME]
 LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
 #: the kernels' state before a law's own (``model.integrator``: A packed, t, G, v)
 BASE = 8
 
 __all__ = ["BASE", "DEFAULT", "LAWS", "OWN", "Parameter", "extra_rate", "law_parameters", "offset",
-           "reference_parts", "removal", "start", "state_fabric", "state_names", "state_rates"]
+           "recovery_gate", "reference_parts", "removal", "set_packing", "start", "state_fabric", "state_names",
+           "state_rates"]
 
 
 def law_parameters(name: str) -> tuple[Parameter, ...]:
@@ -69,6 +74,14 @@ def extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
 
 
 @jit
+def recovery_gate(y, p):
+    """The fraction of Eq. 13's recovery the law keeps, from the kernels' state ``y`` (Eq. 13: 1)."""
+    if p[LAW_INDEX] == _COMPACTION:
+        return compaction.gate(y, p)
+    return 1.0
+
+
+@jit
 def offset(p):
     """kappa: the fabric of Eqs. 14 and 18 is the state plus kappa D'/|D'| (Eq. 13: 0)."""
     if p[LAW_INDEX] == _JUMP:
@@ -86,22 +99,34 @@ def state_names(name: str) -> tuple[str, ...]:
     return getattr(LAWS[name], "STATE", ())
 
 
-def start(name: str, Dh, values: dict) -> tuple[np.ndarray, np.ndarray]:
-    """Where a history starts under the unit stretching ``Dh`` (3x3, or a stack): the part of the fabric beyond the
-    state A (kappa Dh of "jump", K of "elastic") and the law's own state (packed, empty for none)."""
+def start(name: str, Dh, values: dict, phi=0.5) -> tuple[np.ndarray, np.ndarray]:
+    """Where a history starts under the unit stretching ``Dh`` (3x3, or a stack) at the packing fraction ``phi``: the
+    part of the fabric beyond the state A (kappa Dh of "jump", K of "elastic") and the law's own state (packed,
+    empty for none)."""
     law, Dh = LAWS[name], np.asarray(Dh, dtype=float)
     part = law.reference_offset(values) * Dh if hasattr(law, "reference_offset") else np.zeros(Dh.shape)
     if not state_names(name):
         return part, np.zeros(Dh.shape[:-2] + (0,))
-    K = law.start(Dh, values)
-    return part + K, np.stack([K[..., 0, 0], K[..., 1, 1], K[..., 0, 1], K[..., 0, 2], K[..., 1, 2]], axis=-1)
+    held, own = law.start(Dh, phi, values)
+    return part + held, own
 
 
 @jit
-def state_rates(y, Dh, Wn, p, out, scale):
-    """The law's own state's rates per unit |D'| t, times ``scale``, into ``out[BASE:]`` (none for most laws)."""
-    if p[LAW_INDEX] == _ELASTIC:
+def state_rates(y, Dh, Wn, p, g, c2, out, scale):
+    """The law's own state's rates per unit |D'| t, times ``scale``, into ``out[BASE:]`` (none for most laws); ``g``
+    and ``c2`` are Eq. 18's (``model.equations.fabric_rates``)."""
+    code = p[LAW_INDEX]
+    if code == _ELASTIC:
         elastic.state_rates(y, Dh, Wn, p, out, scale)
+    elif code == _COMPACTION:
+        compaction.state_rates(y, p, g, c2, out, scale)
+
+
+@jit
+def set_packing(y, u, p):
+    """What the law's own state holds of the packing fraction, set to 1/u where a history or a step starts."""
+    if p[LAW_INDEX] == _COMPACTION:
+        compaction.set_packing(y, u)
 
 
 @jit
@@ -115,12 +140,17 @@ def state_fabric(y, p):
 @dataclasses.dataclass(frozen=True)
 class ReferenceParts:
     """A law's parts on 3x3 tensors for ``model.reference``: ``removal(A, Dh)``, ``extra(A, Dh)`` (per unit
-    |D'| t), ``offset`` (kappa) and ``state_rate(K, A, L)`` (dK/dt of its own state, 3x3; None for none)."""
+    |D'| t), ``offset`` (kappa), ``gate(X, phi)`` (the recovery kept), and for a law with a state X of its own (a flat
+    array; None for none) ``state_start(Dh, phi)``, ``state_rate(X, A, phi, L)`` (dX/dt) and ``state_fabric(X)``
+    (the part of the fabric it holds, 3x3)."""
 
     removal: object
     extra: object
     offset: float
+    gate: object
+    state_start: object = None
     state_rate: object = None
+    state_fabric: object = None
 
 
 def reference_parts(name: str, values: dict) -> ReferenceParts:
@@ -128,9 +158,14 @@ def reference_parts(name: str, values: dict) -> ReferenceParts:
     law = LAWS[name]
     removal_of = getattr(law, "reference_removal", None)
     extra_of = getattr(law, "reference_extra", None)
+    gate_of = getattr(law, "reference_gate", None)
     state_of = getattr(law, "reference_state_rate", None)
+    fabric_of = getattr(law, "reference_fabric", lambda X: np.zeros((3, 3)))
     return ReferenceParts(
         (lambda A, Dh: removal_of(A, Dh, values)) if removal_of else (lambda A, Dh: A),
         (lambda A, Dh: extra_of(A, Dh, values)) if extra_of else (lambda A, Dh: np.zeros((3, 3))),
         float(law.reference_offset(values)) if hasattr(law, "reference_offset") else 0.0,
-        (lambda K, A, L: state_of(K, A, L, values)) if state_of else None)
+        (lambda X, phi: gate_of(X, phi, values)) if gate_of else (lambda X, phi: 1.0),
+        (lambda Dh, phi: law.reference_start(Dh, phi, values)) if state_of else None,
+        (lambda X, A, phi, L: state_of(X, A, phi, L, values)) if state_of else None,
+        fabric_of if state_of else None)

@@ -50,15 +50,29 @@ def state_fabric(y):
     return y[FIRST], y[FIRST + 1], y[FIRST + 2], y[FIRST + 3], y[FIRST + 4]
 
 
-def start(Dh, values):
-    """K where a history starts: kappa D'/|D'| of its first segment (3x3), its steady value."""
-    return values["elastic_fabric"] * np.asarray(Dh, dtype=float)
+def start(Dh, phi, values):
+    """Where a history starts: the part of the fabric K holds and K packed, K = kappa D'/|D'| of its first segment
+    (its steady value)."""
+    K = values["elastic_fabric"] * np.asarray(Dh, dtype=float)
+    return K, np.stack([K[..., 0, 0], K[..., 1, 1], K[..., 0, 1], K[..., 0, 2], K[..., 1, 2]], axis=-1)
 
 
-def reference_state_rate(K, A, L, values):
-    """dK/dt on 3x3 tensors (plain numpy)."""
+def reference_start(Dh, phi, values):
+    """The reference's own state where a history starts: K, 3x3 flattened."""
+    return values["elastic_fabric"] * np.asarray(Dh, dtype=float).ravel()
+
+
+def reference_fabric(X):
+    """The part of the fabric the reference's own state holds: K."""
+    return X.reshape(3, 3)
+
+
+def reference_state_rate(X, A, phi, L, values):
+    """dK/dt on 3x3 tensors (plain numpy), flattened."""
+    K = X.reshape(3, 3)
     D = 0.5 * (L + L.T)
     W = 0.5 * (L - L.T)
     Dd = D - np.trace(D) * np.eye(3) / 3
     nD = np.linalg.norm(Dd)
-    return np.sqrt(2.0) / values["elastic_strain"] * (values["elastic_fabric"] * Dd / nD - K) * nD + W @ K - K @ W
+    return (np.sqrt(2.0) / values["elastic_strain"] * (values["elastic_fabric"] * Dd / nD - K) * nD + W @ K
+            - K @ W).ravel()

@@ -16,8 +16,11 @@ VARIANT_SETS = [Params(variant="loading", chi=0.4), Params(variant="loading", ch
                 Params(variant="memory", memory_share=0.5, memory_rate=40.0),
                 Params(variant="jump", jump_fabric=-0.013), Params(variant="jump", jump_fabric=0.02),
                 Params(variant="elastic", elastic_fabric=-0.013, elastic_strain=0.005),
-                Params(variant="elastic", elastic_fabric=0.02, elastic_strain=0.02)]
-IDS = ["loading+", "loading-", "memory-slow", "memory-half-fast", "jump-", "jump+", "elastic-", "elastic+"]
+                Params(variant="elastic", elastic_fabric=0.02, elastic_strain=0.02),
+                Params(variant="compaction", compaction_gain=100.0, compaction_strain=0.5),
+                Params(variant="compaction", compaction_gain=400.0, compaction_strain=0.05)]
+IDS = ["loading+", "loading-", "memory-slow", "memory-half-fast", "jump-", "jump+", "elastic-", "elastic+",
+       "compaction-slow", "compaction-fast"]
 #: the variants that change nothing in a reversal, where A stays in the plane of D'
 LEAVE_A_REVERSAL = ("loading", "memory")
 
@@ -53,7 +56,7 @@ def test_agrees_with_independent_reference(params, theta):
     assert change < 1e-14 if theta == 180 and params.variant in LEAVE_A_REVERSAL else change > 1e-3
 
 
-@pytest.mark.parametrize("params", STATEFUL, ids=["elastic-", "elastic+"])
+@pytest.mark.parametrize("params", STATEFUL, ids=[i for p, i in zip(VARIANT_SETS, IDS, strict=True) if p in STATEFUL])
 @pytest.mark.parametrize("turn", [180.0, 90.0])
 def test_a_law_with_its_own_state_agrees_with_the_reference(params, turn):
     """From the steady state, 0.05 strain after a turn (where the law's own state relaxes), the kernels and the
@@ -86,18 +89,19 @@ def test_the_fabric_law_is_an_isotropic_function(params):
 
 @pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
 def test_objective_under_a_superposed_rotation(params):
-    """From the cycle's start (the law's own state, a tensor for "elastic", turned with the rest), the rotated
-    history gives the rotated fabric and stress."""
+    """From the cycle's start (the law's own state: a tensor for "elastic", turned with the rest; scalars of the
+    packing for "compaction", kept), the rotated history gives the rotated fabric and stress."""
     base = predict(120, params=params)
     history = periodic_cycle(120)
     own = base.law_state[0]
     for R in (rotation_about_e2(37.0), random_rotation(np.random.default_rng(3))):
-        if own.size:  # K packed (11, 22, 12, 13, 23): turned as a tensor
+        own_rotated = own
+        if params.variant == "elastic":  # K packed (11, 22, 12, 13, 23): turned as a tensor
             K = np.array([[own[0], own[2], own[3]], [own[2], own[1], own[4]], [own[3], own[4], -own[0] - own[1]]])
             K = R @ K @ R.T
             own_rotated = np.array([K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2]])
         rotated = integrate(history.rotated(R), A0=R @ base.A[0] @ R.T, packing_fraction0=base.packing_fraction[0],
-                            params=params, times=base.strain, law_state0=own_rotated if own.size else None)
+                            params=params, times=base.strain, law_state0=own_rotated)
         np.testing.assert_allclose(rotated.A, R @ base.A @ R.T, atol=1e-9)
         np.testing.assert_allclose(rotated.tau, R @ base.tau @ R.T, atol=1e-8)
 

@@ -1,0 +1,82 @@
+"""The "compaction" law: Eq. 13's recovery held back while the packing is denser than it was (the DEM keeps the old
+direction's part of the fabric after a large turn as long as the packing compacted by the turn stays dense;
+``docs/results/budget.md``, ``docs/model.md``). beta2 |D'| removes g A in place of A, with the gate
+
+    g = max(0, 1 - k (Phi - Phi_r)),
+
+Phi the packing fraction of Eq. 18 and Phi_r its recent past: 1/Phi_r follows 1/Phi over a nominal shear strain
+gamma_r (d(1/Phi_r)/d(|D'| t) = (sqrt2 / gamma_r) (1/Phi - 1/Phi_r)). In steady flow Phi_r = Phi and g = 1 (Eq. 13);
+after a turn Eq. 18 compacts the packing (A:D' < 0), Phi rises above Phi_r and the recovery slows, until Phi_r
+catches up or the packing dilates back. k = 0 is Eq. 13. The gate is a scalar of the state (objective), the rates are
+per unit strain (rate independent), and 0 <= g keeps the removal's sign (dissipative as Eq. 13 where g <= 1; Phi
+stays below Phi_c + c3, so g <= 1 + k (Phi_c + c3 - Phi_r) is bounded).
+
+The kernels carry the law's state as u = 1/Phi (integrated by Eq. 18 beside the closed form of ``model.integrator``)
+and u_r = 1/Phi_r; u is set from the packing fraction where a history or a step starts (``set_packing``).
+"""
+
+import math
+
+import numpy as np
+
+from ..jit import jit
+from .parameter import OWN, Parameter
+
+NAME = "compaction"
+PARAMETERS = (
+    Parameter("compaction_gain", 0.0, 50.0, 0.0, 500.0, "k: the recovery stops where the packing is 1/k denser "
+              "than its recent past"),
+    Parameter("compaction_strain", 0.5, 0.5, 0.01, 5.0, "gamma_r: the nominal shear strain over which the recent "
+              "past follows the packing"),
+)
+GAIN, STRAIN = OWN, OWN + 1
+#: the law's own state: 1/Phi and 1/Phi_r
+STATE = ("u", "u_ref")
+FIRST = 8  # where the law's state sits in the kernels' state (model.integrator: A, t, G, v before it)
+
+
+@jit
+def gate(y, p):
+    """g = max(0, 1 - k (Phi - Phi_r)), the fraction of Eq. 13's recovery the law keeps."""
+    return max(0.0, 1.0 - p[GAIN] * (1.0 / y[FIRST] - 1.0 / y[FIRST + 1]))
+
+
+@jit
+def state_rates(y, p, g, c2, out, scale):
+    """du/d(|D'| t) (Eq. 18: -g u + c2, g and c2 as ``model.equations.fabric_rates`` gives them) and du_r/d(|D'| t),
+    times ``scale``, into ``out[FIRST:FIRST + 2]``."""
+    u, u_ref = y[FIRST], y[FIRST + 1]
+    out[FIRST] = scale * (c2 - g * u)
+    out[FIRST + 1] = scale * math.sqrt(2.0) / p[STRAIN] * (u - u_ref)
+
+
+@jit
+def set_packing(y, u):
+    """The state's u where a history or a step starts at the packing fraction 1/u."""
+    y[FIRST] = u
+
+
+def start(Dh, phi, values):
+    """Where a history starts at the packing fraction ``phi`` (broadcast to the stack of ``Dh``): no part of the
+    fabric, and (u, u_r) = (1/Phi, 1/Phi) (its recent past is itself: steady flow before the start)."""
+    u = 1.0 / np.asarray(phi, dtype=float)
+    shape = np.broadcast_shapes(np.shape(Dh)[:-2], u.shape)
+    u = np.broadcast_to(u, shape)
+    return np.zeros(shape + (3, 3)), np.stack([u, u], axis=-1)
+
+
+def reference_start(Dh, phi, values):
+    """The reference's own state where a history starts: (1/Phi_r,) (its Phi is the reference's own)."""
+    return np.array([1.0 / phi])
+
+
+def reference_gate(X, phi, values):
+    """g on plain numbers (``model.reference``)."""
+    return max(0.0, 1.0 - values["compaction_gain"] * (phi - 1.0 / X[0]))
+
+
+def reference_state_rate(X, A, phi, L, values):
+    """d(1/Phi_r)/dt (``model.reference``)."""
+    D = 0.5 * (L + L.T)
+    Dd = D - np.trace(D) * np.eye(3) / 3
+    return np.array([math.sqrt(2.0) / values["compaction_strain"] * (1.0 / phi - X[0]) * np.linalg.norm(Dd)])
