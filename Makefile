@@ -24,6 +24,11 @@ USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_IN
 	LAWS SKIP_CYCLES CASES POINTS LADDER
 $(foreach v,$(USER_VARIABLES),$(eval override $(v) := $$(value $(v))))
 export $(USER_VARIABLES)
+# any other variable given on the command line (the Makefile's own: PY, FIT_DIR, DATA_SET...) is refused by its name
+# alone, before Make expands anything else: its value would run as Make text
+NOT_USER_VARIABLES := $(strip $(foreach v,$(.VARIABLES),$(if $(filter command line,$(origin $(v))),$(if \
+	$(filter $(v),$(USER_VARIABLES)),,$(v)))))
+$(if $(NOT_USER_VARIABLES),$(error $(NOT_USER_VARIABLES): not a variable a user sets (those are: $(USER_VARIABLES))))
 TARGETS := $(PY) -m pipeline.targets
 comma := ,
 # LAMMPS is installed only for a LAMMPS target, Yade only for a Yade one ($(filter) reads the text; nothing expands it)

@@ -75,8 +75,7 @@ def fabric_rates(y, Dh, Wn, p):
 
     Returns (n11, n22, n12, n13, n23, lam, g, c2) with
     Lambda(S) dA/d(|D'|t) = (n11, ..., n23) (Eqs. 13/23 with the Jaumann rate A_dot + A W - W A, beta2 removing the
-    law's ``removal`` in place of A, times its ``recovery_gate``, and the law's ``extra_rate`` added beside the spin:
-    ``model.laws``),
+    law's ``removal`` in place of A and the law's ``extra_rate`` added beside the spin: ``model.laws``),
     g = c1 (A + kappa Dh + K):Dh + c2 (phi_c + c3) and c2 (kappa the law's ``offset``, K the part of the fabric
     its own state holds, ``state_fabric``), from which (Eq. 18, with u = 1/Phi) du/d(|D'|t) = -g u + c2. ``y`` is
     the kernels' state (``model.integrator``), the law's own after its first ``laws.BASE`` components.
@@ -87,8 +86,8 @@ def fabric_rates(y, Dh, Wn, p):
     S = hardening_variable(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
     lam = persistence(S, p)
     beta1 = p[A1] + p[B1] * S
-    beta2 = (p[A2] + p[B2] * S) * laws.recovery_gate(y, p)  # the law's gate on the recovery (Eq. 13: 1)
-    r11, r22, r12, r13, r23 = laws.removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
+    beta2 = p[A2] + p[B2] * S
+    r11, r22, r12, r13, r23 = laws.removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
     s11, s22, s12, s13, s23 = spin_rate(w12, w13, w23, a11, a22, a12, a13, a23)
     e11, e22, e12, e13, e23 = laws.extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
     j11, j22, j12, j13, j23 = s11 + e11, s22 + e22, s12 + e12, s13 + e13, s23 + e23

@@ -340,13 +340,13 @@ def _law_state(law_state, params: Params, L: np.ndarray, phi: np.ndarray, n: int
             raise SolverError(f"law_state[{int(np.argmin(np.isfinite(X).all(axis=1)))}] is not finite")
         return X
     if not own:
-        return np.empty((n, 0))
+        return _array("law_state", np.empty((n, 0)), ((n, 0),))
     D = 0.5 * (L + np.swapaxes(L, 1, 2))
     D = D - np.trace(D, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
     norm = np.sqrt(np.sum(D * D, axis=(1, 2)))[:, None, None]
     Dh = np.divide(D, norm, out=np.zeros_like(D), where=norm > 0)
     _, X = laws.start(params.variant, Dh, params.law_dict(), phi)
-    return np.array(np.broadcast_to(X, (n, own)), order="C")  # a writable copy, whatever start returned
+    return _array("law_state", np.broadcast_to(X, (n, own)), ((n, own),))  # the layout of a given one
 
 
 def update(A, phi, L, dt, params: Params | None = None, out: Update | None = None, *, law_state=None,

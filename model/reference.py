@@ -19,9 +19,9 @@ def law_parts(params: Params) -> laws.ReferenceParts:
                                                          params.law_values, strict=True)))
 
 
-def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params, gate: float = 1.0) -> np.ndarray:
-    """dA/dt from Eq. 13 with the Jaumann rate A_dot + A W - W A; beta2 removes the law's ``removal`` in place of A,
-    times the law's ``gate`` on the recovery, and the law's ``extra`` rate adds beside the spin (Eq. 13: A, 1 and
+def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params, X=None, phi: float = 0.0) -> np.ndarray:
+    """dA/dt from Eq. 13 with the Jaumann rate A_dot + A W - W A; beta2 removes the law's ``removal`` in place of A
+    (which may read the law's own state X and Phi) and the law's ``extra`` rate adds beside the spin (Eq. 13: A and
     none)."""
     D = 0.5 * (L + L.T)
     W = 0.5 * (L - L.T)
@@ -29,10 +29,11 @@ def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params, gate: float = 1.0)
     nD = np.linalg.norm(Dd)
     S = np.linalg.norm(A) - np.sum(A * Dd) / nD
     beta1 = params.a1 + params.b1 * S
-    beta2 = (params.a2 + params.b2 * S) * gate
+    beta2 = params.a2 + params.b2 * S
     lam = S**params.persistence_exponent
     law = law_parts(params)
-    return (beta1 * Dd + beta2 * nD * law.removal(A, Dd / nD)) / lam - A @ W + W @ A + nD * law.extra(A, Dd / nD)
+    removed = law.removal(A, Dd / nD, X, phi)
+    return (beta1 * Dd + beta2 * nD * removed) / lam - A @ W + W @ A + nD * law.extra(A, Dd / nD)
 
 
 def jump(L: np.ndarray, params: Params) -> np.ndarray:
@@ -79,7 +80,7 @@ def solve(history: History, A0: np.ndarray, phi0: float, params: Params, strains
 
         def rhs(_t, z, L=seg.L):
             A, phi, X = z[:9].reshape(3, 3), z[9], z[10:]
-            rates = [fabric_rate(A, L, params, law.gate(X, phi)).ravel(), [packing_rate(A, phi, L, params, held(X))]]
+            rates = [fabric_rate(A, L, params, X, phi).ravel(), [packing_rate(A, phi, L, params, held(X))]]
             return np.concatenate(rates + ([law.state_rate(X, A, phi, L)] if law.state_rate else []))
 
         sol = solve_ivp(rhs, (t0, t1), y, method=method, rtol=rtol, atol=atol,

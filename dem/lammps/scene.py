@@ -367,7 +367,7 @@ class Scene:
 
 
 #: the name of a restart file the scene writes (``save``): a checkpoint naming another is not the scene's
-RESTART_NAME = re.compile(r"restart_\d{12}\.lmp")
+RESTART_NAME = re.compile(r"restart_[0-9]{12}\.lmp")
 
 
 def checkpoint_record_problem(record) -> None:

@@ -6,21 +6,21 @@ where the law is Eq. 13, where a fit starts, the closed range the law is bounded
 parts, each compiled with numba over the model's parameter array ``p`` (``Params.as_array``: Eq. 13's parameters,
 the law's code, then its own, read at ``OWN + k``):
 
-- ``removal``: what beta2 |D'| removes in place of A (Eq. 13's recovery term), packed (11, 22, 12, 13, 23);
+- ``removal``: what beta2 |D'| removes in place of A (Eq. 13's recovery term), packed (11, 22, 12, 13, 23); the
+  dispatcher hands it the kernels' state ``y`` too, which a law with a state of its own may read;
 - ``extra_rate``: a rate per unit |D'| t added beside the Jaumann spin (scaled by Lambda as it is), packed alike;
 - ``offset``: kappa, where the fabric of Eqs. 14 and 18 is the state A plus kappa D'/|D'|;
-- ``gate``: the fraction g(y) of Eq. 13's recovery the law keeps, from the kernels' state (Eq. 13: 1);
 - a state of its own (``STATE``, its names; after the kernels' ``BASE`` components): ``state_rates`` writes its
   rates per unit |D'| t times ``scale`` (given Eq. 18's g and c2), ``state_fabric(y)`` the part of the fabric it
   holds beyond A (packed), ``set_packing(y, u)`` sets what it holds of the packing fraction 1/u where a history or
   step starts, ``start(Dh, phi, values)`` that part (3x3) and the state where a history starts;
 
 and for the independent reference (``model.reference``, plain numpy on 3x3 tensors) the same as
-``reference_removal``, ``reference_extra``, ``reference_offset``, ``reference_gate``, and for a state
-``reference_start``, ``reference_state_rate`` and ``reference_fabric``. A part a law leaves
-out is Eq. 13's (A, zero, zero, no state). The kernels call ``removal``, ``extra_rate``, ``offset``,
-``state_rates`` and ``state_fabric`` below, which branch on the law's code: nothing outside this module asks which law
-it is. Adding a law is its module, its entry in ``LAWS`` and a branch in each part it defines
+``reference_removal`` (given the law's own state and Phi where it reads them), ``reference_extra``,
+``reference_offset``, and for a state ``reference_start``, ``reference_state_rate`` and ``reference_fabric``. A part
+a law leaves out is Eq. 13's (A, zero, zero, no state). The kernels call ``removal``, ``extra_rate``, ``offset``,
+``state_rates``, ``set_packing`` and ``state_fabric`` below, which branch on the law's code: nothing outside this
+module asks which law it is. Adding a law is its module, its entry in ``LAWS`` and a branch in each part it defines
 (``docs/extending.md``).
 """
 
@@ -45,7 +45,7 @@ LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
 BASE = 8
 
 __all__ = ["BASE", "DEFAULT", "LAWS", "OWN", "Parameter", "extra_rate", "law_parameters", "offset",
-           "recovery_gate", "reference_parts", "removal", "set_packing", "start", "state_fabric", "state_names",
+           "reference_parts", "removal", "set_packing", "start", "state_fabric", "state_names",
            "state_rates"]
 
 
@@ -55,9 +55,11 @@ def law_parameters(name: str) -> tuple[Parameter, ...]:
 
 
 @jit
-def removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
-    """What beta2 |D'| removes (Eq. 13: A itself)."""
+def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
+    """What beta2 |D'| removes (Eq. 13: A itself); ``y`` the kernels' state."""
     code = p[LAW_INDEX]
+    if code == _COMPACTION:
+        return compaction.removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
     if code == _LOADING:
         return loading.removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
     if code == _MEMORY:
@@ -71,14 +73,6 @@ def extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
     if p[LAW_INDEX] == _MEMORY:
         return memory.extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
     return 0.0, 0.0, 0.0, 0.0, 0.0
-
-
-@jit
-def recovery_gate(y, p):
-    """The fraction of Eq. 13's recovery the law keeps, from the kernels' state ``y`` (Eq. 13: 1)."""
-    if p[LAW_INDEX] == _COMPACTION:
-        return compaction.gate(y, p)
-    return 1.0
 
 
 @jit
@@ -139,15 +133,14 @@ def state_fabric(y, p):
 
 @dataclasses.dataclass(frozen=True)
 class ReferenceParts:
-    """A law's parts on 3x3 tensors for ``model.reference``: ``removal(A, Dh)``, ``extra(A, Dh)`` (per unit
-    |D'| t), ``offset`` (kappa), ``gate(X, phi)`` (the recovery kept), and for a law with a state X of its own (a flat
-    array; None for none) ``state_start(Dh, phi)``, ``state_rate(X, A, phi, L)`` (dX/dt) and ``state_fabric(X)``
-    (the part of the fabric it holds, 3x3)."""
+    """A law's parts on 3x3 tensors for ``model.reference``: ``removal(A, Dh, X, phi)``, ``extra(A, Dh)`` (per unit
+    |D'| t), ``offset`` (kappa), and for a law with a state X of its own (a flat array; None for none)
+    ``state_start(Dh, phi)``, ``state_rate(X, A, phi, L)`` (dX/dt) and ``state_fabric(X)`` (the part of the fabric
+    it holds, 3x3)."""
 
     removal: object
     extra: object
     offset: float
-    gate: object
     state_start: object = None
     state_rate: object = None
     state_fabric: object = None
@@ -158,14 +151,13 @@ def reference_parts(name: str, values: dict) -> ReferenceParts:
     law = LAWS[name]
     removal_of = getattr(law, "reference_removal", None)
     extra_of = getattr(law, "reference_extra", None)
-    gate_of = getattr(law, "reference_gate", None)
     state_of = getattr(law, "reference_state_rate", None)
     fabric_of = getattr(law, "reference_fabric", lambda X: np.zeros((3, 3)))
     return ReferenceParts(
-        (lambda A, Dh: removal_of(A, Dh, values)) if removal_of else (lambda A, Dh: A),
+        (lambda A, Dh, X, phi: removal_of(A, Dh, values, *((X, phi) if state_of else ()))) if removal_of
+        else (lambda A, Dh, X, phi: A),
         (lambda A, Dh: extra_of(A, Dh, values)) if extra_of else (lambda A, Dh: np.zeros((3, 3))),
         float(law.reference_offset(values)) if hasattr(law, "reference_offset") else 0.0,
-        (lambda X, phi: gate_of(X, phi, values)) if gate_of else (lambda X, phi: 1.0),
         (lambda Dh, phi: law.reference_start(Dh, phi, values)) if state_of else None,
         (lambda X, A, phi, L: state_of(X, A, phi, L, values)) if state_of else None,
         fabric_of if state_of else None)

@@ -1,15 +1,16 @@
-"""The "compaction" law: Eq. 13's recovery held back while the packing is denser than it was (the DEM keeps the old
-direction's part of the fabric after a large turn as long as the packing compacted by the turn stays dense;
-``docs/results/budget.md``, ``docs/model.md``). beta2 |D'| removes g A in place of A, with the gate
+"""The "compaction" law: Eq. 13's recovery of the part of A that D' neither compresses nor stretches held back while
+the packing is denser than in its recent past (the DEM keeps the old direction's part normal to the new shear after
+a large turn as long as the packing compacted by the turn stays dense; ``docs/results/budget.md``, ``docs/model.md``).
+beta2 |D'| removes A - (1 - g) N in place of A, N = A - dev(P A P) the part D' does not load (the "memory" law's;
+zero in a reversal, where A stays in the plane of the shear), with the gate
 
-    g = max(0, 1 - k (Phi - Phi_r)),
+    g = min(1, max(0, 1 - k (Phi - Phi_r))),
 
 Phi the packing fraction of Eq. 18 and Phi_r its recent past: 1/Phi_r follows 1/Phi over a nominal shear strain
 gamma_r (d(1/Phi_r)/d(|D'| t) = (sqrt2 / gamma_r) (1/Phi - 1/Phi_r)). In steady flow Phi_r = Phi and g = 1 (Eq. 13);
-after a turn Eq. 18 compacts the packing (A:D' < 0), Phi rises above Phi_r and the recovery slows, until Phi_r
-catches up or the packing dilates back. k = 0 is Eq. 13. The gate is a scalar of the state (objective), the rates are
-per unit strain (rate independent), and 0 <= g keeps the removal's sign (dissipative as Eq. 13 where g <= 1; Phi
-stays below Phi_c + c3, so g <= 1 + k (Phi_c + c3 - Phi_r) is bounded).
+after a turn Eq. 18 compacts the packing (A:D' < 0), Phi rises above Phi_r and N's recovery slows, until Phi_r
+catches up or the packing dilates back. k = 0 is Eq. 13. The gate is a scalar of the state (objective), the rates
+are per unit strain (rate independent), and 0 <= g <= 1 only slows a removal Eq. 13 makes (bounded).
 
 The kernels carry the law's state as u = 1/Phi (integrated by Eq. 18 beside the closed form of ``model.integrator``)
 and u_r = 1/Phi_r; u is set from the packing fraction where a history or a step starts (``set_packing``).
@@ -20,6 +21,7 @@ import math
 import numpy as np
 
 from ..jit import jit
+from .memory import neutral_part, reference_neutral
 from .parameter import OWN, Parameter
 
 NAME = "compaction"
@@ -37,8 +39,16 @@ FIRST = 8  # where the law's state sits in the kernels' state (model.integrator:
 
 @jit
 def gate(y, p):
-    """g = max(0, 1 - k (Phi - Phi_r)), the fraction of Eq. 13's recovery the law keeps."""
-    return max(0.0, 1.0 - p[GAIN] * (1.0 / y[FIRST] - 1.0 / y[FIRST + 1]))
+    """g = min(1, max(0, 1 - k (Phi - Phi_r))), the fraction of N's recovery the law keeps."""
+    return min(1.0, max(0.0, 1.0 - p[GAIN] * (1.0 / y[FIRST] - 1.0 / y[FIRST + 1])))
+
+
+@jit
+def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
+    """A - (1 - g) N, packed (11, 22, 12, 13, 23)."""
+    held = 1.0 - gate(y, p)
+    q11, q22, q12, q13, q23 = neutral_part(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
+    return a11 - held * q11, a22 - held * q22, a12 - held * q12, a13 - held * q13, a23 - held * q23
 
 
 @jit
@@ -70,9 +80,10 @@ def reference_start(Dh, phi, values):
     return np.array([1.0 / phi])
 
 
-def reference_gate(X, phi, values):
-    """g on plain numbers (``model.reference``)."""
-    return max(0.0, 1.0 - values["compaction_gain"] * (phi - 1.0 / X[0]))
+def reference_removal(A, Dh, values, X, phi):
+    """A - (1 - g) N on 3x3 tensors (``model.reference``: its own state X = (1/Phi_r,) and its Phi)."""
+    g = min(1.0, max(0.0, 1.0 - values["compaction_gain"] * (phi - 1.0 / X[0])))
+    return A - (1.0 - g) * reference_neutral(A, Dh)
 
 
 def reference_state_rate(X, A, phi, L, values):

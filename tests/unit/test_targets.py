@@ -149,12 +149,13 @@ READER = {"THETA": "dem", "PRESET": "dem", "ENGINE": "dem", "RANKS": "dem", "ROT
           "POINTS": "fit-profile",
           "LADDER": "fidelity"}
 PAYLOADS = ("$(shell touch INJECTED)", "x;touch INJECTED", "x\ntouch INJECTED", "`touch INJECTED`",
-            "$(touch INJECTED)", "x' \"y", "x" * 5000, "ü→∞")
+            "$(touch INJECTED)", "x' \"y", "x" * 5000, "ü→∞", "٩٠", "２")
 
 
 def test_every_user_variable_has_a_reader_and_a_check_that_refuses_every_payload_in_one_line():
     """Every variable the Makefile exports is read by some target, which refuses each payload (shell and Make
-    syntax, quotes, a very long value, Unicode) in one line naming it, before anything runs."""
+    syntax, quotes, a very long value, Unicode, digits of other scripts) in one line naming it, before anything
+    runs."""
     text = (ROOT / "Makefile").read_text()
     declared = text.split("USER_VARIABLES :=", 1)[1].split("\n$(foreach", 1)[0].replace("\\", " ").split()
     assert sorted(declared) == sorted(READER)
@@ -168,6 +169,17 @@ def test_every_user_variable_has_a_reader_and_a_check_that_refuses_every_payload
             text = targets.goals_makefile(variables, [target])
             error = [line for line in text.splitlines() if line.startswith("CHECK_ERROR := ")]
             assert len(error) == 1 and name in error[0], (name, payload[:30], text[-300:])
+
+
+@pytest.mark.parametrize("variable", ["FIT_DIR", "DATA_SET", "DATA_RUNS", "PY", "MODEL_DIR", "SHELL"])
+def test_a_variable_of_the_makefiles_own_given_on_the_command_line_is_refused_by_its_name_and_never_runs(
+        tmp_path, variable):
+    mark = tmp_path / "INJECTED"
+    for payload in (f"$(shell touch {mark})", f"touch {mark}; .venv/bin/python"):
+        proc = subprocess.run(["make", "--no-print-directory", "help", "THETA=90", f"{variable}={payload}"], cwd=ROOT,
+                              capture_output=True, text=True)
+        assert proc.returncode != 0 and f"{variable}: not a variable a user sets" in proc.stderr, proc.stderr
+        assert not mark.exists() and str(mark) not in proc.stderr
 
 
 def test_no_stage_imports_the_front_door():

@@ -22,7 +22,7 @@ VARIANT_SETS = [Params(variant="loading", chi=0.4), Params(variant="loading", ch
 IDS = ["loading+", "loading-", "memory-slow", "memory-half-fast", "jump-", "jump+", "elastic-", "elastic+",
        "compaction-slow", "compaction-fast"]
 #: the variants that change nothing in a reversal, where A stays in the plane of D'
-LEAVE_A_REVERSAL = ("loading", "memory")
+LEAVE_A_REVERSAL = ("loading", "memory", "compaction")
 
 
 @pytest.mark.parametrize("variant, tiny", [("loading", {"chi": 1e-13}),
@@ -64,7 +64,7 @@ def test_a_law_with_its_own_state_agrees_with_the_reference(params, turn):
     A0, phi0 = model.steady_state(shear_velocity_gradient(0.0), params)
     history = History((model.shear_segment(0.05, turn),))
     strains = np.linspace(0.0, 0.05, 11)
-    ours = integrate(history, A0=A0, packing_fraction0=phi0, params=params, times=strains)
+    ours = integrate(history, A0=A0, packing_fraction0=phi0, params=params, times=strains, rtol=1e-11, atol=1e-13)
     A, phi, _ = reference.solve(history, A0, phi0, params, strains, rtol=1e-10, atol=1e-12)
     assert np.max(np.abs(A - ours.A)) < 1e-9 and np.max(np.abs(phi - ours.packing_fraction)) < 1e-9
 

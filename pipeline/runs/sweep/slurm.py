@@ -19,8 +19,8 @@ from .plan import Sweep
 CLUSTER_FILE = CONFIG_DIR / "cluster.toml"
 JOB_TEMPLATE = CONFIG_DIR / "slurm_job.sh"
 NAME = re.compile(r"[A-Za-z0-9_.-]*")
-TIME_LIMIT = re.compile(r"(?:(\d+)-)?(\d{1,2}):(\d{2}):(\d{2})")
-MEMORY = re.compile(r"\d+[KMGT]?")
+TIME_LIMIT = re.compile(r"(?:([0-9]+)-)?([0-9]{1,2}):([0-9]{2}):([0-9]{2})")
+MEMORY = re.compile(r"[0-9]+[KMGT]?")
 
 
 class QueueUnreadable(PipelineError):
@@ -41,7 +41,7 @@ def apply_overrides(section: dict, items: list[str], what: str) -> dict:
             known = ", ".join(section)
             raise SpecError(f"{what} override {item!r} is not key=value with a known key ({known})")
         if isinstance(section[key], int):
-            if not re.fullmatch(r"\d+", value):
+            if not re.fullmatch(r"[0-9]+", value):
                 raise SpecError(f"{what} {key}={value!r} must be a whole number")
             out[key] = int(value)
         else:
