@@ -66,8 +66,10 @@ def _theta(text: str) -> float:
 
 
 def check_output(path: Path) -> None:
-    """Refuse, before any work, an output that is a folder, a device, a FIFO or anything but a regular file,
-    or that lies under a file."""
+    """Refuse, before any work, an output that is a link (renaming onto it would replace the link, as
+    ``/dev/stdout``), a folder, a device, a FIFO or anything but a regular file, or that lies under a file."""
+    if path.is_symlink():
+        raise ParameterError(f"--out {path} is a link: give the name of a file of its own")
     if path.exists() and not path.is_file():
         kind = "a folder" if path.is_dir() else "not a regular file (a device, FIFO or socket)"
         raise ParameterError(f"--out {path} is {kind}: give a file name")
@@ -81,6 +83,7 @@ def atomic_write(path: Path, write) -> None:
     complete or not at all. The model stands alone (it imports nothing of ``pipeline``, whose ``io`` does the
     same for the pipeline's outputs), so its command line keeps this one writer of its own."""
     path = Path(path)
+    check_output(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     mask = os.umask(0)

@@ -9,6 +9,7 @@ import tempfile
 from pathlib import Path
 
 from .errors import PipelineError
+from .paths import RESULTS_DIR
 
 
 @contextlib.contextmanager
@@ -34,10 +35,23 @@ def atomic_paths(*paths: Path):
             _sync(folder)
 
 
+def check_output_path(path: Path) -> None:
+    """Refuse, in one line, an output that is a link or anything but a regular file (renaming onto a link replaces
+    the link, as ``/dev/stdout``), and one under ``results/`` where ``results`` is a link (the outputs would land
+    where it points, the committed ``data/`` perhaps)."""
+    if os.path.islink(path) or (os.path.lexists(path) and not path.is_file()):
+        raise PipelineError(f"{path} is a link or not a regular file: an output goes to a file of its own")
+    absolute = Path(os.path.abspath(path))
+    if absolute.is_relative_to(RESULTS_DIR) and os.path.islink(RESULTS_DIR):
+        raise PipelineError(f"{RESULTS_DIR} is a link (to {os.readlink(RESULTS_DIR)}): outputs go to a folder "
+                            "of the project's own; remove the link")
+
+
 @contextlib.contextmanager
 def _temporary(path: Path):
     """A hidden temporary beside ``path``, unique to this call (several writers of one path never share it),
     with ``path``'s suffix."""
+    check_output_path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.tmp", suffix=path.suffix)
     os.fchmod(fd, 0o666 & ~_UMASK)  # the file a plain open() would make, not mkstemp's owner-only one

@@ -91,3 +91,34 @@ def test_python_m_model_runs_as_a_process_with_one_line_errors(tmp_path):
     command = [sys.executable, "-m", "model", "predict", "--theta", "abc", "--out", str(tmp_path / "x.csv")]
     proc = subprocess.run(command, capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0 and "'abc' is not a number" in proc.stderr
+
+
+def test_an_output_that_is_a_link_is_refused_and_left_as_it_was(tmp_path):
+    """Renaming onto a link replaces the link (``--out /dev/stdout`` would replace the system's): refused, in the
+    model's command line and in the pipeline's writer alike, and the link and its target stay."""
+    from pipeline import io
+    from pipeline.errors import PipelineError
+
+    target = tmp_path / "target.json"
+    target.write_text("kept")
+    link = tmp_path / "link.json"
+    link.symlink_to(target)
+    said = run_main(main, ["params", "--out", str(link)])
+    assert said.returncode == 2 and "is a link" in said.stderr
+    with pytest.raises(PipelineError, match="is a link or not a regular file"):
+        io.write_text(link, "new")
+    assert link.is_symlink() and target.read_text() == "kept"
+
+
+def test_results_as_a_link_is_refused_before_anything_is_written_there(tmp_path, monkeypatch):
+    from pipeline import io
+    from pipeline.errors import PipelineError
+
+    data = tmp_path / "data"
+    data.mkdir()
+    results = tmp_path / "results"
+    results.symlink_to(data)
+    monkeypatch.setattr(io, "RESULTS_DIR", results)
+    with pytest.raises(PipelineError, match="results is a link"):
+        io.write_text(results / "fit" / "params.json", "{}")
+    assert not any(data.iterdir())
