@@ -1,6 +1,16 @@
 # Entry point. `make help` lists the targets. The pipeline is a DAG of files:
 #   results/<D>/dem/*.h5 -> results/<D>/fit/params.json -> results/<D>/compare/metrics.json -> results/<D>/report.md
 # (<D>: the data set's folder, from results/.make/goals.mk) and each step reruns only when what it reads changed.
+# the variables a user may set (below: each becomes text, checked in Python); this list and the guard after it cannot
+# be set from outside (override)
+override USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM STRESS \
+	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS \
+	LAWS SKIP_CYCLES CASES POINTS LADDER
+# any other variable given on the command line (the Makefile's own: PY, FIT_DIR, DATA_SET...) is refused by its name
+# alone, before Make expands anything: its value would run as Make text
+override NOT_USER_VARIABLES := $(strip $(foreach v,$(.VARIABLES),$(if $(filter command line,$(origin $(v))),$(if \
+	$(filter $(v),$(USER_VARIABLES)),,$(v)))))
+$(if $(NOT_USER_VARIABLES),$(error $(NOT_USER_VARIABLES): not a variable a user sets (those are: $(USER_VARIABLES))))
 SHELL := /bin/bash
 .DEFAULT_GOAL := help
 .DELETE_ON_ERROR:
@@ -19,16 +29,8 @@ MODEL_DIR := results/model
 # which `check` stops on before anything is installed or run), with the data set's folder and runs that the file
 # rules of fit, compare and figures need; `python -m pipeline.targets TARGET` then runs the target's stages with
 # argument lists (`--plan TARGET` prints them).
-USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM STRESS \
-	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS \
-	LAWS SKIP_CYCLES CASES POINTS LADDER
 $(foreach v,$(USER_VARIABLES),$(eval override $(v) := $$(value $(v))))
 export $(USER_VARIABLES)
-# any other variable given on the command line (the Makefile's own: PY, FIT_DIR, DATA_SET...) is refused by its name
-# alone, before Make expands anything else: its value would run as Make text
-NOT_USER_VARIABLES := $(strip $(foreach v,$(.VARIABLES),$(if $(filter command line,$(origin $(v))),$(if \
-	$(filter $(v),$(USER_VARIABLES)),,$(v)))))
-$(if $(NOT_USER_VARIABLES),$(error $(NOT_USER_VARIABLES): not a variable a user sets (those are: $(USER_VARIABLES))))
 TARGETS := $(PY) -m pipeline.targets
 comma := ,
 # LAMMPS is installed only for a LAMMPS target, Yade only for a Yade one ($(filter) reads the text; nothing expands it)
@@ -38,6 +40,11 @@ STAGES := bench dem sweep runs sweep-status sweep-collect fit-bootstrap fit-jack
 	fit-profile fidelity fidelity-table profile-dem bench-dem bench-lammps-settings engines data-card versus cells jump \
 	stability models budget
 CHECKED_GOALS := $(filter $(STAGES) fit compare compare-seed figures,$(MAKECMDGOALS))
+# set by results/.make/goals.mk for a checked goal, empty otherwise: never taken from the environment
+CHECK_ERROR :=
+DATA_SET :=
+DATA_RUNS :=
+FIT_SUFFIX :=
 ifneq ($(CHECKED_GOALS),)
 include results/.make/goals.mk
 endif
