@@ -30,6 +30,8 @@ class ParameterError(ValueError):
 
 
 #: the fabric laws by name -> the parameters each owns beyond Eq. 13 (``model.laws``, the registry)
+#: the largest c2_exponent: S**10 at the smallest S of a flow (about 0.01) is still far above underflow
+C2_EXPONENT_MAX = 10.0
 VARIANTS = {name: tuple(q.name for q in law.PARAMETERS) for name, law in LAWS.items()}
 DEFAULT_VARIANT = DEFAULT_LAW
 #: the closed range of every law's own parameters (each law's declaration)
@@ -97,8 +99,12 @@ class Params:
         if not problems:
             if shared["persistence_exponent"] <= 0:
                 problems.append(f"persistence_exponent={shared['persistence_exponent']} must be > 0")
-            if shared["c2_exponent"] < 0:
-                problems.append(f"c2_exponent={shared['c2_exponent']} must be >= 0")
+            if not shared["c2_coef"] > 0:  # Eq. 18 relaxes Phi at c2 |D'|: without it Phi has no steady value
+                problems.append(f"c2_coef={shared['c2_coef']} must be > 0 (Eq. 18's relaxation to the critical "
+                                "state; with none the packing fraction has no steady value)")
+            if not 0 <= shared["c2_exponent"] <= C2_EXPONENT_MAX:  # S**c2_exponent stays a number, S ~ 0.01-1
+                problems.append(f"c2_exponent={shared['c2_exponent']} must lie in [0, {C2_EXPONENT_MAX:g}] (c2(S) = "
+                                "c2_coef S**c2_exponent vanishes at larger exponents)")
             if not 0 < shared["phi_c"] < 1:
                 problems.append(f"phi_c={shared['phi_c']} must lie in (0, 1)")
             for q in own:

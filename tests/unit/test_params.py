@@ -39,6 +39,19 @@ def test_every_bad_value_is_reported_at_once():
         Params(phi_c=1.5)
 
 
+@pytest.mark.parametrize("values, message", [
+    ({"c2_coef": 0.0}, "c2_coef=0.0 must be > 0"),
+    ({"c2_coef": -1.0}, "c2_coef=-1.0 must be > 0"),
+    ({"c2_exponent": 1e6}, r"c2_exponent=1000000.0 must lie in \[0, 10\]"),
+    ({"c2_exponent": -0.5}, r"c2_exponent=-0.5 must lie in \[0, 10\]"),
+])
+def test_eq18s_relaxation_must_exist_where_the_model_divides_by_it(values, message):
+    """c2 = 0 leaves the packing fraction without a steady value (its steady state divides by c2): refused, with
+    what the bound means, instead of a ZeroDivisionError deep in the solver."""
+    with pytest.raises(ParameterError, match=message):
+        Params(**values)
+
+
 def test_invalid_json_is_a_one_line_error():
     with pytest.raises(ParameterError, match="not valid JSON"):
         Params.from_json("{C: 1}", "p.json")
