@@ -65,6 +65,12 @@ def _theta(text: str) -> float:
     return value
 
 
+def printable(text: str) -> str:
+    """``text`` with every character a terminal would act on (escape sequences, line breaks) written as its Python
+    escape: an error echoing a value from a file or the command line stays one line of plain text."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
 def check_output(path: Path) -> None:
     """Refuse, before any work, an output that is a link (renaming onto it would replace the link, as
     ``/dev/stdout``), a folder, a device, a FIFO or anything but a regular file, or that lies under a file."""
@@ -131,7 +137,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors (no usage dump)."""
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+        self.exit(2, f"{self.prog}: error: {printable(message)} (see --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -190,5 +196,5 @@ def main(argv=None) -> int:
               f"(residual {result.cycle_residual:.1e}), {len(result.strain)} rows -> {args.out}")
         return 0
     except (ParameterError, HistoryError, SolverError, OSError) as exc:
-        print(f"python -m model: error: {exc}", file=sys.stderr)
+        print(f"python -m model: error: {printable(exc)}", file=sys.stderr)
         return 2

@@ -3,6 +3,8 @@
 import argparse
 from pathlib import Path
 
+from model.cli import printable
+
 
 def given_path(text: str) -> Path:
     """A path option's value; an empty one would be the current folder, which no option means."""
@@ -16,7 +18,7 @@ class Parser(argparse.ArgumentParser):
     empty value (``given_path``)."""
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+        self.exit(2, f"{self.prog}: error: {printable(message)} (see --help)\n")
 
     def add_argument(self, *args, **kwargs):
         if kwargs.get("type") is Path:
@@ -26,7 +28,7 @@ class Parser(argparse.ArgumentParser):
 
 def one_line_errors(main):
     """Decorate a command line's ``main``: a pipeline or model error becomes its one-line message on
-    stderr and exit status 2."""
+    stderr (``printable``: what a file or a user gave cannot act on the terminal) and exit status 2."""
     import functools
     import sys
 
@@ -39,7 +41,7 @@ def one_line_errors(main):
         try:
             return main(argv)
         except (PipelineError, model.ParameterError, model.SolverError) as exc:
-            print(f"error: {exc}", file=sys.stderr)
+            print(f"error: {printable(exc)}", file=sys.stderr)
             return 2
 
     return wrapped

@@ -122,3 +122,17 @@ def test_results_as_a_link_is_refused_before_anything_is_written_there(tmp_path,
     with pytest.raises(PipelineError, match="results is a link"):
         io.write_text(results / "fit" / "params.json", "{}")
     assert not any(data.iterdir())
+
+
+def test_text_from_a_file_or_the_command_line_reaches_the_terminal_escaped(tmp_path):
+    """A key of a params file (or any value echoed in an error) holding an escape sequence or a line break is shown
+    as its Python escape, in the model's command line and the pipeline's alike: one line of plain text."""
+    from pipeline.calibration.__main__ import main as fit_main
+
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"C": -5, "\\u001b[31mred\\nline": 1}')
+    said = run_main(main, ["predict", "--theta", "90", "--params", str(bad), "--out", str(tmp_path / "o.csv")])
+    assert said.returncode == 2 and "unknown keys \\x1b[31mred\\nline" in said.stderr
+    assert "\x1b" not in said.stderr and said.stderr.count("\n") == 1
+    said = run_main(fit_main, ["--preset", "paper\x1b[2J"])
+    assert said.returncode == 2 and "\x1b" not in said.stderr and "\\x1b[2J" in said.stderr
