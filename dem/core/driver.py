@@ -132,9 +132,10 @@ class Experiment:
         return strain >= self.sample_strains[self.state.next_sample] - protocol.EPS
 
     def observe(self, strain):
-        """Gather the contacts once: track them where a tracking point is due (every sample is one) and sample."""
+        """Gather the contacts once (the grains too where a sample is due): track them where a tracking point is due
+        (every sample is one) and sample."""
         tic = time.perf_counter()
-        contacts, grains = self.gather()
+        contacts, grains = self.gather(grains=self.sample_due(strain))
         y_bottom, y_top = self.inner_planes()
         region = (y_bottom + self.spec.region_margin_d, y_top - self.spec.region_margin_d)
         if self.tracker is not None:

@@ -182,16 +182,17 @@ class Run(driver.Experiment):
         return {f"{wall}_{what}": self.vector(f"{wall}_{what}") for what in ("position", "velocity", "force")
                 for wall in ("top", "bottom")}
 
-    def gather(self):
+    def gather(self, grains=True):
         """Contact and grain arrays for ``dem.core.measure``: the overlapping pairs, normal from atom i to atom j, the
-        force on j, the contact point in the middle of the overlap (Yade's ``ScGeom``)."""
+        force on j, the contact point in the middle of the overlap (Yade's ``ScGeom``); no grain arrays (None, and
+        no velocities gathered) where ``grains`` is false."""
         lmp = self.lmp
         pairs = lmp.numpy.extract_compute("pairs", LMP_STYLE_LOCAL, LMP_TYPE_ARRAY)
         ends = lmp.numpy.extract_compute("pair_atoms", LMP_STYLE_LOCAL, LMP_TYPE_ARRAY)
         pairs = gathered(np.zeros((0, 10)) if pairs is None else np.asarray(pairs, dtype=float).reshape(-1, 10))
         ends = gathered(np.zeros((0, 2)) if ends is None else np.asarray(ends, dtype=float).reshape(-1, 2))
         ends = ends.astype(np.int64)
-        tag, x, v, radius = atoms(lmp, "x", "v", "radius")
+        tag, x, radius, *v = atoms(lmp, "x", "radius", *(("v",) if grains else ()))
         i, j = ends[:, 0], ends[:, 1]
         dist = pairs[:, 0]
         overlap = radius[i - 1] + radius[j - 1] - dist
@@ -199,11 +200,13 @@ class Run(driver.Experiment):
         pairs, i, j, dist, overlap = pairs[touching], i[touching], j[touching], dist[touching], overlap[touching]
         normal = -pairs[:, 7:10] / dist[:, None]
         point = x[i - 1] + (radius[i - 1] - overlap / 2)[:, None] * normal
-        grains = slice(self.state.first_grain - 1, None)
         contacts = {"id1": i, "id2": j, "normal": normal, "point": point, "force": -(pairs[:, 1:4] + pairs[:, 4:7]),
                     "branch": dist}
-        return contacts, {"id": tag[grains].astype(np.int64), "pos": x[grains], "vel": v[grains],
-                          "radius": self.radius, "mass": self.mass}
+        if not grains:
+            return contacts, None
+        own = slice(self.state.first_grain - 1, None)
+        return contacts, {"id": tag[own].astype(np.int64), "pos": x[own], "vel": v[0][own], "radius": self.radius,
+                          "mass": self.mass}
 
     def stop_after_this_step(self):
         """``fix halt`` (after the controller in the same step) ends the run command once this step is done."""

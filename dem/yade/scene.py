@@ -102,8 +102,9 @@ class Run(driver.Experiment):
                 "top_velocity": list(top.state.vel), "bottom_velocity": list(bottom.state.vel),
                 "top_force": list(O.forces.f(top.id)), "bottom_force": list(O.forces.f(bottom.id))}
 
-    def gather(self):
-        """Contact and grain arrays for ``dem.core.measure`` (indexing Vector3s: unpacking them is 5x slower)."""
+    def gather(self, grains=True):
+        """Contact and grain arrays for ``dem.core.measure`` (indexing Vector3s: unpacking them is 5x slower); no
+        grain arrays (None) where ``grains`` is false."""
         contacts = []
         for i in O.interactions:  # real interactions only
             g, ph = i.geom, i.phys
@@ -111,17 +112,17 @@ class Run(driver.Experiment):
             contacts.append((i.id1, i.id2, n[0], n[1], n[2], c[0], c[1], c[2], f[0], f[1], f[2],
                              g.refR1 + g.refR2 - g.penetrationDepth))
         c = np.array(contacts, dtype=float).reshape(-1, 12)
+        contacts = {"id1": c[:, 0].astype(np.int64), "id2": c[:, 1].astype(np.int64), "normal": c[:, 2:5],
+                    "point": c[:, 5:8], "force": c[:, 8:11], "branch": c[:, 11]}
+        if not grains:
+            return contacts, None
         kinematics = []
         for b in self.grains:
             x, v = b.state.pos, b.state.vel
             kinematics.append((x[0], x[1], x[2], v[0], v[1], v[2]))
         kin = np.array(kinematics, dtype=float)
-        return (
-            {"id1": c[:, 0].astype(np.int64), "id2": c[:, 1].astype(np.int64), "normal": c[:, 2:5],
-             "point": c[:, 5:8], "force": c[:, 8:11], "branch": c[:, 11]},
-            {"id": np.array(self.grain_ids), "pos": kin[:, :3], "vel": kin[:, 3:], "radius": self.radius,
-             "mass": self.mass},
-        )
+        return contacts, {"id": np.array(self.grain_ids), "pos": kin[:, :3], "vel": kin[:, 3:], "radius": self.radius,
+                          "mass": self.mass}
 
     def stop_after_this_step(self):
         """End the run loop once the current step is complete, all engines (this PyRunner too) included.
