@@ -199,6 +199,10 @@ def old_direction_curve(A: np.ndarray, strain: np.ndarray, change: tuple) -> tup
     return strain[after] - start, along(A, normal)[..., after] / (np.cos(np.radians(normal - old)) * steady)
 
 
+#: a change whose normal part is smaller (|sin| of the turn) has no memory to follow: the reversal
+MEMORY_MIN_SIN = 0.25
+
+
 def memory_curves(run, preds: dict[str, tuple[FitCycle, model.Result]]) -> list[dict]:
     """``old_direction_curve`` after each change of direction by an angle whose normal part is not small
     (|sin| >= 0.25: not the reversal) from an old segment long enough to be steady at its end (not Fig. 7's turn
@@ -210,7 +214,7 @@ def memory_curves(run, preds: dict[str, tuple[FitCycle, model.Result]]) -> list[
     for change in changes(spec):
         label, start, end, new, old, old_start, old_end = change
         if (end - start < MEMORY_WINDOWS[-1][1] or old_end - old_start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE
-                or abs(np.sin(np.radians(new - old))) < 0.25):
+                or abs(np.sin(np.radians(new - old))) < MEMORY_MIN_SIN):
             continue
         strain, dem = old_direction_curve(run.series["A"][idx], grid, change)
         out.append({"run": run.path.stem, "seed": run.spec.seed, "segment": label, "from_deg": old,

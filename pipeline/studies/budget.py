@@ -43,6 +43,7 @@ from model.equations import eq13_terms
 
 from .. import io
 from ..cli import Parser, one_line_errors
+from ..comparison.metrics import MEMORY_MIN_SIN
 from ..dataset import selection
 from ..dataset.dem_file import load
 from ..dataset.lookup import every_seed
@@ -54,8 +55,6 @@ WINDOWS = ((0.0, 0.0005), (0.0005, 0.001), (0.001, 0.002), (0.002, 0.005), (0.00
            (0.05, 0.1), (0.1, 0.2), (0.2, 0.4))
 #: the state before a change: the mean over this much strain before it
 BEFORE = 0.02
-#: the memory component is followed where the turn's normal part is not small (as ``comparison.metrics``)
-MIN_SIN = 0.25
 MEASURED = ("made", "lost", "kept", "crossed")
 #: the columns of the measured terms: made and lost apart depend on the tracking spacing (a contact that opens and
 #: closes between two tracking points is kept; one seen to is made and lost), their sum, the exchange, does not
@@ -63,10 +62,6 @@ COLUMNS = ("made", "lost", "exchange", "kept", "crossed")
 EQ13 = ("input", "recovery", "spin")
 CLASSES = ("compressed", "neutral", "stretched")
 E2 = np.array([0.0, 1.0, 0.0])
-
-
-def direction(phi_deg: float) -> np.ndarray:
-    return model.shear_direction(phi_deg)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -118,15 +113,15 @@ class BudgetGroup:
 def event_frame(phi_old: float, phi_new: float) -> tuple[np.ndarray, np.ndarray, float]:
     """(s_new, t, t.s_old): the new shear direction, the wall-plane direction normal to it, and the old direction's
     share of t."""
-    s_new, s_old = direction(phi_new), direction(phi_old)
-    t = direction(phi_new + 90.0)
+    s_new, s_old = model.shear_direction(phi_new), model.shear_direction(phi_old)
+    t = model.shear_direction(phi_new + 90.0)
     return s_new, t, float(t @ s_old)
 
 
 def components(X: np.ndarray, s_new, t, a0: float, t_old: float) -> tuple[np.ndarray, np.ndarray]:
     """The shear and memory fractions of tensors X (..., 3, 3)."""
     shear = -np.einsum("i,...ij,j->...", s_new, X, E2) / a0
-    if abs(t_old) < MIN_SIN:
+    if abs(t_old) < MEMORY_MIN_SIN:  # the turn's normal part is small (comparison.metrics)
         return shear, np.full(shear.shape, np.nan)
     return shear, np.einsum("i,...ij,j->...", t, X, E2) / (-t_old * a0)
 
@@ -147,7 +142,7 @@ def event_series(run, change: float, end: float, params: model.Params) -> dict |
     phi_old, phi_new = float(raw["direction_deg"][at - 1]), float(raw["direction_deg"][at])
     s_new, t, t_old = event_frame(phi_old, phi_new)
     A = raw["fabric"]
-    a0 = float(-direction(phi_old) @ A[before].mean(axis=0) @ E2)
+    a0 = float(-model.shear_direction(phi_old) @ A[before].mean(axis=0) @ E2)
     if not a0 > 0:
         return None
     idx = np.concatenate([[at], after])  # the sample at the change, then every one after it
@@ -271,7 +266,7 @@ def budget_groups(runs: list, params: model.Params) -> list[BudgetGroup]:
                         events.append(e)
         if not events:
             continue
-        has_memory = abs(math.sin(math.radians(theta))) >= MIN_SIN
+        has_memory = abs(math.sin(math.radians(theta))) >= MEMORY_MIN_SIN
         windows = [window_stats(events, lo, hi, has_memory) for lo, hi in WINDOWS]
         groups.append(BudgetGroup(group_label(members[0]), theta, rotate_at, sorted({str(r.path) for r in members}),
                                   len(events), windows, curves(events, has_memory)))
