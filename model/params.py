@@ -29,9 +29,9 @@ class ParameterError(ValueError):
     """Invalid model parameters; the message names every bad value."""
 
 
-#: the fabric laws by name -> the parameters each owns beyond Eq. 13 (``model.laws``, the registry)
 #: the largest c2_exponent: S**10 at the smallest S of a flow (about 0.01) is still far above underflow
 C2_EXPONENT_MAX = 10.0
+#: the fabric laws by name -> the parameters each owns beyond Eq. 13 (``model.laws``, the registry)
 VARIANTS = {name: tuple(q.name for q in law.PARAMETERS) for name, law in LAWS.items()}
 DEFAULT_VARIANT = DEFAULT_LAW
 #: the closed range of every law's own parameters (each law's declaration)
@@ -162,7 +162,7 @@ class Params:
         """The values by name; a law other than Eq. 13 adds its name and its parameters."""
         values = {name: getattr(self, name) for name in self.names()}
         if self.variant != DEFAULT_VARIANT:
-            values.update(variant=self.variant, **dict(zip(VARIANTS[self.variant], self.law_values, strict=True)))
+            values.update(variant=self.variant, **self.law_dict())
         return values
 
     @classmethod

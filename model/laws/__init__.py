@@ -93,7 +93,7 @@ def state_names(name: str) -> tuple[str, ...]:
     return getattr(LAWS[name], "STATE", ())
 
 
-def start(name: str, Dh, values: dict, phi=0.5) -> tuple[np.ndarray, np.ndarray]:
+def start(name: str, Dh, values: dict, phi) -> tuple[np.ndarray, np.ndarray]:
     """Where a history starts under the unit stretching ``Dh`` (3x3, or a stack) at the packing fraction ``phi``: the
     part of the fabric beyond the state A (kappa Dh of "jump", K of "elastic") and the law's own state (packed,
     empty for none)."""
