@@ -52,14 +52,46 @@ def build(spec):
     O.bodies.append([utils.sphere(c, r, material=material) for c, r in cloud])
     m_min = min(b.state.mass for b in O.bodies if b.id >= first_grain)
     O.dt = spec.dt_safety * math.sqrt(m_min / kn)
-    O.engines = contact_engines() + [
-        PyRunner(iterPeriod=int(spec.control_every_steps), command=active.COMMAND, label="controller"),
-    ]
+    O.engines = scene_engines(spec)
     O.tags["spec"] = json.dumps(spec.to_dict())
     O.tags["state"] = json.dumps(driver.initial_state(
         spec, bottom=bottom, top=top, first_grain=first_grain, n_grains=n_grains,
         bottom_inner_offset=Y_BOTTOM + ROUGH_HEIGHT - O.bodies[bottom[0]].state.pos[1],
         top_inner_offset=y_top - ROUGH_HEIGHT - O.bodies[top[0]].state.pos[1], kn=kn, kt=kt, cn=cn, ct=ct).to_dict())
+
+
+def scene_engines(spec):
+    """The engines of the scene: the contact law's and the controller, a PyRunner whose Python is ``active``'s."""
+    return contact_engines() + [
+        PyRunner(iterPeriod=int(spec.control_every_steps), command=active.COMMAND, label="controller")]
+
+
+def engine_signature(engines):
+    """Each engine's type, label and dead flag, with its dispatchers' functor types: what makes a saved scene's
+    engines the ones ``scene_engines`` makes (parameters and internal state aside)."""
+    def functors(engine):
+        return tuple(tuple(type(f).__name__ for f in getattr(engine, name).functors) for name in DISPATCHERS
+                     if hasattr(engine, name))
+    return [(type(e).__name__, e.label, bool(e.dead), functors(e)) for e in engines]
+
+
+#: the dispatchers of Yade's engines whose functors ``engine_signature`` compares
+DISPATCHERS = ("boundDispatcher", "geomDispatcher", "physDispatcher", "lawDispatcher")
+
+
+class ForeignScene(ValueError):
+    """A saved scene whose engines are not those ``build`` makes."""
+
+
+def load_scene(path, spec):
+    """Load a saved scene into ``O`` as data: its engines must be those ``build`` makes (no PyRunner but the
+    controller, whose command ``Scene.attach`` sets again), and no engines may wait to replace them. A PyRunner's
+    command is Python that Yade runs; anything else the file holds (bodies, interactions, tags) is data."""
+    O.load(path)
+    if engine_signature(O.engines) != engine_signature(scene_engines(spec)) or len(O._nextEngines):
+        found = ", ".join(f"{e.__class__.__name__}:{e.label}" if e.label else e.__class__.__name__
+                          for e in list(O.engines) + list(O._nextEngines))
+        raise ForeignScene(f"{path} holds engines that the scene does not make ({found[:300]})")
 
 
 # ---------------------------------------------------------------- the running scene (state restored from O.tags)
@@ -152,8 +184,8 @@ class Scene:
         return self.attach()
 
     def load(self, path):
-        """A saved scene (a checkpoint or a cached state), attached."""
-        O.load(path)
+        """A saved scene (a checkpoint or a cached state), checked (``load_scene``) and attached."""
+        load_scene(path, self.spec)
         return self.attach()
 
     def attach(self):
@@ -177,8 +209,10 @@ class Scene:
         if os.path.exists(self.checkpoint):
             watchdog.doing(watchdog.LOADING)
             try:
-                O.load(self.checkpoint)
+                load_scene(self.checkpoint, self.spec)
                 same_spec = DemSpec.from_dict(json.loads(O.tags["spec"])) == self.spec
+            except ForeignScene as exc:
+                driver.damaged(f"checkpoint {exc}: refused, a checkpoint is data")
             except Exception as exc:  # noqa: BLE001 - any damage: Yade raises RuntimeError, MemoryError, ...
                 driver.damaged(f"checkpoint {self.checkpoint} cannot be loaded ({type(exc).__name__})")
             if not same_spec:

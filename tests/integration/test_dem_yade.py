@@ -84,9 +84,11 @@ def test_tiny_run_end_to_end_into_hdf5(tiny_run):
     assert again.returncode == 0 and "up to date" in again.stdout
 
 
-def test_interrupted_and_resumed_run_is_bit_identical(tiny_run, tmp_path):
-    reference = load(run_spec.output_path(run_spec.resolve(90, "tiny"), tiny_run[0]))
-    proc = subprocess.Popen(launcher("--theta", "90", "--preset", "tiny", results=tmp_path), cwd=ROOT,
+@pytest.fixture(scope="module")
+def interrupted(tmp_path_factory):
+    """A results folder whose tiny run was interrupted at strain 0.1: its run folder holds a checkpoint."""
+    results = tmp_path_factory.mktemp("interrupted")
+    proc = subprocess.Popen(launcher("--theta", "90", "--preset", "tiny", results=results), cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     for line in proc.stdout:
         if "strain +0.100" in line:
@@ -95,13 +97,75 @@ def test_interrupted_and_resumed_run_is_bit_identical(tiny_run, tmp_path):
     output = proc.stdout.read()
     assert proc.wait() == 130, output
     assert "interrupted: checkpoint" in output
-    out = run_spec.output_path(run_spec.resolve(90, "tiny"), tmp_path)
-    assert not out.exists()
+    assert not run_spec.output_path(run_spec.resolve(90, "tiny"), results).exists()
+    return results
+
+
+def test_interrupted_and_resumed_run_is_bit_identical(tiny_run, interrupted, tmp_path):
+    reference = load(run_spec.output_path(run_spec.resolve(90, "tiny"), tiny_run[0]))
+    shutil.copytree(interrupted, tmp_path, dirs_exist_ok=True)
     resumed = run("--theta", "90", "--preset", "tiny", results=tmp_path)
     assert resumed.returncode == 0 and "resumed from checkpoint" in resumed.stdout
-    again = load(out)
+    again = load(run_spec.output_path(run_spec.resolve(90, "tiny"), tmp_path))
     for key, value in reference.raw.items():
         np.testing.assert_array_equal(again.raw[key], value, err_msg=key)
+
+
+#: Python that changes a saved scene's engines (``sys.argv[1]`` the checkpoint, ``sys.argv[2]`` a file that the
+#: planted engine would create): every way a saved scene can carry an engine that ``build`` does not make
+TAMPERINGS = {
+    "a second PyRunner": "O.engines = O.engines + [PyRunner(iterPeriod=1, command=touch)]",
+    "engines waiting for the next step": (  # the controller saves the scene after it set engines for the next step
+        "O.engines[-1].iterPeriod = 1\nO.engines[-1].command = 'O.engines = list(O.engines) + "
+        "[PyRunner(iterPeriod=1, command=touch)]; O.save(sys.argv[1]); O.stopAtIter = O.iter + 1'\nO.run()\nO.wait()\n"
+        "O.load(sys.argv[1])\nassert len(O._nextEngines) == 6"),
+    "an engine that writes files": "O.engines = O.engines + [wrapper.VTKRecorder(iterPeriod=1, fileName=sys.argv[2])]",
+    "the controller's label on another engine": "O.engines[-1].label = ''; O.engines[0].label = 'controller'",
+    "a dead engine": "O.engines[1].dead = True",
+}
+
+
+def tamper(checkpoint, planted, how):
+    """Plant ``TAMPERINGS[how]`` in the saved scene ``checkpoint`` (Yade's python)."""
+    touch = f"open({str(planted)!r}, 'w').close()"
+    code = (f"import sys\nfrom dem.yade.lib import O, PyRunner, wrapper\ntouch = {touch!r}\nO.load(sys.argv[1])\n"
+            f"{TAMPERINGS[how]}\nO.save(sys.argv[1])\n")
+    proc = subprocess.run([scripts.engine_python(), "-c", code, str(checkpoint), str(planted)], capture_output=True,
+                          text=True, cwd=ROOT, env=scripts.environment())
+    assert proc.returncode == 0, proc.stderr[-500:]
+
+
+def test_a_checkpoint_with_a_planted_pyrunner_is_refused_and_runs_nothing(interrupted, tmp_path):
+    """A checkpoint is data (docs/dem.md): the launcher refuses it in one line, and the planted Python never runs."""
+    shutil.copytree(interrupted, tmp_path, dirs_exist_ok=True)
+    tamper(run_spec.work_dir(run_spec.resolve(90, "tiny"), tmp_path) / "checkpoint.yade.gz", tmp_path / "planted",
+           "a second PyRunner")
+    resumed = run("--theta", "90", "--preset", "tiny", results=tmp_path)
+    output = resumed.stdout + resumed.stderr
+    assert resumed.returncode == 2, output
+    assert "holds engines that the scene does not make" in output and "a checkpoint is data" in output
+    assert not (tmp_path / "planted").exists()
+
+
+def test_every_way_of_planting_an_engine_in_a_saved_scene_is_refused(interrupted, tmp_path):
+    """``load_scene`` on the interrupted run's checkpoint (accepted) and on a copy carrying each of ``TAMPERINGS``
+    (each refused, nothing planted run), in one Yade process."""
+    work = run_spec.work_dir(run_spec.resolve(90, "tiny"), interrupted)
+    paths = [str(work / "checkpoint.yade.gz")] + [str(tmp_path / f"{i}.yade.gz") for i in range(len(TAMPERINGS))]
+    for path, how in zip(paths[1:], TAMPERINGS, strict=True):
+        shutil.copy(paths[0], path)
+        tamper(path, tmp_path / "planted", how)
+    code = ("import json, sys\nfrom dem.yade import scene\nfrom dem.core.spec import read_spec\n"
+            "spec = read_spec(sys.argv[1])\nrefused = {}\nfor path in sys.argv[2:]:\n"
+            "    try:\n        scene.load_scene(path, spec)\n        refused[path] = False\n"
+            "    except scene.ForeignScene as exc:\n        refused[path] = 'does not make' in str(exc)\n"
+            "print(json.dumps(refused))\n")
+    proc = subprocess.run([scripts.engine_python(), "-c", code, str(work / "spec.json"), *paths], capture_output=True,
+                          text=True, cwd=ROOT, env=scripts.environment())
+    assert proc.returncode == 0, proc.stderr[-500:]
+    refused = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert refused == {path: path != paths[0] for path in paths}
+    assert not (tmp_path / "planted").exists()
 
 
 def test_a_run_that_goes_wrong_stops_with_a_diagnostic(tmp_path):
