@@ -12,8 +12,6 @@ import json
 import sys
 from pathlib import Path
 
-import h5py
-
 from dem.core.spec import DemSpec
 
 from ..cli import Parser, one_line_errors
@@ -21,7 +19,7 @@ from ..errors import DemFileError, PipelineError
 from ..io import atomic_path
 from ..paths import ROOT
 from . import drift
-from .dem_file import cpu_seconds, cpu_seconds_counted, load, sessions
+from .dem_file import cpu_seconds, cpu_seconds_counted, load, run_provenance, sessions
 
 BEGIN = "<!-- inventory: written by make data-card from the files themselves; do not edit by hand -->"
 END = "<!-- inventory end -->"
@@ -78,12 +76,7 @@ def check_committed(path: Path) -> None:
 
 def describe(path: Path, root: Path) -> dict:
     """One run file's inventory row, from its ``/provenance`` and ``/parameters`` attributes."""
-    try:
-        with h5py.File(path, "r") as f:
-            prov, params = dict(f["provenance"].attrs), dict(f["parameters"].attrs)
-    except (OSError, KeyError) as exc:
-        raise DemFileError(f"{path}: not a readable run file ({exc})") from None
-    spec = DemSpec.from_dict(json.loads(prov["spec_json"]))
+    prov, params, spec = run_provenance(path)
     engine = spec.engine
     version = prov.get("engine_version", prov.get("yade_version", ""))  # files before engines were named: Yade
     runs = sessions(prov)

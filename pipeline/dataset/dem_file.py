@@ -33,10 +33,12 @@ import numpy as np
 from dem.core.protocol import on_grid, sample_strains
 from dem.core.schema import contact_fields, sample_fields
 from dem.core.spec import LEGACY_ENGINE, DemSpec
+from model.cli import printable
 
 from ..errors import DemFileError
 from ..io import atomic_path
 from . import derived
+from .reader import RunFileReader
 
 SCHEMA = "granular-backstress/dem-run"
 SCHEMA_VERSION = 3
@@ -230,23 +232,8 @@ class DemRun:
         return derived.run_cycle(self)
 
 
-def _check_fields(path: Path, group: str, data: dict, fields: dict, n: int) -> None:
-    """Every field of ``fields`` in ``data`` (the file's ``group``), with ``n`` rows of the schema's shape."""
-    missing = sorted(set(fields) - set(data))
-    if missing:
-        raise DemFileError(f"{path}: /{group} lacks {', '.join(missing)}")
-    for key, info in fields.items():
-        value = data[key]
-        fixed = [d for d in info["shape"] if isinstance(d, int)]
-        if value.shape[:1] != (n,) or (fixed and tuple(value.shape[-len(fixed):]) != tuple(fixed)):
-            raise DemFileError(f"{path}: /{group}/{key} has shape {value.shape}, expected ({n}, {info['shape']})")
-
-
 def _check_raw(path: Path, raw: dict) -> None:
-    """Every field of the schema, of its shape, the basic ones finite, and strain rising sample by sample."""
-    if "strain" not in raw:
-        raise DemFileError(f"{path}: /raw lacks strain")
-    _check_fields(path, "raw", raw, sample_fields(), len(raw["strain"]))
+    """The basic fields finite, and strain rising sample by sample (the schema's shapes: ``RunFileReader``)."""
     for key in ("strain", "time", "direction_deg", "fabric", "stress_contact", "stress_kinetic", "packing_fraction"):
         if not np.all(np.isfinite(raw[key])):
             raise DemFileError(f"{path}: /raw/{key} has non-finite values")
@@ -283,39 +270,68 @@ def cpu_seconds_counted(parameters: dict) -> bool:
     return "cpu_seconds" in parameters
 
 
-def load(path) -> DemRun:
-    """Read a DEM run file (schema v1, v2 or v3), checked against the schema: datasets, shapes, finite values."""
-    path = Path(path)
-    try:
-        f = h5py.File(path, "r")
-    except (OSError, ValueError) as exc:
-        raise DemFileError(f"cannot open {path} as HDF5 ({exc})") from None
-    with f:
-        if f.attrs.get("schema") != SCHEMA:
-            raise DemFileError(f"{path} is not a DEM run file (schema {f.attrs.get('schema')!r})")
-        version = int(f.attrs.get("schema_version", -1))
-        if version not in READABLE_VERSIONS:
-            raise DemFileError(f"{path} has schema version {version}; this code reads {READABLE_VERSIONS}")
-        try:
-            raw = {k: ds[()] for k, ds in f["raw"].items()}
-            units = {f"raw/{k}": ds.attrs["unit"] for k, ds in f["raw"].items()}
-            contacts = ({k: f["contacts"][k][()] for k in contact_fields() if k in f["contacts"]}
-                        if "contacts" in f else None)
-            prov = dict(f["provenance"].attrs)
-            params = dict(f["parameters"].attrs)
-            diameters = f["parameters/grain_diameter"][()] if "grain_diameter" in f["parameters"] else None
-            stored = json.loads(prov["spec_json"])
-        except (KeyError, ValueError) as exc:
-            raise DemFileError(f"{path} lacks part of the schema ({exc})") from None
+#: most profile bins across the gap a run file may declare
+MAX_BINS = 10_000
+
+
+def schema_shape(info: dict, n: int, bins: int) -> tuple:
+    """A field's full shape in a file of ``n`` samples and ``bins`` profile bins (``config/raw_schema.toml``)."""
+    return (n, *(bins + 1 if d == "bins+1" else bins if d == "bins" else d for d in info["shape"]))
+
+
+def run_provenance(path) -> tuple[dict, dict, DemSpec]:
+    """A run file's ``/provenance`` and ``/parameters`` attributes and its spec, read through ``RunFileReader``."""
+    with RunFileReader(path) as reader:
+        return _header(reader)
+
+
+def _header(reader: RunFileReader) -> tuple[dict, dict, DemSpec]:
+    root = reader.attributes("/")
+    if not isinstance(root.get("schema"), str) or root["schema"] != SCHEMA:
+        reader.refuse("/", f"is not a DEM run file (schema {printable(root.get('schema'))})")
+    version = root.get("schema_version", -1)
+    if not isinstance(version, (int, np.integer)) or int(version) not in READABLE_VERSIONS:
+        reader.refuse("/", f"has schema version {printable(version)}; this code reads {READABLE_VERSIONS}")
+    prov, params = reader.attributes("/provenance"), reader.attributes("/parameters")
+    stored = reader.json_attribute(prov, "/provenance", "spec_json")
     try:
         spec = DemSpec.from_dict(stored)
     except (TypeError, ValueError, AttributeError) as exc:
-        raise DemFileError(f"{path}: its spec is not a run spec ({exc})") from None
+        reader.refuse("its spec", f"is not a run spec ({printable(exc)})")
+    return prov, params, spec
+
+
+def load(path) -> DemRun:
+    """Read a DEM run file (schema v1, v2 or v3) through ``RunFileReader``, checked against the schema before any
+    sample is read (links, storage, types, shapes, units, size), then for finite values and whole cycles."""
+    with RunFileReader(path) as reader:
+        path = reader.path
+        prov, params, spec = _header(reader)
+        n = reader.samples("/raw/strain")
+        edges = reader.check_dataset("/raw/profile_edges", (n, None), sample_fields()["profile_edges"]["unit"])
+        bins = edges.shape[1] - 1
+        if not 0 < bins <= MAX_BINS:
+            reader.refuse("/raw/profile_edges", f"declares {bins} bins (1 to {MAX_BINS})")
+        checked = {("raw", k): reader.check_dataset(f"/raw/{k}", schema_shape(info, n, bins), info["unit"])
+                   for k, info in sample_fields().items()}
+        tracked = reader.has("/contacts")
+        if tracked:
+            checked |= {("contacts", k): reader.check_dataset(f"/contacts/{k}", schema_shape(info, n, bins),
+                                                              info["unit"])
+                        for k, info in contact_fields().items()}
+        has_diameters = reader.has("/parameters/grain_diameter")
+        if has_diameters:
+            grains = params.get("n_grains")
+            checked[("parameters", "grain_diameter")] = reader.check_dataset(
+                "/parameters/grain_diameter", (int(grains) if isinstance(grains, (int, np.integer)) else -1,), "d")
+        data = reader.read(checked)
+    raw = {k: v for (group, k), v in data.items() if group == "raw"}
+    contacts = {k: v for (group, k), v in data.items() if group == "contacts"} if tracked else None
+    diameters = data.get(("parameters", "grain_diameter"))
+    units = {f"raw/{k}": info["unit"] for k, info in sample_fields().items()}
     if "gamma_dot_nominal" not in params:
         raise DemFileError(f"{path}: the parameters lack gamma_dot_nominal")
     _check_raw(path, raw)
-    if contacts is not None:
-        _check_fields(path, "contacts", contacts, contact_fields(), len(raw["strain"]))
     grid = grid_samples(raw["strain"], spec)
     _check_cycles(path, raw, spec, grid)
     return DemRun(path, spec, params, prov, {k: v[grid] for k, v in raw.items()}, units, diameters, raw_all=raw,

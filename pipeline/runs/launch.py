@@ -19,15 +19,13 @@ import subprocess
 import sys
 from pathlib import Path
 
-import h5py
-
 from dem.core.rawfile import DISK_ERRORS, DISK_FULL
 
 from .. import engines, io
 from .. import spec as run_spec
 from ..cli import Parser, one_line_errors
-from ..dataset.dem_file import write_h5
-from ..errors import SpecError
+from ..dataset.dem_file import run_provenance, write_h5
+from ..errors import DemFileError, SpecError
 from ..paths import REFERENCE_DIR, RESULTS_DIR, ROOT
 from . import scripts
 from .state import FAILED
@@ -77,9 +75,8 @@ def lock_run(spec: run_spec.DemSpec, results_dir: Path) -> int:
 def stored_spec(h5: Path) -> dict | None:
     """The spec a run file records (its provenance), or None where it cannot be read."""
     try:
-        with h5py.File(h5, "r") as f:
-            return json.loads(f["provenance"].attrs["spec_json"])
-    except (OSError, KeyError, ValueError):
+        return run_provenance(h5)[2].to_dict()
+    except DemFileError:
         return None
 
 

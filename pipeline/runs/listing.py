@@ -10,12 +10,10 @@ import json
 import sys
 from pathlib import Path
 
-import h5py
-
 from ..cli import Parser, one_line_errors
 from ..dataset import drift
-from ..dataset.dem_file import load
-from ..errors import PipelineError
+from ..dataset.dem_file import load, run_provenance
+from ..errors import DemFileError, PipelineError
 from ..paths import DATA_ROOTS, ROOT
 from .state import read_json, run_state
 
@@ -26,9 +24,8 @@ def overrides_of(h5: Path, run_dir: Path) -> dict | None:
     """The run's overrides, from its file's provenance or its folder's ``spec.json`` (None: unreadable)."""
     if h5.exists():
         try:
-            with h5py.File(h5, "r") as f:
-                return json.loads(f["provenance"].attrs["overrides"])
-        except (OSError, KeyError, ValueError):
+            return dict(run_provenance(h5)[2].overrides)
+        except DemFileError:
             return None
     stored = read_json(run_dir / "spec.json")
     return None if stored is None else stored.get("overrides")

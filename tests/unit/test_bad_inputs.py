@@ -170,7 +170,7 @@ FIT_CASES = [
     (["--window", "5", "--runs", "{inp}/theta180.h5"], "window=5.0 must be a positive strain shorter"),
     (["--runs", "{inp}/theta180.h5", "{inp}/theta180.h5"], "is the same run as"),
     (["--runs", "{inp}/junk.h5"], "cannot open"),
-    (["--runs", "{inp}/missing.h5"], "/raw lacks fabric"),
+    (["--runs", "{inp}/missing.h5"], "/raw/fabric is missing"),
     (["--runs", "{inp}/nan.h5"], "/raw/fabric has non-finite values"),
     (["--runs", "{inp}/short.h5"], "samples do not cover every cycle"),
     (["--runs", "{inp}/theta090.h5"], "not a reversal run"),

@@ -16,6 +16,7 @@ import pytest
 from dem.core.rawfile import write_raw
 from dem.lammps import lib as lammps_lib
 from pipeline import spec as run_spec
+from pipeline.dataset.dem_file import SCHEMA, SCHEMA_VERSION
 from pipeline.errors import SpecError
 from pipeline.paths import ROOT
 from pipeline.runs import launch as dem
@@ -38,6 +39,8 @@ def test_prepare_writes_the_spec_and_refuses_a_checkpoint_of_another_spec(tmp_pa
 def write_run_file(out, spec: dict):
     out.parent.mkdir(parents=True, exist_ok=True)
     with h5py.File(out, "w") as f:
+        f.attrs.update(schema=SCHEMA, schema_version=SCHEMA_VERSION)
+        f.create_group("parameters")
         f.create_group("provenance").attrs["spec_json"] = json.dumps(spec, sort_keys=True)
 
 
