@@ -240,6 +240,24 @@ def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | 
         theta, rotate_at, default_rotate_at), "folder": run_folder(preset, engine, overrides)})
 
 
+def filing_problems(stored: dict, spec: DemSpec) -> list[str]:
+    """How a run file's spec (``stored`` as written, ``spec`` as read) disagrees with the name and folder it is
+    filed under by its own values: its name from its angle and rotation (``run_name``), its folder from its preset,
+    engine and overrides (``run_folder``), and each override its stated value. Values it does not override are not
+    compared with today's preset: presets gain keys and change defaults, and a run is what its spec says it was."""
+    problems = []
+    name = run_name(spec.theta_deg, spec.rotate_at_strain, spec.period_strain / 2)
+    if name != spec.name:
+        problems.append(f"its angle and rotation make it {name}, not {spec.name}")
+    folder = run_folder(spec.preset, spec.engine, spec.overrides)
+    if folder != spec.folder:
+        problems.append(f"its preset, engine and overrides file it in {folder}, not {spec.folder}")
+    for key, value in spec.overrides.items():
+        if key in stored and not _same_value(stored[key], value):
+            problems.append(f"{key}={stored[key]!r} but its override says {value!r}")
+    return problems
+
+
 def _same_value(given, preset_value) -> bool:
     try:
         return float(given) == float(preset_value)

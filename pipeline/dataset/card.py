@@ -2,12 +2,13 @@
 own provenance, so the card cannot drift from the files.
 
 ``python -m pipeline.dataset.card [--check] [--root data/reference] [--card data/reference/README.md]`` rewrites the
-table between the card's two markers, or with ``--check`` exits 1 when the table is out of date.
+table between the card's two markers and the SHA-256 of every run file into ``MANIFEST.sha256`` beside it
+(``pipeline/dataset/manifest.py``: what the stages check a committed file against), or with ``--check`` exits 1 when
+either is out of date.
 """
 
 from __future__ import annotations
 
-import functools
 import json
 import sys
 from pathlib import Path
@@ -18,7 +19,7 @@ from ..cli import Parser, one_line_errors
 from ..errors import DemFileError, PipelineError
 from ..io import atomic_path
 from ..paths import ROOT
-from . import drift
+from . import drift, manifest
 from .dem_file import cpu_seconds, cpu_seconds_counted, load, run_provenance, sessions
 
 BEGIN = "<!-- inventory: written by make data-card from the files themselves; do not edit by hand -->"
@@ -27,51 +28,6 @@ HEADER = ("| file | engine | θ | rotation | seed | other overrides | cycles | g
           "| sessions (ranks) | commits | finished | MB | SHA-256 |")
 #: the checksum's hex digits the card keeps: enough to tell a changed file, short enough to read
 SHA_DIGITS = 16
-
-
-def sha256_of(path: Path) -> str:
-    """The first ``SHA_DIGITS`` hex digits of the file's SHA-256."""
-    import hashlib
-
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()[:SHA_DIGITS]
-
-
-def card_checksums(card_path: Path) -> dict[str, str]:
-    """``{file relative to the card's folder: checksum}`` from a data card's inventory (empty without one); read
-    once per version of the card (its modification time), not once per run file."""
-    try:
-        return dict(_checksums(str(card_path), card_path.stat().st_mtime_ns))
-    except OSError:
-        return {}
-
-
-@functools.lru_cache(maxsize=8)
-def _checksums(card_path: str, _mtime_ns: int) -> tuple:
-    try:
-        card = Path(card_path).read_text()
-    except OSError:
-        return ()
-    if card.count(BEGIN) != 1 or card.count(END) != 1:
-        return ()
-    rows = card.split(BEGIN)[1].split(END)[0].splitlines()
-    cells = ([c.strip() for c in row.strip().strip("|").split("|")] for row in rows)
-    return tuple((c[0].strip("`"), c[-1].strip("`")) for c in cells
-                 if len(c) == HEADER.count("|") - 1 and c[0].startswith("`"))
-
-
-def check_committed(path: Path) -> None:
-    """A run file under a folder with a data card (``<root>/<folder>/dem/<name>.h5``, ``<root>/README.md``) must
-    have the checksum the card gives it: a committed file changed by hand, or damaged, is a one-line error before it
-    is believed. A file the card does not list is not checked here (``make data-card`` lists it)."""
-    root = path.parents[2]
-    expected = card_checksums(root / "README.md").get(str(path.relative_to(root)))
-    if expected is not None and sha256_of(path) != expected:
-        raise DemFileError(f"{path} does not match its checksum in {root / 'README.md'} ({expected}): it was changed "
-                           "or damaged; restore it (git checkout) or, if the change is meant, make data-card")
 
 
 def describe(path: Path, root: Path) -> dict:
@@ -95,7 +51,7 @@ def describe(path: Path, root: Path) -> dict:
             "sessions": len(runs), "ranks": sorted({int(s.get("ranks", 1)) for s in runs}) or [1],
             "commits": list(dict.fromkeys(c[:7] + ("-dirty" if c.endswith("-dirty") else "") for c in commits)),
             "finished": str(prov.get("finished", ""))[:10], "megabytes": path.stat().st_size / 1e6,
-            "sha256": sha256_of(path)}
+            "sha256": manifest.sha256(path)[:SHA_DIGITS]}
 
 
 def inventory(root: Path) -> str:
@@ -167,14 +123,17 @@ def main(argv=None) -> int:
         raise PipelineError(f"cannot read {card_path}: {exc.strerror}") from None
     updated = with_inventory(card, "\n".join([inventory(args.root), *in_progress(args.root)]), card_path)
     if args.check:
-        if updated != card:
-            print(f"{card_path}: the inventory is out of date: make data-card", file=sys.stderr)
+        stale = manifest.stale(args.root)
+        if updated != card or stale:
+            print(f"{card_path}: the inventory or {manifest.MANIFEST} is out of date: make data-card "
+                  f"({'; '.join(stale[:3]) or 'the table'})", file=sys.stderr)
             return 1
-        print(f"{card_path}: the inventory matches the files")
+        print(f"{card_path}: the inventory and {manifest.MANIFEST} match the files")
         return 0
     with atomic_path(card_path) as tmp:
         tmp.write_text(updated)
-    print(f"wrote the inventory of {updated.count(chr(10) + '| `')} runs into {card_path}")
+    listed = manifest.write(args.root)
+    print(f"wrote the inventory of {listed} runs into {card_path}, their SHA-256 into {args.root / manifest.MANIFEST}")
     return 0
 
 

@@ -3,13 +3,14 @@ data."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from .. import spec as run_spec
 from ..errors import PipelineError
 from ..paths import DATA_ROOTS, preset_files
-from .card import check_committed
 from .dem_file import DemRun, load
+from .manifest import check_committed
 from .selection import DataSet
 
 
@@ -21,6 +22,10 @@ def load_of_preset(path: Path, preset: str) -> DemRun:
     if run.spec.preset != preset:
         raise PipelineError(f"{path} is a run of preset {run.spec.preset!r} by its provenance, not of "
                             f"{preset!r}: move it to results/{run.spec.preset}/dem/")
+    problems = run_spec.filing_problems(json.loads(run.provenance["spec_json"]), run.spec)
+    if problems:
+        raise PipelineError(f"{path}: its spec is not the run it names ({'; '.join(problems)}): it cannot stand for "
+                            "that run")
     filed_as = f"{path.parent.parent.name}/{path.stem}"
     if filed_as != run.spec.label():
         raise PipelineError(f"{path} is the run {run.spec.label()} by its provenance, filed as {filed_as}: move it to "

@@ -21,6 +21,8 @@ import numpy as np
 import model
 from dem.core.schema import check_row
 from pipeline.config import load_presets, protocol_defaults
+from pipeline.engines import ENGINES
+from pipeline.spec import run_folder, run_name
 
 PERIOD, PRE, STEP = (protocol_defaults()[k] for k in ("period_strain", "pre_strain", "sample_strain"))
 #: a 10d x 8.5d cell of grains of diameter d: the gap follows Phi, so Phi of the gap is the model's Phi too
@@ -122,10 +124,12 @@ def synthetic_raw(theta_deg: float, params: model.Params | None = None, n_cycles
     # no dense samples
     values = {**load_presets()["reduced"], "width_d": WIDTH, "period_strain": PERIOD, "sample_strain": STEP,
               "n_cycles": int(n_cycles), "pre_strain": PRE, "inertial_number": gamma_dot, "seed": int(seed),
-              "dense_window_strain": 0.0, "dense_sample_strain": 0.0}
+              "dense_window_strain": 0.0, "dense_sample_strain": 0.0, **(overrides or {})}
     spec = {"spec_version": 1, "preset": preset, "engine": engine, "overrides": dict(overrides or {}),
-            "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2, "name": f"theta{theta_deg:g}",
-            "folder": preset, **values}
+            "theta_deg": float(theta_deg), "rotate_at_strain": PERIOD / 2,
+            "name": run_name(theta_deg, PERIOD / 2, PERIOD / 2),
+            "folder": run_folder(preset, engine, overrides) if engine in ENGINES else preset,
+            **values}
     meta = {"spec": spec, "yade_version": "none (synthetic, made by the model)", "dt": 1.0, "kn": 0.0, "kt": 0.0,
             "cn": 0.0, "ct": 0.0, "n_grains": N_GRAINS, "n_wall_spheres": 0, "gap0": 8.5, "wall_speed": 0.0,
             "gamma_dot_nominal": gamma_dot, "t_shear0": 0.0, "iterations": int(n * 1000), "callback_seconds": 0.0,

@@ -18,7 +18,7 @@ from pipeline.dataset.selection import DataSet
 from pipeline.errors import CalibrationError, PipelineError
 from pipeline.io import read_params
 from pipeline.schema import read_fit
-from pipeline.spec import resolve
+from pipeline.spec import resolve, run_folder
 from tests.helpers import RUNS_AWAY, fit_summary, module_main, synthetic_file, synthetic_run
 
 fit_main = module_main("pipeline.calibration")
@@ -103,30 +103,31 @@ def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(
 
 def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path):
     results, reference = tmp_path / "results", tmp_path / "reference"
+    s2, f30 = run_folder("p", overrides={"seed": 2}), run_folder("p", overrides={"friction_deg": 30})
     seed2 = {"overrides": {"seed": 2}, "seed": 2}  # a run's spec holds its seed, its overrides what was set
     for root, folder, theta, kw in ((results, "p", 180.0, {"seed": 1}), (reference, "p", 180.0, {"seed": 1}),
-                                    (reference, "p-1a2b", 180.0, seed2),
-                                    (reference, "p-9f9f", 180.0, {"overrides": {"friction_deg": 30}, "seed": 1}),
-                                    (reference, "p", 90.0, {"seed": 1}), (reference, "p-1a2b", 90.0, seed2)):
+                                    (reference, s2, 180.0, seed2),
+                                    (reference, f30, 180.0, {"overrides": {"friction_deg": 30}, "seed": 1}),
+                                    (reference, "p", 90.0, {"seed": 1}), (reference, s2, 90.0, seed2)):
         (root / folder / "dem").mkdir(parents=True, exist_ok=True)
         path = synthetic_file(root / folder / "dem", theta=theta, name=f"theta{int(theta):03d}", n_cycles=1,
                               preset="p", **kw)
         assert path.exists()
     roots = (results, reference)
     assert [r.path for r in lookup.reversal_seeds(DataSet("p"), roots)] == [results / "p/dem/theta180.h5",
-                                                                   reference / "p-1a2b/dem/theta180.h5"]
+                                                                   reference / s2 / "dem/theta180.h5"]
     angles = lookup.other_angles(lookup.preset_runs(DataSet("p"), roots))
     assert [r.path for r in angles] == [reference / "p/dem/theta090.h5"]
     # the fit takes every seed of every angle, the other overrides' runs apart
     assert [r.path for r in lookup.fit_runs(DataSet("p"), roots)] == [
-        results / "p/dem/theta180.h5", reference / "p-1a2b/dem/theta180.h5",
-        reference / "p/dem/theta090.h5", reference / "p-1a2b/dem/theta090.h5"]
+        results / "p/dem/theta180.h5", reference / s2 / "dem/theta180.h5",
+        reference / "p/dem/theta090.h5", reference / s2 / "dem/theta090.h5"]
     # one seed's runs, for `python -m pipeline.comparison --seed N`; a seed with no run names the seeds there are
-    assert [r.path for r in lookup.runs_at_seed(DataSet("p"), 2, roots)] == [reference / "p-1a2b/dem/theta090.h5",
-                                                                          reference / "p-1a2b/dem/theta180.h5"]
+    assert [r.path for r in lookup.runs_at_seed(DataSet("p"), 2, roots)] == [reference / s2 / "dem/theta090.h5",
+                                                                          reference / s2 / "dem/theta180.h5"]
     # what the comparison of one seed's runs sets beside them: the other seeds' runs of the data set
     assert [r.path for r in lookup.other_seeds_of(DataSet("p"), lookup.preset_runs(DataSet("p"), roots), roots)] == [
-        reference / "p-1a2b/dem/theta090.h5", reference / "p-1a2b/dem/theta180.h5"]
+        reference / s2 / "dem/theta090.h5", reference / s2 / "dem/theta180.h5"]
     with pytest.raises(PipelineError, match=r"seed=5: p \(yade\) has runs of seeds 1, 2 only"):
         lookup.runs_at_seed(DataSet("p"), 5, roots)
     # a writer's hidden temporary is not a run
@@ -169,14 +170,15 @@ def test_each_engines_runs_are_found_apart():
 
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
-        for folder, engine, kw in (("p", "yade", {}), ("p-1a2b", "yade", {"overrides": {"seed": 2}}),
-                                   ("p-lammps", "lammps", {}), ("p-lammps-3c4d", "lammps", {"overrides": {"seed": 2}})):
+        yade_seed2, lammps_seed2 = run_folder("p", "yade", {"seed": 2}), run_folder("p", "lammps", {"seed": 2})
+        for folder, engine, kw in (("p", "yade", {}), (yade_seed2, "yade", {"overrides": {"seed": 2}}),
+                                   ("p-lammps", "lammps", {}), (lammps_seed2, "lammps", {"overrides": {"seed": 2}})):
             (root / folder / "dem").mkdir(parents=True)
             synthetic_file(root / folder / "dem", name="theta180", n_cycles=1, preset="p", engine=engine, **kw)
         yade = lookup.reversal_seeds(DataSet("p"), (root,))
         lammps = lookup.reversal_seeds(DataSet("p", "lammps"), (root,))
-        assert [r.path.parts[-3] for r in yade] == ["p", "p-1a2b"] and {r.engine for r in yade} == {"yade"}
-        assert [r.path.parts[-3] for r in lammps] == ["p-lammps", "p-lammps-3c4d"]
+        assert [r.path.parts[-3] for r in yade] == ["p", yade_seed2] and {r.engine for r in yade} == {"yade"}
+        assert [r.path.parts[-3] for r in lammps] == ["p-lammps", lammps_seed2]
         assert [r.path.parts[-3] for r in lookup.preset_runs(DataSet("p", "lammps"), (root,))] == ["p-lammps"]
         with pytest.raises(PipelineError, match="engine='foo' is not a DEM engine"):
             lookup.reversal_seeds(DataSet("p", "foo"), (root,))

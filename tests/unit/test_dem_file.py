@@ -1,7 +1,9 @@
 """The DEM post-processing and HDF5 round trip, on synthetic runs made by the model (known truth)."""
 
 import dataclasses
+import json
 
+import h5py
 import numpy as np
 import pytest
 
@@ -204,12 +206,27 @@ def test_a_run_filed_under_another_runs_name_or_folder_is_refused(tmp_path):
     moved.rename(dem / "theta060.h5")
     with pytest.raises(PipelineError, match=r"is the run p/theta075 by its provenance, filed as p/theta060"):
         lookup.preset_runs(DataSet("p"), (tmp_path,))
+    # its spec's name and folder edited to the place it is filed at: its angle still tells
+    with h5py.File(dem / "theta060.h5", "r+") as f:
+        stored = json.loads(f["provenance"].attrs["spec_json"])
+        f["provenance"].attrs["spec_json"] = json.dumps({**stored, "name": "theta060"})
+    with pytest.raises(PipelineError, match=r"its angle and rotation make it theta075, not theta060"):
+        lookup.preset_runs(DataSet("p"), (tmp_path,))
     (dem / "theta060.h5").unlink()
     lammps = tmp_path / "p-lammps" / "dem"
     lammps.mkdir(parents=True)
-    synthetic_file(lammps, name="theta090", n_cycles=1, preset="p", engine="lammps").rename(dem / "theta090.h5")
+    synthetic_file(lammps, theta=90.0, name="theta090", n_cycles=1, preset="p", engine="lammps").rename(
+        dem / "theta090.h5")
     with pytest.raises(PipelineError, match=r"is the run p-lammps/theta090 by its provenance, filed as p/theta090"):
         lookup.every_seed(DataSet("p"), (tmp_path,))
+    (dem / "theta090.h5").unlink()
+    # a value that its override contradicts (the inertial number edited, the override and folder kept)
+    with h5py.File(dem / "theta180.h5", "r+") as f:
+        stored = json.loads(f["provenance"].attrs["spec_json"])
+        f["provenance"].attrs["spec_json"] = json.dumps({**stored, "overrides": {"inertial_number": 0.002}})
+    with pytest.raises(PipelineError, match=r"preset, engine and overrides file it in p-[0-9a-f]{8}, not p; "
+                                            r"inertial_number=0.001 but its override says 0.002"):
+        lookup.preset_runs(DataSet("p"), (tmp_path,))
 
 
 def test_samples_that_land_late_in_a_coarse_step_are_still_told_grid_from_dense():
