@@ -3,7 +3,7 @@
 Rojas & Kamrin, Soft Matter (2025), Sections 3.2, 3.3 and 5; conventions in ``model.kinematics``.
 """
 
-from .kernel_cache import keyed_by_sources
+from .kernel_cache import keyed_by_sources, rebuilding_when_damaged
 
 with keyed_by_sources():
     from . import laws
@@ -29,6 +29,9 @@ with keyed_by_sources():
     from .material_point import Update, update
     from .params import PAPER, ParameterError, Params
     from .solver import Result, SolverError, integrate, periodic, predict, reversal_start_rate, steady_state
+
+integrate, periodic, predict, steady_state, update, reversal_start_rate = map(
+    rebuilding_when_damaged, (integrate, periodic, predict, steady_state, update, reversal_start_rate))
 
 __all__ = [
     "PAPER", "PERIOD_STRAIN", "ROTATE_AT_STRAIN", "History", "HistoryError", "ParameterError", "Params", "Result",

@@ -19,6 +19,31 @@ from .tensors import spin_rate
 # indices into Params.as_array() of Eq. 13's parameters; the fabric law's code and its own follow (model.laws)
 (C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C) = range(13)
 
+#: the densest packing of spheres, pi/(3 sqrt 2) = 0.7405 (Kepler; equal spheres): a packing fraction of Eq. 18 at
+#: or above it is no packing. Not the random close packing of the paper's grains (diameters uniform on [0.5d, 1.5d]:
+#: about 0.65-0.67), which Table 2's own Eq. 18 passes (0.672 after a reversal); see docs/model.md
+PHI_MAX = math.pi / (3.0 * math.sqrt(2.0))
+#: eigenvalues of A = <n n> - I/3 (Eq. 8)
+FABRIC_BOUNDS = (-1.0 / 3.0, 2.0 / 3.0)
+
+
+@jit
+def fabric_within_bounds(a11, a22, a12, a13, a23, slack):
+    """Whether the traceless fabric's eigenvalues lie within ``FABRIC_BOUNDS`` (widened by ``slack``): in closed
+    form (a traceless symmetric A has eigenvalues 2 sqrt(J2/3) cos(t + 2 pi k/3), J2 = |A|^2/2, cos 3t =
+    (3 sqrt 3 / 2) det A / J2^(3/2)); any A with |A|^2 <= 1/6 is within them."""
+    a33 = -a11 - a22
+    norm2 = a11 * a11 + a22 * a22 + a33 * a33 + 2.0 * (a12 * a12 + a13 * a13 + a23 * a23)
+    if norm2 <= 1.0 / 6.0:
+        return True
+    j2 = 0.5 * norm2
+    det = (a11 * (a22 * a33 - a23 * a23) - a12 * (a12 * a33 - a23 * a13) + a13 * (a12 * a23 - a22 * a13))
+    c = min(1.0, max(-1.0, 1.5 * math.sqrt(3.0) * det / j2 ** 1.5))
+    t = math.acos(c) / 3.0
+    r = 2.0 * math.sqrt(j2 / 3.0)
+    lo, hi = FABRIC_BOUNDS
+    return r * math.cos(t) <= hi + slack and r * math.cos(t + 2.0 * math.pi / 3.0) >= lo - slack
+
 
 @jit
 def double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23):

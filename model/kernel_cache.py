@@ -2,14 +2,19 @@
 
 numba checks a cached kernel against its own module's file only, so a kernel that inlines a function of another
 module (``integrator.dop853`` calls ``equations.fabric_rates``) would be loaded stale after that module changed.
-Keyed by a digest of every source of the package, a changed source gets fresh kernels.
+Keyed by a digest of every source of the package, a changed source gets fresh kernels. A damaged cache (a truncated
+or overwritten file) is removed with a warning and the kernels compile again (``rebuilding_when_damaged``).
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import os
+import shutil
+import traceback
+import warnings
 from pathlib import Path
 
 import numba
@@ -43,3 +48,26 @@ def keyed_by_sources():
         yield
     finally:
         numba.config.CACHE_DIR = before
+
+
+def _raised_by_the_cache(exc: BaseException) -> bool:
+    """Whether ``exc`` came out of numba's reading of a cached kernel (a damaged or truncated file)."""
+    frames = traceback.extract_tb(exc.__traceback__)
+    return any(f.filename.replace(os.sep, "/").endswith("numba/core/caching.py") for f in frames)
+
+
+def rebuilding_when_damaged(function):
+    """``function`` (a public entry of the model), which on finding its compiled kernels' cache damaged warns once,
+    removes the cache folder (``folder()``) and runs again: the kernels compile afresh and are cached anew."""
+    @functools.wraps(function)
+    def wrapper(*args, **kwargs):
+        try:
+            return function(*args, **kwargs)
+        except Exception as exc:
+            if not _raised_by_the_cache(exc):
+                raise
+            warnings.warn(f"the model's compiled-kernel cache {folder()} is damaged ({type(exc).__name__}): "
+                          "removed; the kernels compile again", RuntimeWarning, stacklevel=2)
+            shutil.rmtree(folder(), ignore_errors=True)
+            return function(*args, **kwargs)
+    return wrapper

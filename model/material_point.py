@@ -23,7 +23,7 @@ import numba
 import numpy as np
 
 from . import integrator, laws, stepper
-from .equations import K_PERSIST, hardening_variable, yield_function
+from .equations import K_PERSIST, PHI_MAX, fabric_within_bounds, hardening_variable, yield_function
 from .equations import C as C_INDEX
 from .jit import jit
 from .params import Params
@@ -34,14 +34,22 @@ DEFAULT_ATOL = 1e-11
 FABRIC_TOL = 1e-8  # allowed asymmetry and trace of an input fabric (absolute)
 ROUNDOFF_STRETCHING = 1e-12  # |D'| up to this fraction of |L| is round-off: the point is stationary
 MAX_STEPS = 100_000  # integrator steps per point and update
-_BAD_A, _BAD_SYM, _BAD_TRACE, _BAD_PHI, _BAD_L, _BAD_DT = range(1, 7)
+BOUNDS_SLACK = 1e-9  # round-off allowed beyond Eq. 8's eigenvalue bounds, as in ``model.predict``
+_BAD_A, _BAD_SYM, _BAD_TRACE, _BAD_PHI, _BAD_L, _BAD_DT, _BAD_BOUNDS = range(1, 8)
+#: what a point's step may end in besides ``model.integrator``'s statuses: a state outside the physics
+TOO_DENSE, FABRIC_OUT_OF_BOUNDS = 101, 102
+OUTCOMES = {**integrator.STATUS_MESSAGES,
+            TOO_DENSE: "the packing fraction would reach or pass pi/(3 sqrt 2) = 0.7405, denser than any packing of "
+                       "spheres (Eq. 18's c2, c3, Phi_c or the law's parameters leave the physics)",
+            FABRIC_OUT_OF_BOUNDS: "the fabric would leave the bounds of Eq. 8 (eigenvalues within -1/3..2/3)"}
 _PROBLEMS = {
     _BAD_A: "A[{i}] has non-finite entries",
     _BAD_SYM: "A[{i}] is not symmetric (asymmetry {value:.3g} > fabric_tol)",
     _BAD_TRACE: "A[{i}] is not traceless (trace {value:.3g} > fabric_tol)",
-    _BAD_PHI: "phi[{i}]={value!r} must lie in (0, 1)",
+    _BAD_PHI: "phi[{i}]={value!r} must lie in (0, 0.7405) (pi/(3 sqrt 2), the densest packing of spheres)",
     _BAD_L: "L[{i}] is not finite or too large: the sum of its squared entries is {value:.3g}",
     _BAD_DT: "dt[{i}]={value!r} must be finite and >= 0",
+    _BAD_BOUNDS: "A[{i}] leaves the bounds of Eq. 8 (eigenvalues within -1/3..2/3; |A|^2 = {value:.4g})",
 }
 
 
@@ -94,7 +102,14 @@ def _check_inputs(A, phi, L, dt, fabric_tol):
         trace = a[0, 0] + a[1, 1] + a[2, 2]
         if abs(trace) > fabric_tol:
             return _BAD_TRACE, i, trace
-        if not 0.0 < phi[i] < 1.0:
+        if not fabric_within_bounds(a[0, 0], a[1, 1], 0.5 * (a[0, 1] + a[1, 0]), 0.5 * (a[0, 2] + a[2, 0]),
+                                    0.5 * (a[1, 2] + a[2, 1]), BOUNDS_SLACK):
+            norm2 = 0.0
+            for j in range(3):
+                for k in range(3):
+                    norm2 += a[j, k] * a[j, k]
+            return _BAD_BOUNDS, i, norm2
+        if not 0.0 < phi[i] < PHI_MAX:
             return _BAD_PHI, i, phi[i]
     for i in range(L.shape[0]):
         total = 0.0
@@ -222,6 +237,12 @@ def _update_range(start, stop, A, phi, X, L, dt, p, lam_ref, rtol, atol,
         steps, status = stepper.advance(y, Dh, Wn, rate, p, lam_ref, dti, rtol, atol, MAX_STEPS, work)
         steps_out[i] = steps
         stationary_out[i] = False
+        # Eq. 18 in closed form: 1/Phi(dt) = exp(-G)/Phi(0) + v (see model.integrator)
+        phi_new = 1.0 / (math.exp(-y[integrator.G_INDEX]) / phi[i] + y[integrator.V_INDEX])
+        if status == integrator.SUCCESS and not 0.0 < phi_new < PHI_MAX:
+            status = TOO_DENSE
+        if status == integrator.SUCCESS and not fabric_within_bounds(y[0], y[1], y[2], y[3], y[4], BOUNDS_SLACK):
+            status = FABRIC_OUT_OF_BOUNDS
         if status != integrator.SUCCESS:
             failures += 1
             if first_failure < 0:
@@ -231,8 +252,7 @@ def _update_range(start, stop, A, phi, X, L, dt, p, lam_ref, rtol, atol,
                     tau_out[i, j, k] = math.nan
             S_out[i] = math.nan
             continue  # A_out[i] and phi_out[i] are left alone: the input state, when out is the input
-        # Eq. 18 in closed form: 1/Phi(dt) = exp(-G)/Phi(0) + v (see model.integrator)
-        phi_out[i] = 1.0 / (math.exp(-y[integrator.G_INDEX]) / phi[i] + y[integrator.V_INDEX])
+        phi_out[i] = phi_new
         for j in range(n_own):
             X_out[i, j] = y[integrator.N_STATE + j]
         S_out[i] = _write_state(y, Dh, p, A_out[i], tau_out[i])
@@ -247,9 +267,12 @@ def _update_serial(A, phi, X, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, X_o
 
 
 CHUNK = 256  # points per parallel task
+#: held while numba's pool runs an update: numba's "workqueue" layer (where neither TBB nor OpenMP is installed)
+#: aborts the process when two Python threads enter a parallel kernel at once, so parallel updates take turns
+_POOL = threading.Lock()
 
 
-@numba.njit(parallel=True, cache=True, nogil=True)
+@numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
 def _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, X_out, tau_out, S_out, steps_out,
                      stationary_out):
     n = A.shape[0]
@@ -369,11 +392,13 @@ def update(A, phi, L, dt, params: Params | None = None, out: Update | None = Non
         point's L (for "elastic": K = kappa D'/|D'|). Ignored by a law without (k = 0).
     rtol, atol, s_ref : per-step tolerances and regularisation of the integrator
         (``model.stepper``); see docs/model.md for their cost against accuracy.
-    threads : 1 (default) or more: points are shared among that many numba threads.
+    threads : 1 (default) or more: points are shared among that many numba threads; safe from several Python
+        threads at once under every threading layer numba may pick (updates on the pool take turns).
 
     Returns the ``Update``. Raises ``SolverError`` on bad input (one line, naming the first bad point)
-    before any work, and after the step if a point could not be integrated (those points keep their
-    start state).
+    before any work, and after the step if a point could not be integrated or would leave the physics (Phi at or
+    above pi/(3 sqrt 2), the densest packing of spheres; A outside Eq. 8's bounds), as ``model.predict`` does
+    (those points keep their start state).
     """
     params = _params(params)
     p = params.as_array()
@@ -405,14 +430,14 @@ def update(A, phi, L, dt, params: Params | None = None, out: Update | None = Non
         # a few points, or a caller's own thread (numba's workqueue pool takes one caller at a time): no pool
         failures, first, status = _update_serial(A, phi, X, L, dt, p, lam_ref, rtol, atol, *arrays)
     else:  # the pool's kernel, on one thread too: compiled as a parallel loop it runs about 15 % faster per thread
-        previous = numba.get_num_threads()
-        numba.set_num_threads(threads)
-        try:
-            failures, first, status = _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, *arrays)
-        finally:
-            numba.set_num_threads(previous)
+        with _POOL:
+            previous = numba.get_num_threads()
+            numba.set_num_threads(threads)
+            try:
+                failures, first, status = _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, *arrays)
+            finally:
+                numba.set_num_threads(previous)
     if failures:
-        raise SolverError(f"update failed at {failures} point(s), first at point {first}: "
-                          f"{integrator.STATUS_MESSAGES[int(status)]}")
+        raise SolverError(f"update failed at {failures} point(s), first at point {first}: {OUTCOMES[int(status)]}")
     return out
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .equations import PHI_MAX
 from .laws import CODE, LAWS, law_parameters
 from .laws import DEFAULT as DEFAULT_LAW
 
@@ -105,8 +106,9 @@ class Params:
             if not 0 <= shared["c2_exponent"] <= C2_EXPONENT_MAX:  # S**c2_exponent stays a number, S ~ 0.01-1
                 problems.append(f"c2_exponent={shared['c2_exponent']} must lie in [0, {C2_EXPONENT_MAX:g}] (c2(S) = "
                                 "c2_coef S**c2_exponent vanishes at larger exponents)")
-            if not 0 < shared["phi_c"] < 1:
-                problems.append(f"phi_c={shared['phi_c']} must lie in (0, 1)")
+            if not 0 < shared["phi_c"] < PHI_MAX:
+                problems.append(f"phi_c={shared['phi_c']} must lie in (0, {PHI_MAX:.4f}) (pi/(3 sqrt 2), the "
+                                "densest packing of spheres)")
             for q in own:
                 if not q.low <= mine[q.name] <= q.high:
                     problems.append(f"{q.name}={mine[q.name]} must lie in [{q.low}, {q.high}]")

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import integrator, laws
-from .equations import PHI_C, fabric_rates
+from .equations import FABRIC_BOUNDS, PHI_C, PHI_MAX, fabric_rates
 from .kinematics import (
     ROTATE_AT_STRAIN,
     History,
@@ -34,7 +34,6 @@ OUTPUT_STRAIN_STEP = 0.005
 #: where the persistence exponent k of Eq. 12 sits in ``Params.as_array()``
 PERSISTENCE_INDEX = Params.names().index("persistence_exponent")
 MIN_RTOL = 1e-13
-FABRIC_BOUNDS = (-1.0 / 3.0, 2.0 / 3.0)  # eigenvalues of A = <n n> - I/3 (Eq. 8)
 
 
 class SolverError(RuntimeError):
@@ -224,6 +223,10 @@ def _assemble(history, strains, y_out, p, packing_fraction, stats, method, **ext
     )
     if not finite:
         raise SolverError(f"{method}: non-finite fabric or packing fraction in the output")
+    if np.max(phi) >= PHI_MAX:
+        raise SolverError(f"{method}: the packing fraction reaches {np.max(phi):.4g} at strain "
+                          f"{strains[int(np.argmax(phi))]:.4g}, denser than any packing of spheres (pi/(3 sqrt 2) = "
+                          f"{PHI_MAX:.4f}): the parameters (Eq. 18's c2, c3, Phi_c, or the law's) leave the physics")
     if min_S < 0:
         raise SolverError(f"{method}: negative S in the output")
     if max_norm2 > 1.0 / 6.0:
@@ -279,8 +282,9 @@ def integrate(
     # the law's state A is the fabric less the part the law holds beyond it where the history starts (kappa D'/|D'|
     # of "jump", K of "elastic"); an isotropic start is a state of zero, before any shear
     phi0 = params.phi_c if packing_fraction0 is None else float(packing_fraction0)
-    if not (math.isfinite(phi0) and 0 < phi0 < 1):
-        raise SolverError(f"packing_fraction0={packing_fraction0!r} must lie in (0, 1)")
+    if not (math.isfinite(phi0) and 0 < phi0 < PHI_MAX):
+        raise SolverError(f"packing_fraction0={packing_fraction0!r} must lie in (0, {PHI_MAX:.4f}) (pi/(3 sqrt 2), "
+                          "the densest packing of spheres)")
     part, own = _start(params, history.packed.D_unit[0], phi0)
     if law_state0 is not None:  # the law's own state given: the fabric less kappa D'/|D'| and its part is A
         own = np.asarray(law_state0, dtype=float).reshape(-1)

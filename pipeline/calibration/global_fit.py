@@ -366,7 +366,7 @@ def refine_dilatancy(data: list[FitCycle], params: model.Params) -> GlobalFit:
     """c2_coef and Phi_c of Eq. 18 fitted to the DEM's Phi over every cycle, with c1 = -C (Eq. 19)
     and c3, the c2 exponent and the flow rule and fabric law of ``params`` held fixed."""
     base = with_eq19_c1(params)
-    lower, upper = np.array([1e-3, 0.3]), np.array([100.0, 0.9])
+    lower, upper = np.array([1e-3, 0.3]), np.array([100.0, model.equations.PHI_MAX])  # Phi_c below Phi_max
     x0 = np.array([base.c2_coef, float(np.mean(np.concatenate([d.phi for d in data])))])
     x0 = np.clip(x0, lower + 1e-3 * (upper - lower), upper - 1e-3 * (upper - lower))
     sol = least_squares(_dilatancy_residuals, x0, args=(data, base), x_scale=[1.0, 0.01],

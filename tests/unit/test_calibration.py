@@ -248,9 +248,9 @@ def test_dilatancy_fit_at_a_bound_is_an_error(tmp_path):
     import dataclasses
 
     data = FitCycle.from_run(synthetic_run(tmp_path, n_cycles=1))
-    too_dense = dataclasses.replace(data, phi=np.full_like(data.phi, 0.97))  # denser than any Phi_c in bounds
+    too_loose = dataclasses.replace(data, phi=np.full_like(data.phi, 0.2))  # looser than any Phi_c in bounds
     with pytest.raises(CalibrationError, match=r"sits at a bound: (c2_coef|phi_c) = "):
-        global_fit.refine_dilatancy([too_dense], TRUE)
+        global_fit.refine_dilatancy([too_loose], TRUE)
 
 
 def test_dilatancy_estimator_recovers_eq18_given_the_true_c1(tmp_path):

@@ -26,3 +26,46 @@ def test_the_cache_folder_follows_every_source_of_the_package(tmp_path, monkeypa
 def test_numba_setting_is_restored_after_the_import():
     assert model.predict(90).cycle_residual < 1e-10
     assert numba.config.CACHE_DIR != kernel_cache.folder()
+
+
+#: a kernel module of its own, cached where the test says, its entry wrapped as the model's are
+KERNEL = '''
+import importlib.util
+import sys
+import numba
+found = importlib.util.spec_from_file_location("kernel_cache", sys.argv[2])  # the module alone, not the model
+kernel_cache = importlib.util.module_from_spec(found)
+found.loader.exec_module(kernel_cache)
+kernel_cache.folder = lambda: sys.argv[1]
+numba.config.CACHE_DIR = sys.argv[1]
+@numba.njit(cache=True)
+def twice(x):
+    return 2.0 * x
+print(kernel_cache.rebuilding_when_damaged(twice)(21.0))
+'''
+
+
+def test_a_damaged_kernel_cache_is_rebuilt_with_a_warning(tmp_path):
+    """Every file of the cache overwritten (as a full disk or a stray copy may leave it): one warning, the folder
+    removed, the kernel compiled again, the right answer; the next run reads the new cache quietly."""
+    import subprocess
+    import sys
+
+    (tmp_path / "kernels.py").write_text(KERNEL)
+    cache = tmp_path / "cache"
+
+    def run():
+        return subprocess.run([sys.executable, str(tmp_path / "kernels.py"), str(cache), kernel_cache.__file__],
+                              capture_output=True, text=True, cwd=tmp_path)
+
+    first = run()
+    assert first.stdout.strip() == "42.0" and first.stderr == "", first.stderr
+    damaged = [p for p in cache.rglob("*") if p.is_file()]
+    assert damaged
+    for path in damaged:
+        path.write_bytes(b"{not a kernel")
+    again = run()
+    assert again.returncode == 0 and again.stdout.strip() == "42.0", again.stderr
+    assert "compiled-kernel cache" in again.stderr and "is damaged (UnpicklingError)" in again.stderr
+    quiet = run()
+    assert quiet.stdout.strip() == "42.0" and quiet.stderr == ""

@@ -21,7 +21,7 @@ from model import (
     predict,
     update,
 )
-from model.equations import observables
+from model.equations import fabric_within_bounds, observables
 from model.kinematics import shear_velocity_gradient
 
 STRAIN_STEP = 0.005
@@ -175,6 +175,41 @@ def test_one_thread_from_callers_own_threads_at_once_agrees_with_the_main_thread
         assert np.array_equal(result.A, expected.A) and np.array_equal(result.phi, expected.phi)
 
 
+#: several Python threads updating on numba's pool at once, under the threading layer ``sys.argv[1]``
+CONCURRENT = """
+import sys, threading
+import numpy as np
+import numba
+numba.config.THREADING_LAYER = sys.argv[1]
+from model import update
+from tests.unit.test_material_point import random_batch
+A, phi, L, dt = random_batch()
+expected = update(A, phi, L, dt)
+same = []
+def work():
+    for _ in range(3):
+        result = update(A, phi, L, dt, threads=2)
+        same.append(bool(np.array_equal(result.A, expected.A) and np.array_equal(result.phi, expected.phi)))
+workers = [threading.Thread(target=work) for _ in range(3)]
+[w.start() for w in workers]
+[w.join() for w in workers]
+print(numba.threading_layer(), len(same), all(same))
+"""
+
+
+def test_two_threads_each_from_callers_own_threads_at_once_under_numbas_workqueue_layer():
+    """The one layer that is not thread-safe (numba's own, where TBB and OpenMP are missing) would abort the process
+    when two Python threads enter the pool at once: they take turns, and agree with the serial update."""
+    import subprocess
+    import sys
+
+    from pipeline.paths import ROOT
+
+    proc = subprocess.run([sys.executable, "-c", CONCURRENT, "workqueue"], capture_output=True, text=True, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-800:]
+    assert proc.stdout.split() == ["workqueue", "9", "True"]
+
+
 def test_in_place_update_and_broadcast_forms():
     cycle = predict(90)
     A, phi = cycle.A[:50].copy(), cycle.packing_fraction[:50].copy()
@@ -238,8 +273,10 @@ GOOD = {"A": np.zeros((2, 3, 3)), "phi": [0.6, 0.6], "L": shear_velocity_gradien
     ({"A": np.stack([np.zeros((3, 3)), np.diag([1e-6, 0, 0])])}, r"A\[1\] is not traceless"),
     ({"A": np.stack([np.zeros((3, 3)), np.triu(np.ones((3, 3)), 1) * 0.01])}, r"A\[1\] is not symmetric"),
     ({"A": np.full((2, 3, 3), np.nan)}, r"A\[0\] has non-finite entries"),
-    ({"phi": [0.6, 1.0]}, r"phi\[1\]=1.0 must lie in \(0, 1\)"),
+    ({"phi": [0.6, 1.0]}, r"phi\[1\]=1.0 must lie in \(0, 0.7405\)"),
+    ({"phi": [0.6, 0.75]}, r"phi\[1\]=0.75 must lie in \(0, 0.7405\) \(pi/\(3 sqrt 2\), the densest packing"),
     ({"phi": [0.6]}, r"phi has shape \(1,\), expected \(2,\)"),
+    ({"A": np.stack([np.zeros((3, 3)), np.diag([0.7, -0.35, -0.35])])}, r"A\[1\] leaves the bounds of Eq. 8"),
     ({"L": np.zeros((3, 3, 3))}, r"L has shape \(3, 3, 3\), expected \(3, 3\) or \(2, 3, 3\)"),
     ({"L": np.full((3, 3), np.inf)}, r"L\[0\] is not finite or too large"),
     ({"L": np.full((3, 3), 1e200)}, r"L\[0\] is not finite or too large: the sum of its squared entries is inf"),
@@ -254,6 +291,48 @@ def test_bad_input_is_one_line_naming_the_value(change, message):
     with pytest.raises(SolverError, match=message) as info:
         update(**{**GOOD, **change})
     assert "\n" not in str(info.value)
+
+
+def in_place(A, phi, params):
+    """An ``Update`` whose fabric and packing fraction are ``A`` and ``phi`` themselves."""
+    out = Update.empty(len(phi), params)
+    out.A, out.phi = A, phi
+    return out
+
+
+def test_a_step_that_would_leave_the_physics_is_refused_naming_the_point_which_keeps_its_state():
+    """Eq. 18 past the densest packing of spheres (``jump`` at its bound kappa = 0.1, where ``predict`` refuses
+    too), and a fabric outside Eq. 8's bounds: the step is refused at the first such point, which keeps its start
+    state, in place as in a new output."""
+    dense = model.Params(variant="jump", jump_fabric=0.1)
+    with pytest.raises(SolverError, match=r"denser than any packing") as info:
+        model.predict(180, params=dense)
+    assert "\n" not in str(info.value)
+    A = np.zeros((3, 3, 3))
+    phi = np.array([0.6, 0.6, 0.7404])
+    L = np.stack([shear_velocity_gradient(0.0)] * 3)
+    kept_A, kept_phi = A.copy(), phi.copy()
+    with pytest.raises(SolverError, match=r"failed at 1 point\(s\), first at point 2: the packing fraction would "
+                                          r"reach or pass pi/\(3 sqrt 2\) = 0.7405"):
+        update(A, phi, L, 0.5, params=dense, out=in_place(A, phi, dense))
+    assert np.array_equal(A[2], kept_A[2]) and phi[2] == kept_phi[2]  # the refused point: as it was
+    assert not np.array_equal(A[0], kept_A[0]) and phi[0] != kept_phi[0]  # the others: stepped
+    # a fabric without recovery (a1 = a2 = b2 = 0) near its bound, compressed along it, leaves Eq. 8's bounds
+    with pytest.raises(SolverError, match=r"first at point 0: the fabric would leave the bounds of Eq. 8"):
+        update(np.diag([0.6, -0.3, -0.3])[None], [0.6], np.diag([-1.0, 0.5, 0.5]), 0.05,
+               params=model.PAPER.replace(a1=0.0, a2=0.0, b2=0.0))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_closed_form_bound_of_the_fabric_agrees_with_its_eigenvalues(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(2000):
+        B = rng.normal(size=(3, 3)) * rng.uniform(0.05, 0.6)
+        A = 0.5 * (B + B.T)
+        A -= np.trace(A) / 3 * np.eye(3)
+        eig = np.linalg.eigvalsh(A)
+        inside = eig.min() >= -1 / 3 and eig.max() <= 2 / 3
+        assert fabric_within_bounds(A[0, 0], A[1, 1], A[0, 1], A[0, 2], A[1, 2], 0.0) == inside
 
 
 def test_numpy_scalars_are_numbers_and_outputs_that_overlap_are_refused():

@@ -66,7 +66,7 @@ def test_error_follows_requested_tolerance(rtol, budget):
 def test_outputs_between_steps_are_as_accurate_as_the_steps(b2_factor):
     # outputs come from the dense output; with a stiff relaxation (b2 x 10) the steady part of the
     # cycle takes long steps whose interpolant is only trusted after the defect check
-    params = PAPER.replace(b2=b2_factor * PAPER.b2)
+    params = PAPER.replace(b2=b2_factor * PAPER.b2, phi_c=LOOSE)
     exact = predict(180, params=params, rtol=1e-13, atol=1e-16)
     A_ref, _, _ = reference.solve(periodic_cycle(180), exact.A[0], exact.packing_fraction[0], params, exact.strain)
     approx = integrate(periodic_cycle(180), A0=exact.A[0], packing_fraction0=exact.packing_fraction[0],
@@ -205,8 +205,12 @@ def test_the_reversal_start_rate_tells_a_reversal_that_turns_from_one_that_runs_
         shear_velocity_gradient(0.0), turns)[0])
 
 
+#: Phi_c lowered beside a stiffer fabric law or no dilatancy coupling, so that Eq. 18 stays a packing of spheres
+LOOSE = 0.55
+
+
 def test_extreme_parameters_b2_times_ten():
-    params = PAPER.replace(b2=10 * PAPER.b2)
+    params = PAPER.replace(b2=10 * PAPER.b2, phi_c=LOOSE)
     cycle = predict(180, params=params)
     A, _, _ = reference.solve(periodic_cycle(180), cycle.A[0], cycle.packing_fraction[0], params, cycle.strain)
     assert np.max(np.abs(A - cycle.A)) < 1e-9
@@ -238,7 +242,7 @@ def test_second_law_holds_when_c1_equals_minus_C(theta, rotate_at):
 
 
 def test_second_law_check_can_fail():
-    cycle = predict(180, params=PAPER.replace(c1=0.0))
+    cycle = predict(180, params=PAPER.replace(c1=0.0, phi_c=LOOSE))
     assert cycle.w_shear.min() < 0 and cycle.w_total.min() < 0
 
 
