@@ -33,6 +33,7 @@ def one_line_errors(main):
     import sys
 
     import model
+    from dem.core.rawfile import DISK_FULL
 
     from .errors import PipelineError
 
@@ -43,5 +44,32 @@ def one_line_errors(main):
         except (PipelineError, model.ParameterError, model.SolverError) as exc:
             print(f"error: {printable(exc)}", file=sys.stderr)
             return 2
+        except OSError as exc:
+            if not disk_full(exc):
+                raise
+            print(f"error: {printable(full_disk_message(exc))}", file=sys.stderr)
+            return DISK_FULL
 
     return wrapped
+
+
+def disk_full(exc: OSError) -> bool:
+    """A full, over-quota or read-only disk (h5py reports it in its message, without an errno)."""
+    from dem.core.rawfile import DISK_ERRORS
+
+    return exc.errno in DISK_ERRORS or any(text in str(exc) for text in ("No space left", "Disk quota", "Read-only"))
+
+
+def full_disk_message(exc: OSError) -> str:
+    """One line naming the folder whose disk is full and its free space: free some and run the same command again
+    (every output is written atomically, so nothing half-written was left)."""
+    import shutil
+    from pathlib import Path
+
+    from .paths import RESULTS_DIR
+
+    path = Path(exc.filename) if getattr(exc, "filename", None) else RESULTS_DIR
+    folder = next((p for p in (path, *path.parents) if p.is_dir()), RESULTS_DIR)
+    free = shutil.disk_usage(folder).free
+    return (f"cannot write in {folder} ({exc.strerror or exc}; {free / 2**20:.1f} MiB free there): free some space "
+            "(a fit's folder takes a few MB) and run the same command again")

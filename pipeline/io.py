@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -33,6 +34,30 @@ def atomic_paths(*paths: Path):
             os.replace(tmp, path)
         for folder in {Path(p).parent for p in paths}:
             _sync(folder)
+
+
+@contextlib.contextmanager
+def h5_file(path: Path):
+    """An HDF5 file to fill, built in memory and written to ``path`` with plain writes once complete: HDF5's own
+    writes onto a full disk leave its objects broken (a cascade of errors, then a segmentation fault at exit),
+    where a plain write raises one ``OSError`` that the command turns into one line."""
+    import io as bytes_io
+
+    import h5py
+
+    buffer = bytes_io.BytesIO()
+    with h5py.File(buffer, "w") as f:
+        yield f
+    write_bytes(path, buffer.getbuffer())
+
+
+def write_bytes(path: Path, data) -> None:
+    """``data`` into ``path``; an error names the file (a failed ``write`` alone does not)."""
+    try:
+        with open(path, "wb") as fh:
+            fh.write(data)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(path)) from None
 
 
 def check_output_path(path: Path) -> None:
@@ -82,7 +107,7 @@ def _sync(path: Path) -> None:
 
 def write_text(path: Path, text: str) -> Path:
     with atomic_path(path) as tmp:
-        tmp.write_text(text)
+        write_bytes(tmp, text.encode("utf-8"))
     return Path(path)
 
 
@@ -110,15 +135,40 @@ def write_params(path: Path, params, metadata: dict | None = None) -> Path:
     return write_text(path, params.to_json(metadata))
 
 
+#: the largest text file a stage reads (parameters, records, ladders: the largest, a fit's JSON, is about 200 kB)
+MAX_TEXT_BYTES = 16 << 20
+
+
+def read_bounded(path: Path, limit: int = MAX_TEXT_BYTES) -> bytes:
+    """The bytes of ``path``, which must be a regular file (a FIFO would hang, a device never end) of at most
+    ``limit`` bytes; else ``OSError`` with a message of one line."""
+    info = os.stat(path)
+    if not stat.S_ISREG(info.st_mode):
+        raise OSError(f"{path} is not a regular file")
+    with open(path, "rb") as fh:
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise OSError(f"{path} is larger than {limit} bytes")
+    return data
+
+
+def read_text(path: Path, limit: int = MAX_TEXT_BYTES) -> str:
+    """``read_bounded`` as UTF-8 text (an undecodable byte is an ``OSError`` too)."""
+    try:
+        return read_bounded(path, limit).decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise OSError(f"{path} is not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+
+
 def read_params(path: Path):
     """A ``model.Params`` from a JSON file; a missing or unreadable file is a one-line ``PipelineError``."""
     import model
 
     path = Path(path)
     try:
-        text = path.read_text()
+        text = read_text(path)
     except OSError as exc:
-        raise PipelineError(f"{path}: cannot read parameters ({exc.strerror})") from None
+        raise PipelineError(f"{path}: cannot read parameters ({exc.strerror or exc})") from None
     return model.Params.from_json(text, str(path))
 
 

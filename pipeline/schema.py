@@ -27,7 +27,7 @@ def read_json_object(path: Path, what: str, make: str, kind: type = dict):
     """A JSON object (or ``kind``: a list of rows) from ``path``; missing, unreadable or of another kind is a
     one-line error naming the make target that writes it."""
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(io.read_text(Path(path)))
     except FileNotFoundError:
         raise PipelineError(f"{path} not found: run `make {make}` first") from None
     except (OSError, ValueError) as exc:
@@ -80,7 +80,7 @@ def read_params(path: Path) -> ParamsFile:
     """``params.json`` checked: the parameters (``model.Params.from_json``) and metadata of this version; else a
     one-line error."""
     params = io.read_params(path)
-    metadata = json.loads(Path(path).read_text()).get("metadata")
+    metadata = json.loads(io.read_text(Path(path))).get("metadata")
     if metadata is not None and not isinstance(metadata, dict):
         raise PipelineError(f"{path}: metadata is not a JSON object")
     version = (metadata or {}).get("schema_version", 1)
@@ -135,7 +135,7 @@ class FitSummary:
 
 def write_fit(path: Path, summary: FitSummary) -> None:
     """``fit.json`` (inside the calibration's atomic set of outputs)."""
-    Path(path).write_text(io.json_text(summary.to_dict()))
+    io.write_bytes(path, io.json_text(summary.to_dict()).encode())
 
 
 def read_fit(path: Path) -> FitSummary:

@@ -114,6 +114,9 @@ QUASI_STATIC_I = 1e-2  # above this inertial number the flow is no longer quasi-
 MAX_SEED = 2**31 - 1
 MIN_SAMPLE_STRAIN = 5e-4  # every sample is a pass over the contacts and a row of profiles
 MIN_PROFILE_BIN_D = 0.25
+#: the most grains a run may create, and about what each costs the engine (bodies, contacts, collider; Yade's
+#: paper cell, 5 714 grains, holds about 40 MB): a cell of 7e8 grains would ask for hundreds of GiB
+MAX_GRAINS, BYTES_PER_GRAIN = 2_000_000, 8 * 1024
 MIN_TRACK_STRAIN = 2.5e-5  # every tracking point is a pass over the contacts (tens of steps in the quick cells)
 
 
@@ -147,6 +150,10 @@ def _physical_problems(v: DemSpec) -> list[str]:
     if grains < 10:
         problems.append(f"fill_packing_fraction={v.fill_packing_fraction!r} gives {grains:.0f} grains: at "
                         "least 10 are needed")
+    if grains > MAX_GRAINS:
+        problems.append(f"width_d={v.width_d!r}, gap_d={v.gap_d!r} and fill_packing_fraction="
+                        f"{v.fill_packing_fraction!r} give {grains:.3g} grains, more than {MAX_GRAINS:.0e} (about "
+                        f"{MAX_GRAINS * BYTES_PER_GRAIN / 2**30:.0f} GiB of memory in the engine)")
     if v.sample_strain < MIN_SAMPLE_STRAIN:
         problems.append(f"sample_strain={v.sample_strain!r} must be >= {MIN_SAMPLE_STRAIN} (a sample costs "
                         "a pass over every contact; dense_sample_strain samples finer after each change)")
@@ -161,6 +168,10 @@ def _physical_problems(v: DemSpec) -> list[str]:
     if v.checkpoint_steps < 1000:
         problems.append(f"checkpoint_steps={v.checkpoint_steps!r} must be >= 1000 (a checkpoint costs a save)")
     return problems
+
+
+#: the longest run name (its file's stem): a rotation strain of many digits would make a name no file system takes
+MAX_NAME_CHARS = 96
 
 
 _NUMBER = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?")
@@ -236,8 +247,12 @@ def resolve(theta_deg, preset: str = "quick", rotate_at=None, overrides: dict | 
     rotate_at = parse_number("rotate_at", rotate_at)
     if not 0 < rotate_at < period:
         raise SpecError(f"rotate_at={rotate_at!r} must lie strictly between 0 and period_strain={period}")
-    return DemSpec.from_dict({**candidate.to_dict(), "rotate_at_strain": rotate_at, "name": run_name(
-        theta, rotate_at, default_rotate_at), "folder": run_folder(preset, engine, overrides)})
+    name = run_name(theta, rotate_at, default_rotate_at)
+    if len(name) > MAX_NAME_CHARS:
+        raise SpecError(f"theta={theta_deg!r} and rotate_at={rotate_at!r} name the run with {len(name)} characters "
+                        f"(at most {MAX_NAME_CHARS}): give them with fewer digits")
+    return DemSpec.from_dict({**candidate.to_dict(), "rotate_at_strain": rotate_at, "name": name,
+                              "folder": run_folder(preset, engine, overrides)})
 
 
 def filing_problems(stored: dict, spec: DemSpec) -> list[str]:

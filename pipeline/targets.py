@@ -296,7 +296,7 @@ def fidelity(v: Variables, run: bool) -> list[Call]:
     engine = v.choice("ENGINE", ENGINES, DEFAULT_ENGINE)
     ladder = v.path("LADDER") or str(FIDELITY_LADDER.relative_to(ROOT))
     out = fidelity_output(ROOT / ladder, engine).relative_to(ROOT)
-    study = ("--run", "--jobs", v.whole("JOBS", "2")) if run else ()
+    study = ("--run", "--jobs", v.whole("JOBS", "2"), *(["--allow-many"] if v.flag("MANY") else [])) if run else ()
     return [Call("pipeline.studies.fidelity", (*study, "--engine", engine, "--ladder", ladder, "--out", str(out))),
             Call("pipeline.figures.fidelity", ("--table", str(out / "table.json")))]
 

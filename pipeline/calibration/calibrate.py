@@ -15,8 +15,6 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import h5py
-
 import model
 
 from .. import io, schema
@@ -285,7 +283,7 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
 
 def write_arrays(path: Path, arrays: dict, per_run: list[dict], cross: list[dict]) -> None:
     """fit.h5: the per-sample values behind the fit (alpha_i, beta_i, Y, C against S)."""
-    with h5py.File(path, "w") as f:
+    with io.h5_file(path) as f:
         f.attrs.update(schema="granular-backstress/fit", schema_version=1)
         for group, items, meta in (("reversal", arrays["reversal"], per_run),
                                    ("cross_check", arrays["cross_check"], cross)):
@@ -309,7 +307,7 @@ def write(cal: Calibration, out_dir: Path) -> None:
         schema.write_params(tmp["params.json"], cal.params, cal.params_metadata())
         schema.write_fit(tmp["fit.json"], cal.summary())
         if cal.stepwise is not None:
-            tmp["params_stepwise.json"].write_text(cal.stepwise.to_json())
+            io.write_bytes(tmp["params_stepwise.json"], cal.stepwise.to_json().encode())
     if cal.stepwise is None:
         (out_dir / "params_stepwise.json").unlink(missing_ok=True)
 

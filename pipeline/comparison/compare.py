@@ -38,7 +38,7 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
     the fit, the smoothed tau12/p split into backstress C A12 and isotropic part; per change of direction with a
     memory (``metrics.memory_curves``, the compared runs' first, then other seeds'), the memory of the old direction
     against the strain after the change (the DEM's mean over cycles and its standard error, each parameter set's)."""
-    with h5py.File(path, "w") as f:
+    with io.h5_file(path) as f:
         schema.stamp_compare(f)
         f.attrs.update(preset=preset, strain_measure=runs[0].definitions.strain,
                        param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
@@ -135,7 +135,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
     with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
         write_compare_h5(h5, runs, predictions, sets, preset, parts, curves + more, other_seeds, others)
         found = schema.Metrics(**result)
-        js.write_text(io.json_text(found.to_dict()))
+        io.write_bytes(js, io.json_text(found.to_dict()).encode())
     return found
 
 

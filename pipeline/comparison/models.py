@@ -25,7 +25,6 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 import model
@@ -251,7 +250,7 @@ def jump_curve(run, preds: dict) -> dict:
 
 
 def write_curves(path: Path, drawn: dict) -> None:
-    with h5py.File(path, "w") as f:
+    with io.h5_file(path) as f:
         f.attrs.update(schema="granular-backstress/models", schema_version=MODELS_VERSION)
         for kind, items in drawn.items():
             for k, item in enumerate(items):
@@ -421,8 +420,8 @@ def main(argv=None) -> int:
                "weight": weight, "train_angles": list(TRAIN_ANGLES), "beyond_noise_z": BEYOND_NOISE_Z,
                "variants": results, "not_fitted": not_fitted, "verdict": judgements}
     with io.atomic_paths(*(out / n for n in ("models.json", "models.md", "models.h5"))) as (js, md, h5):
-        js.write_text(io.json_text(summary))
-        md.write_text(markdown(chosen.label, results, judgements, not_fitted))
+        io.write_bytes(js, io.json_text(summary).encode())
+        io.write_bytes(md, markdown(chosen.label, results, judgements, not_fitted).encode())
         write_curves(h5, curves(runs, results))
     for r in results:
         io.write_params(out / f"params-{r['variant']}.json", model.Params.from_dict(r["params"]),

@@ -17,7 +17,7 @@ from dem.core.spec import DemSpec
 
 from ..cli import Parser, one_line_errors
 from ..errors import DemFileError, PipelineError
-from ..io import atomic_path
+from ..io import atomic_path, write_bytes
 from ..paths import ROOT
 from . import drift, manifest
 from .dem_file import cpu_seconds, cpu_seconds_counted, load, run_provenance, sessions
@@ -131,7 +131,7 @@ def main(argv=None) -> int:
         print(f"{card_path}: the inventory and {manifest.MANIFEST} match the files")
         return 0
     with atomic_path(card_path) as tmp:
-        tmp.write_text(updated)
+        write_bytes(tmp, updated.encode())
     listed = manifest.write(args.root)
     print(f"wrote the inventory of {listed} runs into {card_path}, their SHA-256 into {args.root / manifest.MANIFEST}")
     return 0

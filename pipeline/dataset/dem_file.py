@@ -27,7 +27,6 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from dem.core.protocol import on_grid, sample_strains
@@ -36,7 +35,7 @@ from dem.core.spec import LEGACY_ENGINE, DemSpec
 from model.cli import printable
 
 from ..errors import DemFileError
-from ..io import atomic_path
+from ..io import atomic_path, h5_file
 from . import derived
 from .reader import RunFileReader
 
@@ -85,7 +84,7 @@ def write_h5(raw_path: Path, out: Path, provenance: dict) -> None:
     # every cycle complete on the grid?
     grid = grid_samples(raw["strain"], spec)
     derived.cycle_indices(raw["strain"][grid], spec.period_strain, spec.sample_strain, spec.n_cycles)
-    with atomic_path(out) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_path(out) as tmp, h5_file(tmp) as f:
         f.attrs.update(schema=SCHEMA, schema_version=SCHEMA_VERSION, creator="granular-backstress",
                        created=dt.datetime.now().isoformat(timespec="seconds"), conventions=CONVENTIONS)
         prov = f.create_group("provenance")

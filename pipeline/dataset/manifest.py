@@ -14,7 +14,7 @@ import re
 from pathlib import Path
 
 from ..errors import DemFileError
-from ..io import atomic_path
+from ..io import atomic_path, write_bytes
 from ..paths import REFERENCE_DIR
 
 MANIFEST = "MANIFEST.sha256"
@@ -60,7 +60,7 @@ def write(root: Path) -> int:
     """Write ``root``'s manifest from its run files (atomically); how many it lists."""
     files = run_files(root)
     with atomic_path(root / MANIFEST) as tmp:
-        tmp.write_text("".join(f"{sha256(p)}  {p.relative_to(root).as_posix()}\n" for p in files), encoding="ascii")
+        write_bytes(tmp, "".join(f"{sha256(p)}  {p.relative_to(root).as_posix()}\n" for p in files).encode("ascii"))
     return len(files)
 
 

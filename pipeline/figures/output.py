@@ -2,19 +2,22 @@
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-from ..io import atomic_path
+from ..io import atomic_path, write_bytes
 
 
 def save(fig, out: Path, dpi: int = 110) -> Path:
     """Lay out ``fig``, write it to ``out`` through a temporary file, close it; returns ``out``."""
     fig.tight_layout()
-    with atomic_path(out) as tmp:
-        fig.savefig(tmp, dpi=dpi)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, dpi=dpi, format=out.suffix.lstrip(".") or "png")
     plt.close(fig)
+    with atomic_path(out) as tmp:
+        write_bytes(tmp, buffer.getbuffer())  # an error names the file
     return out
 
 

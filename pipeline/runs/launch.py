@@ -19,11 +19,11 @@ import subprocess
 import sys
 from pathlib import Path
 
-from dem.core.rawfile import DISK_ERRORS, DISK_FULL
+from dem.core.rawfile import DISK_FULL
 
 from .. import engines, io
 from .. import spec as run_spec
-from ..cli import Parser, one_line_errors
+from ..cli import Parser, disk_full, one_line_errors
 from ..dataset.dem_file import run_provenance, write_h5
 from ..errors import DemFileError, SpecError
 from ..paths import REFERENCE_DIR, RESULTS_DIR, ROOT
@@ -334,18 +334,13 @@ def main(argv=None) -> int:
     try:
         out = run(spec, args.results, args.fresh, args.threads, args.ranks)
     except OSError as exc:
-        if not disk_error(exc):
+        if not disk_full(exc):
             raise
         print(f"error: cannot write in {args.results} ({exc.strerror or exc}): free space, then rerun the same "
               "command to resume (the run's folder keeps its checkpoint or samples)", file=sys.stderr)
         return DISK_FULL
     print(f"wrote {out}")
     return 0
-
-
-def disk_error(exc: OSError) -> bool:
-    """A full, over-quota or read-only disk (h5py reports it in its message, without an errno)."""
-    return exc.errno in DISK_ERRORS or any(text in str(exc) for text in ("No space left", "Disk quota", "Read-only"))
 
 
 if __name__ == "__main__":

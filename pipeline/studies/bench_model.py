@@ -28,6 +28,7 @@ from model import (
 )
 from model.equations import observables
 
+from .. import io
 from ..cli import Parser
 from ..figures.output import save
 
@@ -212,7 +213,7 @@ def main(argv=None) -> int:
     df.to_csv(args.out / "work_precision.csv", index=False)
     sweep_df.to_csv(args.out / "sweep.csv", index=False)
     summary_df.to_csv(args.out / "targets.csv", index=False)
-    (args.out / "report.md").write_text(report)
+    io.write_text(args.out / "report.md", report)
     plot(df, args.out / "work_precision.png")
     print(report)
     return 0

@@ -69,6 +69,10 @@ def worst_error(rtol: float) -> float:
     return worst
 
 
+#: the most points per update the benchmark makes (states, gradients and outputs of every variant: about 2 kB each)
+MAX_POINTS = 2_000_000
+
+
 def spread_points(n: int, params: Params = PAPER):
     """n points at phases spread over the theta = 90 deg cycle: their states and each step's L."""
     L, cycle = cycle_steps(SPEED_ANGLE, params)
@@ -133,8 +137,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=Path("results/bench"), help="output folder")
     parser.add_argument("--points", type=int, default=100_000, help="points per update (default 1e5)")
     args = parser.parse_args(argv)
-    if args.points < 1:
-        parser.error(f"--points={args.points} must be >= 1")
+    if not 1 <= args.points <= MAX_POINTS:
+        parser.error(f"--points={args.points} must lie in 1..{MAX_POINTS} (each point holds about 2 kB here)")
     args.out.mkdir(parents=True, exist_ok=True)
     cores = min(os.cpu_count() or 1, numba.config.NUMBA_NUM_THREADS)
     A, phi, L, _ = spread_points(4)

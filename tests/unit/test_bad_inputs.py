@@ -7,6 +7,7 @@ process, in the ``slow`` tests."""
 import os
 import shutil
 import subprocess
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -15,8 +16,10 @@ import pytest
 import model
 from model.cli import main as model_main
 from model.cli import save_params
+from pipeline import schema
 from pipeline.paths import ROOT
 from pipeline.runs.launch import main as launch_main
+from pipeline.studies.fidelity.__main__ import main as fidelity_main
 from tests.helpers import module_main, run_main, synthetic_file
 
 fit_main, compare_main, figures_main = (module_main(f"pipeline.{m}") for m in ("calibration", "comparison", "figures"))
@@ -70,6 +73,8 @@ DEM_CASES = [
     (["--theta", "90", "--set", "seed=0x10"], "override seed='0x10' is not a number"),
     (["--theta", "90", "--rotate-at", "2"], "rotate_at=2.0 must lie strictly between 0 and period_strain=1.4"),
     (["--theta", "90", "--rotate-at", "abc"], "rotate_at='abc' is not a number"),
+    (["--theta", "90", "--rotate-at", "1e-320"], "name the run with 334 characters (at most 96)"),
+    (["--theta", "90", "--set", "width_d=1000", "--set", "gap_d=850"], "give 7.14e+08 grains, more than 2e+06"),
     (["--theta", "90", "--threads", "0"], "threads=0 must be between 1 and 256"),
     (["--theta", "90", "--threads", "x"], "argument --threads: invalid int value: 'x'"),
     (["--theta", "90", "--engine", "foo"], "engine='foo' is not a DEM engine here (known: yade, lammps)"),
@@ -339,3 +344,34 @@ def test_an_empty_path_is_refused_not_taken_as_the_current_folder(tmp_path, monk
     proc = run_main(module_main(module), argv)
     assert proc.returncode == 2 and "is empty: give a path" in proc.stderr, proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "folder", "too large"])
+def test_a_file_a_stage_reads_must_be_regular_and_bounded(tmp_path, kind):
+    """A ladder, a parameters file or a record that is a FIFO (which would hang), a device (which never ends), a
+    folder, or larger than the bound: one line, at once."""
+    import os
+
+    from pipeline import io
+    from pipeline.errors import PipelineError, SpecError
+    from pipeline.studies.fidelity import ladder
+
+    path = {"fifo": tmp_path / "fifo", "device": Path("/dev/zero"), "folder": tmp_path,
+            "too large": tmp_path / "large"}[kind]
+    if kind == "fifo":
+        os.mkfifo(path)
+    if kind == "too large":
+        path.write_bytes(b" " * (io.MAX_TEXT_BYTES + 1))
+    for read in (ladder.load, io.read_params, schema.read_fit):
+        with pytest.raises((SpecError, PipelineError)) as err:
+            read(path)
+        assert "\n" not in str(err.value) and str(path) in str(err.value)
+
+
+def test_make_fidelity_with_a_ladder_of_many_runs_asks_for_many(tmp_path):
+    ladder_file = tmp_path / "wide.toml"
+    ladder_file.write_text('preset = "reduced"\nthetas = [30.0, 60.0, 90.0]\n[axes.seed]\nvalues = ['
+                           + ", ".join(f"{{ seed = {k} }}" for k in range(1, 72)) + "]\n")
+    proc = run_main(fidelity_main, ["--run", "--ladder", str(ladder_file), "--out", str(tmp_path / "out")])
+    assert proc.returncode == 2 and "runs, more than 200: MANY=1 (--allow-many)" in proc.stderr
+    assert not (tmp_path / "out").exists()

@@ -389,9 +389,10 @@ def test_bench_reports_errors_rates_and_thread_scaling(tmp_path):
     assert "| threads | updates/s |" in (tmp_path / "update.md").read_text()
 
 
-def test_bench_refuses_no_points(tmp_path, capsys):
+@pytest.mark.parametrize("points", ["0", "999999999"])
+def test_bench_refuses_no_points_and_more_than_memory_holds(tmp_path, capsys, points):
     from pipeline.studies import bench_update
 
     with pytest.raises(SystemExit):
-        bench_update.main(["--out", str(tmp_path), "--points", "0"])
-    assert "--points=0 must be >= 1" in capsys.readouterr().err
+        bench_update.main(["--out", str(tmp_path), "--points", points])
+    assert f"--points={points} must lie in 1..2000000" in capsys.readouterr().err

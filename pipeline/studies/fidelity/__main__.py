@@ -16,9 +16,10 @@ from pathlib import Path
 
 from ... import engines, io
 from ...cli import Parser, one_line_errors
+from ...errors import SpecError
 from ...paths import FIDELITY_LADDER, ROOT, fidelity_output
 from ...runs.sweep.local import run_local
-from ...runs.sweep.plan import write_plan
+from ...runs.sweep.plan import MAX_TASKS, write_plan
 from ...runs.sweep.slurm import load_cluster_config, submit
 from . import ladder, render, table
 from .gather import csv_text, summaries, top_summaries
@@ -35,6 +36,7 @@ def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.studies.fidelity", description=__doc__.splitlines()[0])
     parser.add_argument("--run", action="store_true", help="make the ladder's missing DEM runs first")
     parser.add_argument("--jobs", type=int, default=2, help="runs side by side (default 2)")
+    parser.add_argument("--allow-many", action="store_true", help=f"allow more than {MAX_TASKS} runs (MANY=1)")
     parser.add_argument("--launch", choices=("local", "slurm"), default="local")
     parser.add_argument("--engine", default=engines.DEFAULT_ENGINE,
                         help=f"the DEM engine of the ladder's runs: {', '.join(engines.ENGINES)}")
@@ -51,6 +53,9 @@ def main(argv=None) -> int:
     rungs = ladder.rungs(ladder_config, args.engine, args.ladder.name)
     out = io.check_writable_dir(args.out)
     missing = ladder.missing(rungs)
+    if args.run and len(missing) > MAX_TASKS and not args.allow_many:
+        raise SpecError(f"the ladder {args.ladder} asks for {len(missing)} runs, more than {MAX_TASKS}: MANY=1 "
+                        "(--allow-many) if you mean it")
     if args.run and missing:
         sweep = ladder.sweep_of(missing, ladder_config["preset"])
         write_plan(sweep)

@@ -14,6 +14,9 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from model.cli import printable
+
+from ... import io
 from ... import spec as run_spec
 from ...config import load_presets
 from ...dataset import lookup, selection
@@ -41,12 +44,15 @@ class Rung:
         return " ".join(f"{k}={v:g}" for k, v in self.overrides.items())
 
 
+#: the largest ladder file read (the project's is 2 kB)
+MAX_LADDER_BYTES = 1 << 20
+
+
 def load(path: Path = FIDELITY_LADDER) -> dict:
     try:
-        with path.open("rb") as f:
-            ladder = tomllib.load(f)
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise SpecError(f"{path}: cannot read the ladder ({exc})") from None
+        ladder = tomllib.loads(io.read_bounded(path, MAX_LADDER_BYTES).decode("utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise SpecError(f"{path}: cannot read the ladder ({printable(exc)})") from None
     if "preset" not in ladder or not ladder.get("axes"):
         raise SpecError(f"{path}: a ladder needs a preset and at least one axis")
     if ladder["preset"] not in load_presets():
