@@ -10,6 +10,7 @@ from __future__ import annotations
 import ctypes
 import datetime as dt
 import fcntl
+import functools
 import json
 import os
 import shutil
@@ -185,14 +186,37 @@ PR_SET_PDEATHSIG = 1
 
 def mpi_command(ranks: int) -> list[str]:
     """``mpirun -np RANKS`` (Debian's OpenMPI), allowed to run as root where this is root and more ranks than cores
-    where asked for (OpenMPI refuses both by default); none for one rank."""
+    where asked for (OpenMPI refuses both by default); none for one rank. Where every rank runs here, in a network
+    namespace of its own with only the loopback (``loopback_only``): mpirun's listeners, which bind every interface,
+    then answer nobody outside it."""
     if ranks == 1:
         return []
     mpirun = shutil.which("mpirun")
     if mpirun is None:
         raise SpecError("mpirun not found: run `make system-lammps` (apt-get install openmpi-bin)")
-    return [mpirun, "-np", str(ranks), *(["--allow-run-as-root"] if os.geteuid() == 0 else []),
+    isolated = loopback_only() if scripts.on_this_machine(ranks) else []
+    if isolated is None:
+        print("note: mpirun listens on every network interface here (this machine gives no network namespace: user "
+              "namespaces are off or `unshare`/`ip` missing); only its own ranks connect", file=sys.stderr)
+    root_inside = bool(isolated) or os.geteuid() == 0  # unshare -r maps this user to root inside
+    return [*(isolated or []), mpirun, "-np", str(ranks), *(["--allow-run-as-root"] if root_inside else []),
             *(["--oversubscribe"] if ranks > (os.cpu_count() or 1) else [])]
+
+
+#: runs what follows its arguments with the loopback up, in the network namespace ``unshare -rn`` made
+LOOPBACK_UP = 'ip link set lo up && exec "$@"'
+
+
+@functools.lru_cache(maxsize=1)
+def loopback_only() -> list[str] | None:
+    """The prefix that runs a command in a new network namespace holding only the loopback (``unshare -rn``: a
+    user namespace of this user too, so no privilege is needed), or None where the machine gives none."""
+    unshare, ip = shutil.which("unshare"), shutil.which("ip")
+    if unshare is None or ip is None:
+        return None
+    prefix = [unshare, "-rn", "/bin/sh", "-c", LOOPBACK_UP, "loopback-only"]
+    works = subprocess.run([*prefix, "true"], capture_output=True, timeout=30).returncode == 0
+    return prefix if works else None
 
 
 def run_scene(run_dir: Path, engine: str, threads: int, label: str, lock_fd: int, ranks: int = 1) -> tuple[int, str]:

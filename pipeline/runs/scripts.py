@@ -55,14 +55,18 @@ def command(module: str, *args) -> list[str]:
     return [engine_python(engine_of_module(module).name), "-m", module, *map(str, args)]
 
 
+def on_this_machine(ranks: int) -> bool:
+    """Whether every rank runs here: one rank, ``mpirun`` outside a SLURM job, or a SLURM job of one node."""
+    return ranks == 1 or "SLURM_JOB_ID" not in os.environ or os.environ.get("SLURM_JOB_NUM_NODES") == "1"
+
+
 def environment(threads: int = 1, ranks: int = 1) -> dict[str, str]:
     """Environment of a script: the project on the path, ``threads`` OpenMP threads, unbuffered output. Where every
     rank runs on this machine (one rank, ``mpirun`` outside a SLURM job, or a SLURM job of one node), Open MPI's
     byte transfer is limited to the process itself and shared memory (``OMPI_MCA_btl``, unless the user sets it):
     its TCP transport would otherwise listen on every interface. A SLURM job over several nodes needs it."""
     path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
-    local = ranks == 1 or "SLURM_JOB_ID" not in os.environ or os.environ.get("SLURM_JOB_NUM_NODES") == "1"
-    one_node = {"OMPI_MCA_btl": os.environ.get("OMPI_MCA_btl", "self,vader")} if local else {}
+    one_node = {"OMPI_MCA_btl": os.environ.get("OMPI_MCA_btl", "self,vader")} if on_this_machine(ranks) else {}
     return {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": str(threads), "PYTHONUNBUFFERED": "1", **one_node}
 
 

@@ -22,7 +22,7 @@ from dem.core.schema import contact_fields
 from pipeline import spec as run_spec
 from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
-from pipeline.runs import scripts
+from pipeline.runs import launch, scripts
 from tests.helpers import assert_contact_law
 
 pytestmark = pytest.mark.lammps
@@ -274,8 +274,11 @@ def test_two_mpi_ranks_run_stop_at_a_checkpoint_and_resume(both_engines, tmp_pat
                             stderr=subprocess.STDOUT, text=True)
     for line in proc.stdout:
         if "strain" in line:
+            listening = subprocess.run(["ss", "-ltnup"], capture_output=True, text=True).stdout
             proc.send_signal(signal.SIGINT)
             break
+    # mpirun ran in a network namespace with only the loopback: none of its listeners is on this machine's
+    assert launch.loopback_only() is not None and "mpirun" not in listening and "orted" not in listening, listening
     try:
         rest = proc.communicate(timeout=300)[0]
     except subprocess.TimeoutExpired:  # the ranks wait for each other: end them all, fail in minutes, not at CI's limit
