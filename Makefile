@@ -165,7 +165,7 @@ demo-dem-%: | $(VENV_STAMP)
 
 # ---------------------------------------------------------------- the data set's files: fit -> compare -> figures
 fit: $(FIT_DIR)/params.json ## calibrate on the data set's runs [PRESET=...] [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] [VARIANT=loading] [SKIP_CYCLES=1] -> results/<data set>/fit[-<options>]/
-# the options of the last fit: a fit with other options is a new fit
+# the options of the last fit and the SHA-256 of its data set's runs: other options or a changed run make a new fit
 $(FIT_DIR)/options.txt: FORCE
 	@python3 -m pipeline.targets fit-options $@
 

@@ -16,8 +16,9 @@ import model
 
 from . import io
 from .errors import PipelineError
+from .paths import ROOT
 
-FIT_VERSION = 1
+FIT_VERSION = 2  # 2: made_from
 METRICS_VERSION = 1
 PARAMS_METADATA_VERSION = 1
 COMPARE_SCHEMA, COMPARE_VERSION = "granular-backstress/compare", 1
@@ -52,6 +53,55 @@ def _fields_of(cls, data: dict, path, what: str, renamed: dict | None = None) ->
     if missing or unknown:
         raise PipelineError(f"{path} is not a {what} of this version: missing {missing}, unknown {unknown}")
     return given
+
+
+# ---------------------------------------------------------------- what made a product
+@dataclasses.dataclass(frozen=True)
+class MadeFrom:
+    """What made a product: the SHA-256 of every file it read (``inputs``: path, relative to the project where
+    inside it, to digest) and the options that shaped it. A product whose inputs changed since, or whose companion
+    records another ``MadeFrom``, is stale whatever the file times say (``stale``, ``digest``)."""
+
+    inputs: dict
+    options: dict
+
+    @classmethod
+    def of(cls, paths, options: dict) -> MadeFrom:
+        from .dataset.manifest import sha256
+
+        return cls({_shown(Path(p)): sha256(Path(p)) for p in paths}, dict(options))
+
+    @classmethod
+    def from_dict(cls, data, path) -> MadeFrom:
+        if not (isinstance(data, dict) and isinstance(data.get("inputs"), dict) and isinstance(data.get("options"),
+                                                                                                 dict)):
+            raise PipelineError(f"{path}: made_from is not a record of inputs and options")
+        return cls(data["inputs"], data["options"])
+
+    def to_dict(self) -> dict:
+        return {"inputs": self.inputs, "options": self.options}
+
+    def digest(self) -> str:
+        """SHA-256 of the record itself (its canonical JSON)."""
+        import hashlib
+
+        return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()
+
+    def stale(self) -> list[str]:
+        """The inputs that are no longer what the product read (changed, or gone)."""
+        from .dataset.manifest import sha256
+
+        changed = []
+        for shown, digest in self.inputs.items():
+            path = ROOT / shown if not Path(shown).is_absolute() else Path(shown)
+            if not path.is_file() or sha256(path) != digest:
+                changed.append(shown)
+        return changed
+
+
+def _shown(path: Path) -> str:
+    path = path.resolve()
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
 
 
 # ---------------------------------------------------------------- params.json
@@ -122,6 +172,7 @@ class FitSummary:
     global_runs: list | None
     residual_map: list | None
     notes: list
+    made_from: dict
 
     @classmethod
     def from_dict(cls, data: dict, path="fit.json") -> FitSummary:
@@ -140,6 +191,28 @@ def write_fit(path: Path, summary: FitSummary) -> None:
 
 def read_fit(path: Path) -> FitSummary:
     return FitSummary.from_dict(read_json_object(path, "fit summary", "fit"), path)
+
+
+def check_fitted(params_path: Path) -> None:
+    """Believe a fit's ``params.json`` only if it is what its ``fit.json`` beside it fitted, from the run files as
+    they are now: the same values (not edited by hand, not another fit's), the same record of what made it, and no
+    input changed since. A parameters file with no ``fit.json`` beside it is one's own: taken as it is."""
+    fit_path = Path(params_path).with_name("fit.json")
+    if not fit_path.exists():
+        return
+    fit = read_fit(fit_path)
+    made_from = MadeFrom.from_dict(fit.made_from, fit_path)
+    given = read_params(params_path)
+    if given.params.to_dict() != model.Params.from_dict(fit.params, str(fit_path)).to_dict():
+        raise PipelineError(f"{params_path} does not hold the parameters {fit_path.name} beside it fitted (edited by "
+                            "hand, or another fit's): make fit again, or give your own set from another folder")
+    recorded = (given.metadata or {}).get("made_from")
+    if recorded is not None and recorded != made_from.digest():
+        raise PipelineError(f"{params_path} and {fit_path.name} come from two fits: make fit again")
+    changed = made_from.stale()
+    if changed:
+        raise PipelineError(f"{fit_path.parent} was fitted on runs that have changed or gone since ("
+                            f"{', '.join(changed[:3])}{' ...' if len(changed) > 3 else ''}): make fit again")
 
 
 # ---------------------------------------------------------------- metrics.json
@@ -165,6 +238,7 @@ class Metrics:
     second_law: dict | None = None
     relaxation: dict | None = None
     drift: list | None = None
+    made_from: dict | None = None
 
     @classmethod
     def from_dict(cls, data: dict, path="metrics.json") -> Metrics:
@@ -189,6 +263,16 @@ class Metrics:
 
 def read_metrics(path: Path) -> Metrics:
     return Metrics.from_dict(read_json_object(path, "comparison", "compare"), path)
+
+
+def check_compared(metrics: Metrics, path: Path) -> None:
+    """Believe a comparison only if what made it (the parameters file and the run files) is unchanged since."""
+    if metrics.made_from is None:
+        raise PipelineError(f"{path} does not record what made it (an older comparison): make compare again")
+    changed = MadeFrom.from_dict(metrics.made_from, path).stale()
+    if changed:
+        raise PipelineError(f"{path} compared files that have changed or gone since ({', '.join(changed[:3])}"
+                            f"{' ...' if len(changed) > 3 else ''}): make compare again")
 
 
 # ---------------------------------------------------------------- compare.h5

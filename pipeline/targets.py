@@ -419,6 +419,23 @@ def fit_options_text(v: Variables) -> str:
     return " ".join(fit_options(v) + (["--skip-cycles", skip] if skip else [])) + "\n"
 
 
+def fit_stamp_text(v: Variables) -> str:
+    """``options.txt``: the options of ``make fit`` (``fit_options_text``) and the SHA-256 of every run file that
+    may belong to its data set, so that a changed run remakes the fit whatever its file time says."""
+    import hashlib
+
+    from .paths import preset_files
+
+    lines = []
+    for path in preset_files(data_set_of(v).preset):
+        digest = hashlib.sha256()
+        with open(path, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(block)
+        lines.append(f"{digest.hexdigest()}  {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path}\n")
+    return fit_options_text(v) + "".join(lines)
+
+
 def write_if_changed(path: Path, text: str) -> None:
     """Rewrite ``path`` (atomically) only when its text changes, so that Make sees it changed only then."""
     if path.is_file() and path.read_text() == text:
@@ -463,7 +480,7 @@ def main(argv: list[str] | None = None, environ: Mapping[str, str] | None = None
     plan = argv[:1] == ["--plan"]
     rest = argv[1:] if plan else argv
     if rest[:1] == ["fit-options"] and len(rest) == 2:
-        write_if_changed(Path(rest[1]), fit_options_text(v))
+        write_if_changed(Path(rest[1]), fit_stamp_text(v))
         return 0
     if len(rest) != 1 or rest[0] not in TARGETS:
         print(f"usage: python -m pipeline.targets [--plan] TARGET (one of {', '.join(TARGETS)}), or makefile FILE "

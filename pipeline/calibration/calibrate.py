@@ -109,12 +109,13 @@ class Calibration:
     notes: list
     residual_map: list | None = None
     arrays: dict = field(repr=False, default_factory=dict)
+    made_from: schema.MadeFrom | None = None
 
     def summary(self) -> FitSummary:
         """``fit.json``'s content (``pipeline.schema.FitSummary``)."""
         s = self.settings
         method = "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18), then a global least-squares refinement"
-        return FitSummary.from_dict({"method": method,
+        return FitSummary.from_dict({"schema_version": FitSummary.VERSION, "method": method,
                 "definitions": dataclasses.asdict(s.definitions), "stress_fitted": s.stress, "weight": s.weight,
                 "held": s.hold,
                 "fit_from": s.fit_from,
@@ -128,13 +129,13 @@ class Calibration:
                 "identifiability": self.identifiability, "next_runs": self.next_runs,
                 "dilatancy": None if self.dilatancy is None else self.dilatancy.to_dict(),
                 "bootstrap": self.bootstrap, "jackknife": self.jackknife, "global_runs": self.global_runs,
-                "residual_map": self.residual_map, "notes": self.notes})
+                "residual_map": self.residual_map, "notes": self.notes, "made_from": self.made_from.to_dict()})
 
     def params_metadata(self) -> dict | None:
         """What ``params.json`` records beside the values: the fit, its definitions and intervals."""
         if self.identifiability is None:
             return None
-        return {"fit": "global (pipeline.calibration.global_fit)",
+        return {"fit": "global (pipeline.calibration.global_fit)", "made_from": self.made_from.digest(),
                 "definitions": dataclasses.asdict(self.settings.definitions), "held": self.settings.hold,
                 "intervals_68": self.identifiability["intervals_68"],
                 "not_determined": self.identifiability["not_determined"], "misfit": self.refined.misfit}
@@ -278,7 +279,9 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
     return Calibration(settings, result, stepwise, per_run, cross,
                        estimates, sensitivity(reversals), refined, dilatancy, noise, identifiable, next_runs, boot,
                        jack, [str(r.path) for r in (*reversals, *cross_runs)] if refine else [], notes,
-                       residual_map(refined, data) if refined is not None else None, arrays)
+                       residual_map(refined, data) if refined is not None else None, arrays,
+                       schema.MadeFrom.of([r.path for r in (*reversals, *cross_runs, *left_out)],
+                                          {**dataclasses.asdict(settings), "refine": refine}))
 
 
 def write_arrays(path: Path, arrays: dict, per_run: list[dict], cross: list[dict]) -> None:

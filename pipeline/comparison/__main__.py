@@ -17,7 +17,7 @@ from pathlib import Path
 
 import model
 
-from .. import io
+from .. import io, schema
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.lookup import other_seeds_of, preset_runs, runs_at_seed
@@ -38,6 +38,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     chosen = selection.from_arguments(args)
     params_file = args.params or preset_output(chosen.folder, "fit", "params.json")
+    schema.check_fitted(params_file)
     fitted = io.read_params(params_file)
     definitions = fitted_in(params_file)
     print(f"reading the runs in the definitions {params_file.name} was fitted in: {definitions.label()}")
@@ -49,7 +50,10 @@ def main(argv=None) -> int:
     out = args.out or preset_output(chosen.folder, "compare" if args.seed is None else f"compare-seed{args.seed}")
     fit_h5 = smoothed_reversals(params_file, chosen.folder, definitions)
     label = chosen.label if args.seed is None else f"{chosen.label}, seed {args.seed}"
-    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5, out, chosen.preset, label, others)
+    made_from = schema.MadeFrom.of([params_file, *(r.path for r in (*runs, *others))],
+                                   {"definitions": definitions.label(), "seed": args.seed, "data_set": chosen.label})
+    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5, out, chosen.preset, label, others,
+            made_from)
     print(f"wrote {out / 'compare.h5'} and metrics.json")
     return 0
 

@@ -81,10 +81,10 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
 
 
 def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: str, label: str = "",
-            other_seeds: tuple = ()) -> dict:
+            other_seeds: tuple = (), made_from: schema.MadeFrom = None) -> dict:
     """Predict, measure and write ``compare.h5`` and ``metrics.json`` into ``out_dir``; ``other_seeds`` (the same
     protocols at other seeds) enter the errors' spread over seeds, the overshoot and memory tables (a row per
-    seed) and, as DEM cycles, the figures."""
+    seed) and, as DEM cycles, the figures; ``made_from`` (the files read, the options) goes into ``metrics.json``."""
     io.check_writable_dir(out_dir)
     predictions = [metrics.model_for(run, sets) for run in runs]
     ours = sets["our fit"]
@@ -134,7 +134,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
                                 "model": by_cut[f"{metrics.RELAXATION_CUTS[0]:g}"]["model"], "by_cut": by_cut}
     with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
         write_compare_h5(h5, runs, predictions, sets, preset, parts, curves + more, other_seeds, others)
-        found = schema.Metrics(**result)
+        found = schema.Metrics(**result, made_from=made_from.to_dict())
         io.write_bytes(js, io.json_text(found.to_dict()).encode())
     return found
 

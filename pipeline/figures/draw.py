@@ -15,6 +15,7 @@ from . import cycles, laws, memory, profiles, report, reversal
 def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     """Every figure and the report from the comparison and calibration outputs."""
     metrics = schema.read_metrics(compare_dir / "metrics.json")
+    schema.check_compared(metrics, compare_dir / "metrics.json")
     io.check_writable_dir(out)
     fit = schema.read_fit(fit_dir / "fit.json") if (fit_dir / "fit.json").exists() else None
     sets = metrics.param_sets

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import model
+from pipeline import schema
 from pipeline.calibration.calibrate import fit
 from pipeline.comparison.compare import compare, fitted_in
 from pipeline.comparison.metrics import along as metrics_along
@@ -31,7 +32,9 @@ def compared(tmp_path_factory):
     rev3 = synthetic_run(tmp / "seed3", name="theta180", n_cycles=2, noise=0.005, seed=3)
     fit([rev], tmp / "fit", cross_runs=[other])
     sets = {"Table 2": model.Params(), "our fit": read_params(tmp / "fit" / "params.json")}
-    metrics = compare([rev, other], sets, tmp / "fit" / "fit.h5", tmp / "compare", "synthetic", other_seeds=(rev3,))
+    made_from = schema.MadeFrom.of([tmp / "fit" / "params.json", rev.path, other.path, rev3.path], {})
+    metrics = compare([rev, other], sets, tmp / "fit" / "fit.h5", tmp / "compare", "synthetic", other_seeds=(rev3,),
+                      made_from=made_from)
     return tmp, metrics
 
 
@@ -110,7 +113,8 @@ def test_the_memory_of_a_turn_at_two_seeds_has_a_row_and_a_curve_per_seed(tmp_pa
     first = synthetic_run(tmp_path / "a", theta=60.0, name="theta060", n_cycles=2, noise=0.005, seed=1)
     second = synthetic_run(tmp_path / "b", theta=60.0, name="theta060", n_cycles=2, noise=0.005, seed=2)
     sets = {"Table 2": model.Params(), "our fit": model.Params()}
-    metrics = compare([first], sets, None, tmp_path / "compare", "synthetic", other_seeds=(second,))
+    metrics = compare([first], sets, None, tmp_path / "compare", "synthetic", other_seeds=(second,),
+                      made_from=schema.MadeFrom.of([first.path, second.path], {}))
     assert [(r["seed"], r["segment"]) for r in metrics.memory] == [
         (1, "after the turn to theta"), (2, "after the turn to theta"), (1, "after the turn back"),
         (2, "after the turn back")]
@@ -392,3 +396,47 @@ def test_the_report_names_the_fitted_law_and_prints_every_parameter_it_owns():
     assert "-0.0143" in rows["jump_fabric"] and rows["jump_fabric"].rstrip().endswith("– |")
     assert "`jump`" in law_sentence(fitted) and "`jump_fabric`" in law_sentence(fitted)
     assert "Eq. 13 as written" in law_sentence(model.PAPER)
+
+
+def test_a_product_whose_inputs_changed_or_that_mixes_two_fits_is_refused(tmp_path):
+    """Every stage that reads a product checks what made it, whatever the file times say: a params.json edited by
+    hand, one from another fit beside this fit.json, a fit whose run changed or is gone, and a comparison whose
+    parameters changed since, are each refused in one line."""
+    import json
+    import shutil
+
+    from pipeline.errors import PipelineError
+    from pipeline.figures.draw import draw
+
+    rev = synthetic_run(tmp_path, name="theta180", n_cycles=2, noise=0.005, seed=1)
+    fit([rev], tmp_path / "fit")
+    params = tmp_path / "fit" / "params.json"
+    schema.check_fitted(params)  # as made: believed
+    kept = params.read_text()
+    edited = json.loads(kept)
+    edited["C"] = -4.0
+    params.write_text(json.dumps(edited))
+    with pytest.raises(PipelineError, match="does not hold the parameters fit.json beside it fitted"):
+        schema.check_fitted(params)
+    params.write_text(kept)
+    other = json.loads(kept)
+    other["metadata"]["made_from"] = "0" * 64  # another fit's parameters, the values alike
+    params.write_text(json.dumps(other))
+    with pytest.raises(PipelineError, match="come from two fits"):
+        schema.check_fitted(params)
+    params.write_text(kept)
+    shutil.copy(rev.path, tmp_path / "kept.h5")
+    rev.path.write_bytes(rev.path.read_bytes()[:-1] + b"\1")  # the run changed since the fit
+    with pytest.raises(PipelineError, match="was fitted on runs that have changed or gone since"):
+        schema.check_fitted(params)
+    rev.path.unlink()  # gone: a results/ copy deleted, the committed file underneath older
+    with pytest.raises(PipelineError, match="changed or gone since"):
+        schema.check_fitted(params)
+    shutil.copy(tmp_path / "kept.h5", rev.path)
+    schema.check_fitted(params)
+    sets = {"Table 2": model.Params(), "our fit": read_params(params)}
+    compare([rev], sets, None, tmp_path / "compare", "synthetic", made_from=schema.MadeFrom.of([params, rev.path], {}))
+    edited["C"] = -4.5
+    params.write_text(json.dumps(edited))  # a new fit after the comparison, which the figures would draw beside it
+    with pytest.raises(PipelineError, match="compared files that have changed or gone since .*params.json"):
+        draw(tmp_path / "compare", tmp_path / "fit", tmp_path / "out")
