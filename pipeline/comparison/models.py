@@ -20,6 +20,7 @@ run's noise and per the DEM's steady value. Writes ``models.json``, ``models.md`
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from dataclasses import dataclass
@@ -29,7 +30,7 @@ import numpy as np
 
 import model
 
-from .. import io
+from .. import io, schema
 from ..calibration import global_fit
 from ..calibration.definitions import own_reversal
 from ..calibration.fit_cycle import FitCycle
@@ -249,9 +250,10 @@ def jump_curve(run, preds: dict) -> dict:
     return out
 
 
-def write_curves(path: Path, drawn: dict) -> None:
+def write_curves(path: Path, drawn: dict, made_from: schema.MadeFrom) -> None:
     with io.h5_file(path) as f:
-        f.attrs.update(schema="granular-backstress/models", schema_version=MODELS_VERSION)
+        f.attrs.update(schema="granular-backstress/models", schema_version=MODELS_VERSION,
+                       made_from=json.dumps(made_from.to_dict()))
         for kind, items in drawn.items():
             for k, item in enumerate(items):
                 g = f.create_group(f"{kind}/{k:02d}")
@@ -416,13 +418,16 @@ def main(argv=None) -> int:
             print(f"models: {v} not fitted on every run ({exc}): left out", flush=True)
     judgements = judged(results)
     results = without_blocks(results)
+    made_from = schema.MadeFrom.of([r.path for r in (*runs, *(r for rs in others.values() for r in rs))],
+                                   {"laws": variants, "across": list(others), "stress": stress, "weight": weight})
     summary = {"schema_version": MODELS_VERSION, "data_set": chosen.folder, "stress_fitted": stress,
                "weight": weight, "train_angles": list(TRAIN_ANGLES), "beyond_noise_z": BEYOND_NOISE_Z,
-               "variants": results, "not_fitted": not_fitted, "verdict": judgements}
+               "variants": results, "not_fitted": not_fitted, "verdict": judgements,
+               "made_from": made_from.to_dict()}
     with io.atomic_paths(*(out / n for n in ("models.json", "models.md", "models.h5"))) as (js, md, h5):
         io.write_bytes(js, io.json_text(summary).encode())
         io.write_bytes(md, markdown(chosen.label, results, judgements, not_fitted).encode())
-        write_curves(h5, curves(runs, results))
+        write_curves(h5, curves(runs, results), made_from)
     for r in results:
         io.write_params(out / f"params-{r['variant']}.json", model.Params.from_dict(r["params"]),
                         {"fit": "global (pipeline.comparison.models: every run of the default protocol)",

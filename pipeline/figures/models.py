@@ -7,12 +7,14 @@ the reversal (each law fitted on every run), the DEM's cycle mean against each v
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
 import h5py
 import matplotlib.pyplot as plt
 
+from .. import schema
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..errors import PipelineError
@@ -25,9 +27,15 @@ SCHEMA, VERSION = "granular-backstress/models", 1
 def read_groups(path: Path, kind: str) -> list:
     """The ``kind`` groups ("memory" or "jump") of a checked ``models.h5``, open."""
     f = h5py.File(path, "r")
-    if f.attrs.get("schema") != SCHEMA or f.attrs.get("schema_version") != VERSION:
+    if f.attrs.get("schema") != SCHEMA or f.attrs.get("schema_version") != VERSION or "made_from" not in f.attrs:
         f.close()
-        raise PipelineError(f"{path}: not a models.h5 of version {VERSION} (run `make models`)")
+        raise PipelineError(f"{path}: not a models.h5 of version {VERSION} that records what made it (run `make "
+                            "models`)")
+    changed = schema.MadeFrom.from_dict(json.loads(f.attrs["made_from"]), path).stale()
+    if changed:
+        f.close()
+        raise PipelineError(f"{path} judged runs that have changed or gone since ({', '.join(changed[:3])}): make "
+                            "models again")
     return [f[kind][k] for k in sorted(f.get(kind, {}))]
 
 

@@ -144,3 +144,22 @@ def test_the_laws_asked_for_are_judged_in_the_registrys_order_with_eq13s_first_a
     for bad in ("", "elastic,nope"):
         with pytest.raises(models.argparse.ArgumentTypeError, match="is not a comma-separated list of rk2025"):
             models.law_list(bad)
+
+
+def test_the_models_figure_refuses_curves_whose_runs_changed_since(tmp_path):
+    import pytest
+
+    from pipeline import schema
+    from pipeline.comparison import models as judged_models
+    from pipeline.errors import PipelineError
+    from pipeline.figures import models as figure
+
+    run = tmp_path / "theta180.h5"
+    run.write_bytes(b"a run")
+    drawn = {"memory": [{"run": "theta150", "seed": 1, "theta": 150.0, "strain": [0.0, 0.1], "dem": [0.5, 0.4],
+                         "model": {"rk2025": [0.5, 0.3]}}]}
+    judged_models.write_curves(tmp_path / "models.h5", drawn, schema.MadeFrom.of([run], {"laws": ["rk2025"]}))
+    assert len(figure.read_groups(tmp_path / "models.h5", "memory")) == 1
+    run.write_bytes(b"another run")
+    with pytest.raises(PipelineError, match="judged runs that have changed or gone since"):
+        figure.read_groups(tmp_path / "models.h5", "memory")
