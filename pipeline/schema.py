@@ -22,6 +22,7 @@ FIT_VERSION = 2  # 2: made_from
 METRICS_VERSION = 1
 PARAMS_METADATA_VERSION = 1
 COMPARE_SCHEMA, COMPARE_VERSION = "granular-backstress/compare", 1
+MODELS_SCHEMA, MODELS_VERSION = "granular-backstress/models", 2  # models.h5 and models.json; 2: made_from
 
 
 def read_json_object(path: Path, what: str, make: str, kind: type = dict):

@@ -50,7 +50,6 @@ TRAIN_ANGLES = (180.0, 30.0, 60.0, 90.0)
 BEYOND_NOISE_Z = 2.0
 #: strain after a reversal over which the figure follows the jump
 JUMP_SPAN = 0.05
-MODELS_VERSION = 1  # models.h5 and models.json; pipeline.figures.models reads this version
 
 
 @dataclass(frozen=True)
@@ -252,7 +251,7 @@ def jump_curve(run, preds: dict) -> dict:
 
 def write_curves(path: Path, drawn: dict, made_from: schema.MadeFrom) -> None:
     with io.h5_file(path) as f:
-        f.attrs.update(schema="granular-backstress/models", schema_version=MODELS_VERSION,
+        f.attrs.update(schema=schema.MODELS_SCHEMA, schema_version=schema.MODELS_VERSION,
                        made_from=json.dumps(made_from.to_dict()))
         for kind, items in drawn.items():
             for k, item in enumerate(items):
@@ -420,7 +419,7 @@ def main(argv=None) -> int:
     results = without_blocks(results)
     made_from = schema.MadeFrom.of([r.path for r in (*runs, *(r for rs in others.values() for r in rs))],
                                    {"laws": variants, "across": list(others), "stress": stress, "weight": weight})
-    summary = {"schema_version": MODELS_VERSION, "data_set": chosen.folder, "stress_fitted": stress,
+    summary = {"schema_version": schema.MODELS_VERSION, "data_set": chosen.folder, "stress_fitted": stress,
                "weight": weight, "train_angles": list(TRAIN_ANGLES), "beyond_noise_z": BEYOND_NOISE_Z,
                "variants": results, "not_fitted": not_fitted, "verdict": judgements,
                "made_from": made_from.to_dict()}

@@ -21,7 +21,7 @@ from ..errors import PipelineError
 from ..paths import preset_output
 from .output import legend_of_all, save
 
-SCHEMA, VERSION = "granular-backstress/models", 1
+SCHEMA, VERSION = schema.MODELS_SCHEMA, schema.MODELS_VERSION
 
 
 def read_groups(path: Path, kind: str) -> list:
