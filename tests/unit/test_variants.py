@@ -8,6 +8,8 @@ import model
 from model import PAPER, History, Params, Segment, integrate, periodic, periodic_cycle, predict, reference, update
 from model.equations import fabric_rates
 from model.kinematics import deviator, rotation_about_e2, shear_direction, shear_velocity_gradient
+from model.solver import _fabric as solver_fabric
+from pipeline.paths import ROOT
 from tests.unit.test_model_properties import ANGLES, random_rotation
 
 #: one parameter set per variant and sign of its added parameters, Table 2's otherwise
@@ -90,16 +92,25 @@ def test_the_fabric_law_is_an_isotropic_function(params):
         K = deviator(0.5 * (x := rng.normal(scale=0.01, size=(3, 3))) + 0.5 * x.T)
         R = random_rotation(rng)
 
-        def rate(a, d, r, K=K):
-            """The fabric rate with the law's own state: K turned by r for "elastic"; for "compaction" a packing
-            0.004 denser than its past (scalars, where the gate acts)."""
+        def state(a, r, K=K):
+            """The kernel state with the law's own: K turned by r for "elastic"; for "compaction" a packing 0.004
+            denser than its past (scalars, where the gate acts)."""
             own = {"elastic": pack(r @ K @ r.T), "compaction": np.array([1 / 0.604, 1 / 0.600])}
-            y = np.concatenate([pack(a), np.zeros(3), own.get(params.variant, np.empty(0))])
+            return np.concatenate([pack(a), np.zeros(3), own.get(params.variant, np.empty(0))])
+
+        def rate(a, d, r):
             d = np.array([d[0, 0], d[1, 1], d[2, 2], d[0, 1], d[0, 2], d[1, 2]])
-            return unpack(np.array(fabric_rates(y, d, np.zeros(3), p)[:5]))
+            return unpack(np.array(fabric_rates(state(a, r), d, np.zeros(3), p)[:5]))
+
+        def fabric_of(a, d, r):
+            return solver_fabric(state(a, r), params, np.array([d[0, 0], d[1, 1], d[2, 2], d[0, 1], d[0, 2], d[1, 2]]))
 
         base, rotated = rate(A, D, np.eye(3)), rate(R @ A @ R.T, R @ D @ R.T, R)
         np.testing.assert_allclose(rotated, R @ base @ R.T, atol=1e-12)
+        # the whole fabric the law returns (the state plus kappa D'/|D'| of "jump", K of "elastic"), not its state only
+        base, rotated = fabric_of(A, D, np.eye(3)), fabric_of(R @ A @ R.T, R @ D @ R.T, R)
+        np.testing.assert_allclose(rotated, R @ base @ R.T, atol=1e-12)
+        assert params.variant not in ("jump", "elastic") or not np.allclose(base, A)  # the law's part is there
 
 
 @pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
@@ -148,6 +159,22 @@ def test_second_law_and_own_reversal(params, theta, rotate_at):
     cycle = predict(theta, rotate_at=rotate_at, params=params)  # its own reversal (theta = 180) runs
     assert cycle.w_total.min() >= 0  # Eq. 19 with c1 = -C: the variant changes no work term
     assert np.all(cycle.packing_fraction <= params.phi_c + params.c3)
+
+
+#: the parameter sets fitted on both cells and committed (data/fits/)
+FITTED = sorted((ROOT / "data" / "fits").glob("*/params-*.json"))
+
+
+@pytest.mark.parametrize("path", FITTED, ids=[f"{p.parent.name}/{p.stem}" for p in FITTED])
+def test_the_fitted_sets_of_both_cells_are_dissipative_and_bounded_at_every_angle(path):
+    """Sec. 5's second law and Eq. 8's bounds on the committed fits themselves, not only on chosen values: at every
+    angle of the paper and Fig. 7's turns."""
+    params = Params.from_json(path.read_text(), str(path))
+    for theta, rotate_at in [(t, 0.7) for t in ANGLES] + [(90, 0.1), (90, 0.2)]:
+        cycle = predict(theta, rotate_at=rotate_at, params=params)
+        assert cycle.w_total.min() >= 0, (theta, rotate_at)
+        eig = np.linalg.eigvalsh(cycle.A)
+        assert eig.min() >= -1 / 3 and eig.max() <= 2 / 3
 
 
 def test_loading_keeps_the_part_the_new_shear_does_not_load_longer():
