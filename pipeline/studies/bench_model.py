@@ -35,7 +35,8 @@ from ..figures.output import save
 CASES = {
     "theta=180": (180.0, PAPER),
     "theta=90": (90.0, PAPER),
-    "theta=180, b2 x 10": (180.0, PAPER.replace(b2=10 * PAPER.b2)),
+    # a stiff recovery; Phi_c lowered so that Eq. 18 stays a packing of spheres (model.equations.PHI_MAX)
+    "theta=180, b2 x 10": (180.0, PAPER.replace(b2=10 * PAPER.b2, phi_c=0.55)),
 }
 RTOLS = (1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)
 EULER_STEPS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7)  # down to error < 1e-6 in every case: no extrapolation
