@@ -22,10 +22,11 @@ RUN_HERE = {
                      "model-cycles", "sweep", "runs", "sweep-status", "fidelity"),
                     "test_the_dem_and_engine_targets_run_at_the_tiny_size"),
     **dict.fromkeys(("fit", "compare", "figures", "compare-seed", "fit-bootstrap", "fit-jackknife", "fit-angles",
-                     "fit-definitions", "versus", "cells", "jump", "budget", "fidelity-table", "data-card", "clean"),
+                     "fit-definitions", "fidelity-table", "data-card", "clean"),
                     "test_the_data_targets_run_on_the_committed_data"),
-    # the demo (its DEM runs, demo-dem, first) and what follows it on its data set
-    **dict.fromkeys(("demo", "demo-dem", "sweep-collect", "fit-from", "fit-profile", "models", "bench"), LANE_TEST),
+    # the demo (its DEM runs, demo-dem, first), what follows it on its data set, and the studies of committed data
+    **dict.fromkeys(("demo", "demo-dem", "sweep-collect", "fit-from", "fit-profile", "models", "bench", "versus",
+                     "cells", "jump", "budget"), LANE_TEST),
 }
 assert {args[0] for args in LANE} <= set(RUN_HERE)
 RUN_BY_CI = ("test", "test-unit", "test-yade", "test-cluster", "lint", "venv", "system", "system-venv",
@@ -106,20 +107,11 @@ def test_the_data_targets_run_on_the_committed_data(project):
     make(project, "fit-angles", *paper, "ANGLES=180 90", "VARIANT=jump")  # another law beside Eq. 13's
     assert '"variant": "jump"' in (folder / "fit-angles-180-90-jump/params.json").read_text()
     assert '"variant"' not in (folder / "fit-angles-180-90/params.json").read_text()
-    make(project, "versus", "A=paper/lammps/n_cycles=1", "B=paper/lammps/inertial_number=0.001")
-    assert "### θ = 180, cycle 1" in (project / "results/versus/versus.md").read_text()
-    make(project, "cells")
-    make(project, "jump")
-    assert (project / "results/cells/cells.md").exists() and (project / "results/jump/jump.md").exists()
-    said = make(project, "budget", "PRESET=reduced")  # the reduced cell's LAMMPS runs with the contact budget
-    budget = (project / "results/reduced-lammps/budget/budget.md").read_text()
-    assert "run(s) of reduced (lammps) with a contact budget" in said and "## 150°" in budget and "## 180°" in budget
-    assert (project / "results/reduced-lammps/budget/budget.png").stat().st_size > 10_000
     assert "run(s) of the ladder" in make(project, "fidelity-table")
     make(project, "data-card")
     assert (project / "data/reference/README.md").read_text() == (ROOT / "data/reference/README.md").read_text()
     make(project, "clean")
-    assert not (folder / "fit").exists() and not (project / "results/cells").exists()
+    assert not (folder / "fit").exists() and not (folder / "compare-seed2").exists()
 
 
 @pytest.mark.last
@@ -139,4 +131,10 @@ def test_the_long_targets_run_in_a_lane_beside_the_session(long_lane):
     assert "| held out |" in (folder / "models/models.md").read_text() and (folder / "models/models.png").exists()
     bench = long_lane.project / "results/bench"
     assert all((bench / name).exists() for name in ("update.md", "dem_throughput.md"))
+    results = long_lane.project / "results"
+    assert "### θ = 180, cycle 1" in (results / "versus/versus.md").read_text()
+    assert (results / "cells/cells.md").exists() and (results / "jump/jump.md").exists()
+    budget = (results / "reduced-lammps/budget/budget.md").read_text()  # the reduced cell's runs with the budget
+    assert "run(s) of reduced (lammps) with a contact budget" in said["budget"] and "## 150°" in budget
+    assert "## 180°" in budget and (results / "reduced-lammps/budget/budget.png").stat().st_size > 10_000
     print("lane: " + ", ".join(f"{' '.join(d.args)} {d.seconds:.0f} s" for d in done))

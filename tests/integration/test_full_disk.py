@@ -28,7 +28,7 @@ def command(*argv):
 
 
 def test_a_fit_onto_a_full_disk_is_one_line_and_leaves_nothing(full_disk, tmp_path):
-    run = synthetic_file(tmp_path, name="theta180", n_cycles=2, noise=0.002)
+    run = synthetic_file(tmp_path, name="theta180", n_cycles=1, noise=0.002)
     proc = command("-m", "pipeline.calibration", "--runs", str(run), "--out", str(full_disk / "fit"))
     assert proc.returncode == 4, proc.stderr[-2000:]
     errors = [line for line in proc.stderr.splitlines() if line.strip()]
