@@ -22,7 +22,8 @@ LANE = [("demo",), ("sweep", "PRESET=quick", "THETAS=180 90"), ("sweep-collect",
         ("fit-profile", "PRESET=quick", "POINTS=3"), ("models", "PRESET=quick", "ACROSS=none", "LAWS=jump"),
         ("bench", "PRESETS=tiny", "POINTS=2000"),
         ("versus", "A=paper/lammps/n_cycles=1", "B=paper/lammps/inertial_number=0.001"), ("cells",), ("jump",),
-        ("budget", "PRESET=reduced")]
+        ("budget", "PRESET=reduced"), ("profile-dem", "PRESETS=tiny"), ("stability", "CASES=baseline"),
+        ("model-cycles",)]
 
 
 def project_copy(folder: Path) -> Path:

@@ -18,15 +18,15 @@ pytestmark = [pytest.mark.yade, pytest.mark.lammps]
 
 RUN_HERE = {
     "help": "test_every_target_is_run_here_or_by_ci",
-    **dict.fromkeys(("dem", "engines", "bench-lammps-settings", "profile-dem", "bench-dem", "stability",
-                     "model-cycles", "sweep", "runs", "sweep-status", "fidelity"),
+    **dict.fromkeys(("dem", "engines", "bench-lammps-settings", "bench-dem", "sweep", "runs", "sweep-status",
+                     "fidelity"),
                     "test_the_dem_and_engine_targets_run_at_the_tiny_size"),
     **dict.fromkeys(("fit", "compare", "figures", "compare-seed", "fit-bootstrap", "fit-jackknife", "fit-angles",
                      "fit-definitions", "fidelity-table", "data-card", "clean"),
                     "test_the_data_targets_run_on_the_committed_data"),
     # the demo (its DEM runs, demo-dem, first), what follows it on its data set, and the studies of committed data
     **dict.fromkeys(("demo", "demo-dem", "sweep-collect", "fit-from", "fit-profile", "models", "bench", "versus",
-                     "cells", "jump", "budget"), LANE_TEST),
+                     "cells", "jump", "budget", "profile-dem", "stability", "model-cycles"), LANE_TEST),
 }
 assert {args[0] for args in LANE} <= set(RUN_HERE)
 RUN_BY_CI = ("test", "test-unit", "test-yade", "test-cluster", "lint", "venv", "system", "system-venv",
@@ -71,13 +71,7 @@ def test_the_dem_and_engine_targets_run_at_the_tiny_size(project):
     run_dir = next((project / "results").glob("tiny-lammps-*/dem/theta090.run"))
     make(project, "bench-lammps-settings", f"RUN_DIR={run_dir.relative_to(project)}")
     assert (project / "results/bench").is_dir() and any((project / "results/bench").iterdir())
-    make(project, "profile-dem", "PRESETS=tiny")
-    assert (project / "results/bench/dem_profile.md").exists()
     make(project, "bench-dem", "PRESETS=tiny", "ENGINES=yade,lammps")
-    make(project, "stability", "CASES=baseline")
-    assert "baseline" in (project / "results/fidelity/stability.md").read_text()
-    make(project, "model-cycles")
-    assert len(list((project / "results/model").glob("theta*.csv"))) == 6
     make(project, "sweep", "PRESET=tiny", "THETAS=30 60", "JOBS=2")
     assert (project / "results/tiny/dem/theta030.h5").exists() and (project / "results/tiny/dem/theta060.h5").exists()
     assert "tiny/theta060" in make(project, "runs")
@@ -132,6 +126,7 @@ def test_the_long_targets_run_in_a_lane_beside_the_session(long_lane):
     bench = long_lane.project / "results/bench"
     assert all((bench / name).exists() for name in ("update.md", "dem_throughput.md"))
     results = long_lane.project / "results"
+    assert (bench / "dem_profile.md").exists() and "baseline" in (results / "fidelity/stability.md").read_text()
     assert "### θ = 180, cycle 1" in (results / "versus/versus.md").read_text()
     assert (results / "cells/cells.md").exists() and (results / "jump/jump.md").exists()
     budget = (results / "reduced-lammps/budget/budget.md").read_text()  # the reduced cell's runs with the budget
