@@ -111,10 +111,11 @@ system-venv: ## Debian's python3-venv, for the project's virtualenv (apt-get; a 
 	@if python3 -c 'import ensurepip' 2>/dev/null; then echo "venv support present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) python3-venv; fi
 
-system-lammps: ## Debian's LAMMPS for Debian's python3 (apt-get: lammps, python3-lammps, liblammps-dev, OpenMPI, mpi4py)
+system-lammps: ## Debian's LAMMPS for Debian's python3 (apt-get: lammps, python3-lammps, liblammps-dev, OpenMPI, mpi4py, iproute2)
 	@if /usr/bin/python3 -c 'import mpi4py, lammps; lammps.lammps(cmdargs=["-log", "none", "-screen", "none"]).close()' \
-	  2>/dev/null; then echo "lammps present"; else \
-	  $(SUDO) apt-get update -qq && $(APT_INSTALL) lammps python3-lammps liblammps-dev openmpi-bin python3-mpi4py; fi
+	  2>/dev/null && command -v ip >/dev/null && command -v unshare >/dev/null; then echo "lammps present"; else \
+	  $(SUDO) apt-get update -qq && $(APT_INSTALL) lammps python3-lammps liblammps-dev openmpi-bin python3-mpi4py \
+	  iproute2 util-linux; fi
 
 system-slurm: ## Debian's slurm-wlm and munge, for the cluster test (apt-get)
 	@if command -v slurmctld >/dev/null && command -v munged >/dev/null; then echo "slurm and munge present"; else \
