@@ -39,14 +39,14 @@ _BAD_A, _BAD_SYM, _BAD_TRACE, _BAD_PHI, _BAD_L, _BAD_DT, _BAD_BOUNDS = range(1, 
 #: what a point's step may end in besides ``model.integrator``'s statuses: a state outside the physics
 TOO_DENSE, FABRIC_OUT_OF_BOUNDS = 101, 102
 OUTCOMES = {**integrator.STATUS_MESSAGES,
-            TOO_DENSE: "the packing fraction would reach or pass pi/(3 sqrt 2) = 0.7405, denser than any packing of "
-                       "spheres (Eq. 18's c2, c3, Phi_c or the law's parameters leave the physics)",
+            TOO_DENSE: f"the packing fraction would reach or pass pi/(3 sqrt 2) = {PHI_MAX:.4f}, denser than any "
+                       "packing of spheres (Eq. 18's c2, c3, Phi_c or the law's parameters leave the physics)",
             FABRIC_OUT_OF_BOUNDS: "the fabric would leave the bounds of Eq. 8 (eigenvalues within -1/3..2/3)"}
 _PROBLEMS = {
     _BAD_A: "A[{i}] has non-finite entries",
     _BAD_SYM: "A[{i}] is not symmetric (asymmetry {value:.3g} > fabric_tol)",
     _BAD_TRACE: "A[{i}] is not traceless (trace {value:.3g} > fabric_tol)",
-    _BAD_PHI: "phi[{i}]={value!r} must lie in (0, 0.7405) (pi/(3 sqrt 2), the densest packing of spheres)",
+    _BAD_PHI: f"phi[{{i}}]={{value!r}} must lie in (0, {PHI_MAX:.4f}) (pi/(3 sqrt 2), the densest packing of spheres)",
     _BAD_L: "L[{i}] is not finite or too large: the sum of its squared entries is {value:.3g}",
     _BAD_DT: "dt[{i}]={value!r} must be finite and >= 0",
     _BAD_BOUNDS: "A[{i}] leaves the bounds of Eq. 8 (eigenvalues within -1/3..2/3; |A|^2 = {value:.4g})",

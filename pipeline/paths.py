@@ -23,6 +23,12 @@ FIDELITY_LADDER = CONFIG_DIR / "fidelity.toml"  # the project's fidelity ladder 
 _FOLDER = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 
 
+def shown(path: Path) -> str:
+    """``path`` relative to the project where it lies inside it, else absolute."""
+    path = Path(path).resolve()
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
+
+
 def check_folder_name(name: str, what: str = "preset") -> str:
     """A preset (or run folder) name that stays inside ``results/``: letters, digits, ``_ . -``, no ``..``."""
     if not isinstance(name, str) or not _FOLDER.fullmatch(name) or ".." in name:

@@ -16,7 +16,7 @@ import model
 
 from . import io
 from .errors import PipelineError
-from .paths import ROOT
+from .paths import ROOT, shown
 
 FIT_VERSION = 2  # 2: made_from
 METRICS_VERSION = 1
@@ -70,7 +70,7 @@ class MadeFrom:
     def of(cls, paths, options: dict) -> MadeFrom:
         from .dataset.manifest import sha256
 
-        return cls({_shown(Path(p)): sha256(Path(p)) for p in paths}, dict(options))
+        return cls({shown(p): sha256(Path(p)) for p in paths}, dict(options))
 
     @classmethod
     def from_dict(cls, data, path) -> MadeFrom:
@@ -92,17 +92,16 @@ class MadeFrom:
         """The inputs that are no longer what the product read (changed, or gone)."""
         from .dataset.manifest import sha256
 
-        changed = []
-        for shown, digest in self.inputs.items():
-            path = ROOT / shown if not Path(shown).is_absolute() else Path(shown)
-            if not path.is_file() or sha256(path) != digest:
-                changed.append(shown)
-        return changed
+        return [name for name, digest in self.inputs.items()  # ROOT / an absolute path is that path
+                if not (ROOT / name).is_file() or sha256(ROOT / name) != digest]
 
-
-def _shown(path: Path) -> str:
-    path = path.resolve()
-    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
+    def require_unchanged(self, what: str, make: str) -> None:
+        """Refuse, in one line, a product whose inputs changed (``what`` names the product and what it did with
+        them, ``make`` the target that remakes it)."""
+        changed = self.stale()
+        if changed:
+            raise PipelineError(f"{what} that have changed or gone since ({', '.join(changed[:3])}"
+                                f"{' ...' if len(changed) > 3 else ''}): make {make} again")
 
 
 # ---------------------------------------------------------------- params.json
@@ -210,10 +209,7 @@ def check_fitted(params_path: Path) -> None:
     recorded = (given.metadata or {}).get("made_from")
     if recorded is not None and recorded != made_from.digest():
         raise PipelineError(f"{params_path} and {fit_path.name} come from two fits: make fit again")
-    changed = made_from.stale()
-    if changed:
-        raise PipelineError(f"{fit_path.parent} was fitted on runs that have changed or gone since ("
-                            f"{', '.join(changed[:3])}{' ...' if len(changed) > 3 else ''}): make fit again")
+    made_from.require_unchanged(f"{fit_path.parent} was fitted on runs", "fit")
 
 
 # ---------------------------------------------------------------- metrics.json
@@ -270,10 +266,7 @@ def check_compared(metrics: Metrics, path: Path) -> None:
     """Believe a comparison only if what made it (the parameters file and the run files) is unchanged since."""
     if metrics.made_from is None:
         raise PipelineError(f"{path} does not record what made it (an older comparison): make compare again")
-    changed = MadeFrom.from_dict(metrics.made_from, path).stale()
-    if changed:
-        raise PipelineError(f"{path} compared files that have changed or gone since ({', '.join(changed[:3])}"
-                            f"{' ...' if len(changed) > 3 else ''}): make compare again")
+    MadeFrom.from_dict(metrics.made_from, path).require_unchanged(f"{path} compared files", "compare")
 
 
 # ---------------------------------------------------------------- compare.h5

@@ -390,7 +390,7 @@ def goals_makefile(v: Variables, goals: list[str]) -> str:
     """``results/.make/goals.mk``: CHECK_ERROR, the first bad value among the goals' variables (the Makefile's
     ``check`` stops on it, in one line, before anything runs); else, for fit, compare and figures, the data set's
     folder (DATA_SET) and every run file that may belong to it (DATA_RUNS), which their file rules need."""
-    from .paths import preset_files
+    from .paths import preset_files, shown
 
     lines = [f"# the goals {' '.join(goals)}, their variables checked (python -m pipeline.targets makefile)"]
     try:
@@ -403,7 +403,7 @@ def goals_makefile(v: Variables, goals: list[str]) -> str:
             if "compare-seed" in goals:
                 compare_seed(v)
             chosen = data_set_of(v)
-            runs = [str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(p) for p in preset_files(chosen.preset)]
+            runs = [shown(p) for p in preset_files(chosen.preset)]
             lines += [f"DATA_SET := {chosen.folder}", f"DATA_RUNS := {' '.join(runs)}",
                       f"FIT_SUFFIX := {fit_suffix(v)}"]
     except PipelineError as exc:
@@ -422,18 +422,10 @@ def fit_options_text(v: Variables) -> str:
 def fit_stamp_text(v: Variables) -> str:
     """``options.txt``: the options of ``make fit`` (``fit_options_text``) and the SHA-256 of every run file that
     may belong to its data set, so that a changed run remakes the fit whatever its file time says."""
-    import hashlib
+    from .dataset.manifest import sha256
+    from .paths import preset_files, shown
 
-    from .paths import preset_files
-
-    lines = []
-    for path in preset_files(data_set_of(v).preset):
-        digest = hashlib.sha256()
-        with open(path, "rb") as fh:
-            for block in iter(lambda: fh.read(1 << 20), b""):
-                digest.update(block)
-        lines.append(f"{digest.hexdigest()}  {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path}\n")
-    return fit_options_text(v) + "".join(lines)
+    return fit_options_text(v) + "".join(f"{sha256(p)}  {shown(p)}\n" for p in preset_files(data_set_of(v).preset))
 
 
 def write_if_changed(path: Path, text: str) -> None:

@@ -9,7 +9,9 @@ no row, a link or a changed file is a one-line error before the file is read.
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import os
 import re
 from pathlib import Path
 
@@ -23,7 +25,14 @@ ROW = re.compile(r"([0-9a-f]{64})  ((?:[A-Za-z0-9_+-][A-Za-z0-9_.+-]*/)*[A-Za-z0
 
 
 def sha256(path: Path) -> str:
-    """The file's SHA-256, as 64 hex digits."""
+    """The file's SHA-256, as 64 hex digits; read once per process while the file stays the same inode, size and
+    change time (a stage checks a file against the manifest and then records it: one read)."""
+    info = os.stat(path)
+    return _sha256(os.path.realpath(path), info.st_ino, info.st_size, info.st_mtime_ns, info.st_ctime_ns)
+
+
+@functools.lru_cache(maxsize=512)
+def _sha256(path: str, *_identity) -> str:
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):

@@ -21,21 +21,22 @@ from ..errors import PipelineError
 from ..paths import preset_output
 from .output import legend_of_all, save
 
-SCHEMA, VERSION = schema.MODELS_SCHEMA, schema.MODELS_VERSION
-
 
 def read_groups(path: Path, kind: str) -> list:
     """The ``kind`` groups ("memory" or "jump") of a checked ``models.h5``, open."""
     f = h5py.File(path, "r")
-    if f.attrs.get("schema") != SCHEMA or f.attrs.get("schema_version") != VERSION or "made_from" not in f.attrs:
+    version = schema.MODELS_VERSION
+    if f.attrs.get("schema") != schema.MODELS_SCHEMA or f.attrs.get("schema_version") != version or \
+            "made_from" not in f.attrs:
         f.close()
-        raise PipelineError(f"{path}: not a models.h5 of version {VERSION} that records what made it (run `make "
+        raise PipelineError(f"{path}: not a models.h5 of version {version} that records what made it (run `make "
                             "models`)")
-    changed = schema.MadeFrom.from_dict(json.loads(f.attrs["made_from"]), path).stale()
-    if changed:
+    try:
+        schema.MadeFrom.from_dict(json.loads(f.attrs["made_from"]), path).require_unchanged(
+            f"{path} judged runs", "models")
+    except PipelineError:
         f.close()
-        raise PipelineError(f"{path} judged runs that have changed or gone since ({', '.join(changed[:3])}): make "
-                            "models again")
+        raise
     return [f[kind][k] for k in sorted(f.get(kind, {}))]
 
 

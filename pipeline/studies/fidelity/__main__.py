@@ -17,18 +17,12 @@ from pathlib import Path
 from ... import engines, io
 from ...cli import Parser, one_line_errors
 from ...errors import SpecError
-from ...paths import FIDELITY_LADDER, ROOT, fidelity_output
+from ...paths import FIDELITY_LADDER, fidelity_output, shown
 from ...runs.sweep.local import run_local
 from ...runs.sweep.plan import MAX_TASKS, write_plan
 from ...runs.sweep.slurm import load_cluster_config, submit
 from . import ladder, render, table
 from .gather import csv_text, summaries, top_summaries
-
-
-def shown_path(path: Path) -> str:
-    """``path`` relative to the project where it lies inside it."""
-    path = path.resolve()
-    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
 
 
 @one_line_errors
@@ -72,7 +66,7 @@ def main(argv=None) -> int:
                       if "extrapolate" in entry}
     result = {**table.build(entries, extrapolations=extrapolations,
                             node_cores=int(ladder_config.get("node_cores", 32)), top=top),
-              "ladder": shown_path(args.ladder), "preset": ladder_config["preset"]}
+              "ladder": shown(args.ladder), "preset": ladder_config["preset"]}
     io.write_json(out / "table.json", result)
     io.write_text(out / "table.csv", csv_text(result["rows"]))
     io.write_text(out / "table.md", render.markdown(result))

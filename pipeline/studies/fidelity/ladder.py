@@ -50,8 +50,8 @@ MAX_LADDER_BYTES = 1 << 20
 
 def load(path: Path = FIDELITY_LADDER) -> dict:
     try:
-        ladder = tomllib.loads(io.read_bounded(path, MAX_LADDER_BYTES).decode("utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        ladder = tomllib.loads(io.read_text(path, MAX_LADDER_BYTES))
+    except (OSError, tomllib.TOMLDecodeError) as exc:
         raise SpecError(f"{path}: cannot read the ladder ({printable(exc)})") from None
     if "preset" not in ladder or not ladder.get("axes"):
         raise SpecError(f"{path}: a ladder needs a preset and at least one axis")
