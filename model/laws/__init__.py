@@ -1,10 +1,10 @@
 """The fabric laws, each a module that owns its parameters and its compiled parts, chosen once by name.
 
-A law is Eq. 13 (paper Table 1) with at most two parameters of its own, and reduces to it where they vanish
-(``docs/model.md``, "Variants"). Its module declares ``NAME``, ``PARAMETERS`` (``Parameter`` records: name, the value
-where the law is Eq. 13, where a fit starts, the closed range the law is bounded in, the meaning) and any of three
-parts, each compiled with numba over the model's parameter array ``p`` (``Params.as_array``: Eq. 13's parameters,
-the law's code, then its own, read at ``OWN + k``):
+A law is Eq. 13 (paper Table 1) with at most two parameters of its own, or two such laws together
+(``elastic_compaction``), and reduces to it where they vanish (``docs/model.md``, "Variants"). Its module declares
+``NAME``, ``PARAMETERS`` (``Parameter`` records: name, the value where the law is Eq. 13, where a fit starts, the
+closed range the law is bounded in, the meaning) and any of three parts, each compiled with numba over the model's
+parameter array ``p`` (``Params.as_array``: Eq. 13's parameters, the law's code, then its own, read at ``OWN + k``):
 
 - ``removal``: what beta2 |D'| removes in place of A (Eq. 13's recovery term), packed (11, 22, 12, 13, 23); the
   dispatcher hands it the kernels' state ``y`` too, which a law with a state of its own may read;
@@ -31,15 +31,16 @@ import dataclasses
 import numpy as np
 
 from ..jit import jit
-from . import compaction, elastic, jump, loading, memory, rk2025
+from . import compaction, elastic, elastic_compaction, jump, loading, memory, rk2025
 from .parameter import OWN, Parameter
 
 #: the registry: every fabric law, Eq. 13's first (its code is its place here)
-LAWS = {law.NAME: law for law in (rk2025, loading, memory, jump, elastic, compaction)}
+LAWS = {law.NAME: law for law in (rk2025, loading, memory, jump, elastic, compaction, elastic_compaction)}
 DEFAULT = rk2025.NAME
 CODE = {name: float(k) for k, name in enumerate(LAWS)}
 _LOADING, _MEMORY, _JUMP = CODE[loading.NAME], CODE[memory.NAME], CODE[jump.NAME]
-_ELASTIC, _COMPACTION = CODE[elastic.NAME], CODE[compaction.NAME]
+_ELASTIC, _COMPACTION, _BOTH = CODE[elastic.NAME], CODE[compaction.NAME], CODE[elastic_compaction.NAME]
+_TOGETHER = elastic_compaction
 LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
 #: the kernels' state before a law's own (``model.integrator``: A packed, t, G, v)
 BASE = 8
@@ -59,7 +60,10 @@ def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
     """What beta2 |D'| removes (Eq. 13: A itself); ``y`` the kernels' state."""
     code = p[LAW_INDEX]
     if code == _COMPACTION:
-        return compaction.removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
+        return compaction.removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, compaction.FIRST, OWN)
+    if code == _BOTH:
+        return compaction.removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p,
+                                  _TOGETHER.COMPACTION_FIRST, _TOGETHER.COMPACTION_OWN)
     if code == _LOADING:
         return loading.removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
     if code == _MEMORY:
@@ -111,23 +115,32 @@ def state_rates(y, Dh, Wn, p, g, c2, out, scale):
     and ``c2`` are Eq. 18's (``model.equations.fabric_rates``)."""
     code = p[LAW_INDEX]
     if code == _ELASTIC:
-        elastic.state_rates(y, Dh, Wn, p, out, scale)
+        elastic.state_rates(y, Dh, Wn, p, out, scale, elastic.FIRST, OWN)
     elif code == _COMPACTION:
-        compaction.state_rates(y, p, g, c2, out, scale)
+        compaction.state_rates(y, p, g, c2, out, scale, compaction.FIRST, OWN)
+    elif code == _BOTH:
+        elastic.state_rates(y, Dh, Wn, p, out, scale, _TOGETHER.ELASTIC_FIRST, _TOGETHER.ELASTIC_OWN)
+        compaction.state_rates(y, p, g, c2, out, scale, _TOGETHER.COMPACTION_FIRST, _TOGETHER.COMPACTION_OWN)
 
 
 @jit
 def set_packing(y, u, p):
     """What the law's own state holds of the packing fraction, set to 1/u where a history or a step starts."""
-    if p[LAW_INDEX] == _COMPACTION:
-        compaction.set_packing(y, u)
+    code = p[LAW_INDEX]
+    if code == _COMPACTION:
+        compaction.set_packing(y, u, compaction.FIRST)
+    elif code == _BOTH:
+        compaction.set_packing(y, u, _TOGETHER.COMPACTION_FIRST)
 
 
 @jit
 def state_fabric(y, p):
     """The part of the fabric the law's state holds beyond A, packed (zero for most laws)."""
-    if p[LAW_INDEX] == _ELASTIC:
-        return elastic.state_fabric(y)
+    code = p[LAW_INDEX]
+    if code == _ELASTIC:
+        return elastic.state_fabric(y, elastic.FIRST)
+    if code == _BOTH:
+        return elastic.state_fabric(y, _TOGETHER.ELASTIC_FIRST)
     return 0.0, 0.0, 0.0, 0.0, 0.0
 
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..jit import jit
 from .memory import neutral_part, reference_neutral
-from .parameter import OWN, Parameter
+from .parameter import Parameter
 
 NAME = "compaction"
 PARAMETERS = (
@@ -31,39 +31,40 @@ PARAMETERS = (
     Parameter("compaction_strain", 0.5, 0.5, 0.01, 5.0, "gamma_r: the nominal shear strain over which the recent "
               "past follows the packing"),
 )
-GAIN, STRAIN = OWN, OWN + 1
 #: the law's own state: 1/Phi and 1/Phi_r
 STATE = ("u", "u_ref")
-FIRST = 8  # where the law's state sits in the kernels' state (model.integrator: A, t, G, v before it)
+#: where the law's state sits in the kernels' state (model.integrator: A, t, G, v before it) and its parameters in
+#: the parameter array (k, gamma_r); a law that combines it with another passes its own places
+FIRST = 8
 
 
 @jit
-def gate(y, p):
+def gate(y, p, first, own):
     """g = min(1, max(0, 1 - k (Phi - Phi_r))), the fraction of N's recovery the law keeps."""
-    return min(1.0, max(0.0, 1.0 - p[GAIN] * (1.0 / y[FIRST] - 1.0 / y[FIRST + 1])))
+    return min(1.0, max(0.0, 1.0 - p[own] * (1.0 / y[first] - 1.0 / y[first + 1])))
 
 
 @jit
-def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
+def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, first, own):
     """A - (1 - g) N, packed (11, 22, 12, 13, 23)."""
-    held = 1.0 - gate(y, p)
+    held = 1.0 - gate(y, p, first, own)
     q11, q22, q12, q13, q23 = neutral_part(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
     return a11 - held * q11, a22 - held * q22, a12 - held * q12, a13 - held * q13, a23 - held * q23
 
 
 @jit
-def state_rates(y, p, g, c2, out, scale):
+def state_rates(y, p, g, c2, out, scale, first, own):
     """du/d(|D'| t) (Eq. 18: -g u + c2, g and c2 as ``model.equations.fabric_rates`` gives them) and du_r/d(|D'| t),
-    times ``scale``, into ``out[FIRST:FIRST + 2]``."""
-    u, u_ref = y[FIRST], y[FIRST + 1]
-    out[FIRST] = scale * (c2 - g * u)
-    out[FIRST + 1] = scale * math.sqrt(2.0) / p[STRAIN] * (u - u_ref)
+    times ``scale``, into ``out[first:first + 2]``."""
+    u, u_ref = y[first], y[first + 1]
+    out[first] = scale * (c2 - g * u)
+    out[first + 1] = scale * math.sqrt(2.0) / p[own + 1] * (u - u_ref)
 
 
 @jit
-def set_packing(y, u):
+def set_packing(y, u, first):
     """The state's u where a history or a step starts at the packing fraction 1/u."""
-    y[FIRST] = u
+    y[first] = u
 
 
 def start(Dh, phi, values):

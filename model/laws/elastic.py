@@ -16,7 +16,7 @@ import numpy as np
 
 from ..jit import jit
 from ..tensors import spin_rate
-from .parameter import OWN, Parameter
+from .parameter import Parameter
 
 NAME = "elastic"
 PARAMETERS = (
@@ -24,30 +24,31 @@ PARAMETERS = (
               "elastically"),
     Parameter("elastic_strain", 0.005, 0.005, 1e-4, 0.1, "gamma_e: the nominal shear strain over which it follows"),
 )
-KAPPA, STRAIN = OWN, OWN + 1
 #: the law's own state: K packed (11, 22, 12, 13, 23)
 STATE = ("K11", "K22", "K12", "K13", "K23")
-FIRST = 8  # where the law's state sits in the kernels' state (model.integrator: A, t, G, v before it)
+#: where the law's state sits in the kernels' state (model.integrator: A, t, G, v before it) and its parameters in
+#: the parameter array (kappa, gamma_e); a law that combines it with another passes its own places
+FIRST = 8
 
 
 @jit
-def state_rates(y, Dh, Wn, p, out, scale):
-    """dK/d(|D'| t) times ``scale`` into ``out[FIRST:FIRST + 5]``: the relaxation and the Jaumann spin."""
-    k11, k22, k12, k13, k23 = y[FIRST], y[FIRST + 1], y[FIRST + 2], y[FIRST + 3], y[FIRST + 4]
+def state_rates(y, Dh, Wn, p, out, scale, first, own):
+    """dK/d(|D'| t) times ``scale`` into ``out[first:first + 5]``: the relaxation and the Jaumann spin."""
+    k11, k22, k12, k13, k23 = y[first], y[first + 1], y[first + 2], y[first + 3], y[first + 4]
     s11, s22, s12, s13, s23 = spin_rate(Wn[0], Wn[1], Wn[2], k11, k22, k12, k13, k23)
-    c = math.sqrt(2.0) / p[STRAIN]
-    kappa = p[KAPPA]
-    out[FIRST] = scale * (c * (kappa * Dh[0] - k11) + s11)
-    out[FIRST + 1] = scale * (c * (kappa * Dh[1] - k22) + s22)
-    out[FIRST + 2] = scale * (c * (kappa * Dh[3] - k12) + s12)
-    out[FIRST + 3] = scale * (c * (kappa * Dh[4] - k13) + s13)
-    out[FIRST + 4] = scale * (c * (kappa * Dh[5] - k23) + s23)
+    c = math.sqrt(2.0) / p[own + 1]
+    kappa = p[own]
+    out[first] = scale * (c * (kappa * Dh[0] - k11) + s11)
+    out[first + 1] = scale * (c * (kappa * Dh[1] - k22) + s22)
+    out[first + 2] = scale * (c * (kappa * Dh[3] - k12) + s12)
+    out[first + 3] = scale * (c * (kappa * Dh[4] - k13) + s13)
+    out[first + 4] = scale * (c * (kappa * Dh[5] - k23) + s23)
 
 
 @jit
-def state_fabric(y):
+def state_fabric(y, first):
     """K, the part of the fabric the state holds beyond A, packed (11, 22, 12, 13, 23)."""
-    return y[FIRST], y[FIRST + 1], y[FIRST + 2], y[FIRST + 3], y[FIRST + 4]
+    return y[first], y[first + 1], y[first + 2], y[first + 3], y[first + 4]
 
 
 def start(Dh, phi, values):

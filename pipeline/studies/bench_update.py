@@ -39,7 +39,9 @@ VARIANT_PARAMS = (PAPER, Params(variant="loading", chi=0.45),
                   Params(variant="memory", memory_share=0.45, memory_rate=5.0),
                   Params(variant="jump", jump_fabric=-0.013),
                   Params(variant="elastic", elastic_fabric=-0.035, elastic_strain=0.01),
-                  Params(variant="compaction", compaction_gain=100.0, compaction_strain=0.3))
+                  Params(variant="compaction", compaction_gain=190.0, compaction_strain=0.8),
+                  Params(variant="elastic_compaction", elastic_fabric=-0.035, elastic_strain=0.01,
+                         compaction_gain=190.0, compaction_strain=0.8))
 
 
 def cycle_steps(theta: float, params: Params = PAPER):

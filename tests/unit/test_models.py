@@ -82,8 +82,10 @@ def test_a_law_that_cannot_be_fitted_on_a_splits_runs_predicts_none_of_its_held_
 @pytest.mark.slow
 @pytest.mark.parametrize("added", [{"chi": 0.35}, {"memory_share": 0.6, "memory_rate": 8.0}, {"jump_fabric": -0.013},
                                    {"elastic_fabric": -0.013, "elastic_strain": 0.01},
-                                   {"compaction_gain": 100.0, "compaction_strain": 0.3}],
-                         ids=["loading", "memory", "jump", "elastic", "compaction"])
+                                   {"compaction_gain": 100.0, "compaction_strain": 0.3},
+                                   {"elastic_fabric": -0.013, "elastic_strain": 0.01, "compaction_gain": 100.0,
+                                    "compaction_strain": 0.3}],
+                         ids=["loading", "memory", "jump", "elastic", "compaction", "elastic_compaction"])
 def test_the_fit_recovers_a_variants_known_parameters(tmp_path, added):
     """Read as ``make models`` reads runs (the paper's definitions), without noise every parameter to 1e-4; with the
     DEM's kind of noise each added parameter within three of its standard errors."""
