@@ -243,6 +243,38 @@ def curves(events: list[dict], has_memory: bool) -> dict[str, list[float]]:
     return out
 
 
+#: the strains after a change at which two data sets' budgets are compared (``make engines``)
+COMPARED_GAMMAS = (0.005, 0.05, 0.2)
+
+
+def change_measures(run) -> list[dict[str, float]]:
+    """Per change of direction of a run (``direction_changes``), what its contacts show at ``COMPARED_GAMMAS``: the
+    persistence of the change's contacts, the fraction of the fabric followed (the memory where the turn has a normal
+    part, else the shear part), the strong network's share of it and the packing's rise; an empty dict for a change
+    the run does not resolve, every one for a run that tracked no contacts."""
+    changes = direction_changes(run.spec)
+    if run.contacts is None:
+        return [{} for _ in changes]
+    part = 1 if abs(math.sin(math.radians(run.theta_deg))) >= MEMORY_MIN_SIN else 0
+    followed = ("shear", "memory")[part]
+    ends = changes[1:] + [run.raw_all["strain"][-1]]
+    out = []
+    for change, end in zip(changes, ends, strict=True):
+        e = event_series(run, change, end, model.PAPER)  # Eq. 13's terms are not compared: Table 2 will do
+        values = {}
+        for g in COMPARED_GAMMAS if e is not None else ():
+            k = int(np.argmin(np.abs(e["gamma"] - g)))
+            if abs(e["gamma"][k] - g) > 0.25 * g:
+                continue
+            fraction = float(e["A"][part][k])
+            values[f"persistence at γ = {g:g}"] = float(e["persistence"][k, 0])
+            values[f"{followed} left at γ = {g:g}"] = fraction
+            values[f"strong share of the {followed} at γ = {g:g}"] = float(e["strong"][part][k]) / fraction
+            values[f"Φ rise at γ = {g:g}"] = float(e["packing"][k])
+        out.append(values)
+    return out
+
+
 def group_label(run) -> str:
     label = f"{run.theta_deg:g}°"
     return label if run.default_rotation else f"{label} at {run.spec.rotate_at_strain:g}"

@@ -3,12 +3,14 @@ cross-validation) or the reduced cell against the paper's (``make cells``).
 
 ``python -m pipeline.studies.versus --a SIDE --b SIDE [--out DIR] [--no-fit]``, a SIDE being
 ``preset[/engine][/key=value...]`` (``reduced/yade``, ``paper``: the preset's data set,
-``pipeline.dataset.selection``). Reads each side's runs, every seed: the reversals (theta = 180) and the theta = 90
-runs, at the default rotation. Per run, with the fidelity study's measures (``pipeline.studies.fidelity.summary``):
+``pipeline.dataset.selection``). Reads each side's runs, every seed: the reversals (theta = 180), the theta = 90
+runs and, where both sides have them, the theta = 150 runs, at the default rotation. Per run, with the fidelity study's measures (``pipeline.studies.fidelity.summary``):
 the steady values before each change of direction (tau12/p as ``mu``, |A|, A12 as ``A_aligned``, Phi of the central
 band and of the gap), the central band's strain per nominal strain, the fabric's shear component after each change
 as a fraction of its value before it (``make jump``'s measure) at gamma = 0.0005 ... 0.5 (below 0.005 from the runs
-with dense samples), and, for the reversals, the global fit on the run alone in the paper's definitions.
+with dense samples), for runs that tracked their contacts what the contact budget shows at 0.005, 0.05 and 0.2
+strain (``budget.change_measures``: persistence, the fraction followed, the strong network's share of it, the
+packing's rise), and, for the reversals, the global fit on the run alone in the paper's definitions.
 
 Each quantity's mean over a side's runs, its standard error from their scatter (seeds are independent; for the
 steady values and the fit never below the runs' own errors, ``welch.own_floor``), and the
@@ -40,30 +42,41 @@ from ..paths import RESULTS_DIR
 from ..spec import ENGINES, parse_overrides
 from . import welch
 from .fidelity.summary import PAPER_DEFINITIONS, own_fit, steady_values
+from .budget import change_measures
 from .jump import mean_and_error, run_profiles
 
 TRANSIENT_GAMMAS = (0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
 STEADY = {"mu": "τ12/p", "A_norm": "|A|", "A_aligned": "A12", "phi_central": "Φ band", "phi_gap": "Φ gap"}
 FIT_NAMES = ("C", "n", "a1", "a2", "b1", "b2")
+#: the angles compared: the reversals and 90 degrees always, 150 degrees (the slow memory) where both sides ran it
+ANGLES = (180.0, 90.0, 150.0)
 #: two-sided level of the agreement test
 LEVEL = 0.95
 
 
-def run_parts(run) -> tuple[dict, list]:
-    """What both tables read of a run: its steady values (``steady_values``) and its changes' profiles."""
-    return steady_values(run), run_profiles(run, TRANSIENT_GAMMAS)
+def run_parts(run) -> tuple[dict, list, list]:
+    """What both tables read of a run: its steady values (``steady_values``), its changes' profiles and their contact
+    budgets (``budget.change_measures``; none for a run that did not track its contacts)."""
+    return steady_values(run), run_profiles(run, TRANSIENT_GAMMAS), change_measures(run)
+
+
+def budget_names(changes: list[dict]) -> list[str]:
+    """The budget's quantities any change of a run has, in their order."""
+    return list(dict.fromkeys(name for values in changes for name in values))
 
 
 def run_measures(run, fit: bool, parts: tuple[dict, list]) -> tuple[dict, dict]:
     """One run's measures (see the module's doc), each a number (NaN where the run cannot give it), and the run's
     own errors of those it has them for (the steady values: their windows' standard error; the fit's: its own);
     ``parts``: its ``run_parts``."""
-    steady, profiles = parts
+    steady, profiles, changes = parts
     out = {label: steady[key]["mean"] for key, label in STEADY.items()}
     own = {label: steady[key]["standard_error"] for key, label in STEADY.items()}
     out["band strain / nominal"] = bulk_over_nominal(run.with_definitions(Definitions(strain="bulk")))
     for k, g in enumerate(TRANSIENT_GAMMAS):
         out[f"A fraction at γ = {g:g}"] = _mean([p["fabric"][k] for p in profiles])
+    for name in budget_names(changes):
+        out[name] = _mean([values.get(name, math.nan) for values in changes])
     if fit:
         result = own_fit(run.with_definitions(PAPER_DEFINITIONS))
         for name in FIT_NAMES:
@@ -86,11 +99,13 @@ def run_events(parts: tuple[dict, list]) -> dict[str, list[tuple[int, float]]]:
     """Per quantity, a run's values event by event (from its ``run_parts``), each with its cycle (0, 1, ...): the
     steady values over each cycle's two windows (0.3 strain before each change that ends a part of it) and the A
     fractions at each of its two changes of direction."""
-    windows, profiles = parts
+    windows, profiles, changes = parts
     out = {label: [(j // 2, w) for j, w in enumerate(windows[key]["windows"][1:])]  # [0]: the preceding half period
            for key, label in STEADY.items()}
     for k, g in enumerate(TRANSIENT_GAMMAS):
         out[f"A fraction at γ = {g:g}"] = [(j // 2, p["fabric"][k]) for j, p in enumerate(profiles)]
+    for name in budget_names(changes):
+        out[name] = [(j // 2, values.get(name, math.nan)) for j, values in enumerate(changes)]
     return out
 
 
@@ -293,7 +308,8 @@ def main(argv=None) -> int:
     if sides[0] == sides[1]:
         raise PipelineError(f"--a {args.a} and --b {args.b} are the same data set ({sides[0].label})")
     out = io.check_writable_dir(args.out)
-    runs = {f"{theta:g}": {s.label: seed_runs(s, theta) for s in sides} for theta in (180.0, 90.0)}
+    runs = {f"{theta:g}": {s.label: seed_runs(s, theta) for s in sides} for theta in ANGLES}
+    runs = {theta: by_side for theta, by_side in runs.items() if theta in ("180", "90") or all(by_side.values())}
     none = [s for s in sides if not any(r.is_reversal for r in runs["180"][s.label])]
     if none:
         raise PipelineError(f"{none[0].label} has no reversal run: make dem THETA=180 PRESET={none[0].preset} "
