@@ -4,13 +4,14 @@ cross-validation) or the reduced cell against the paper's (``make cells``).
 ``python -m pipeline.studies.versus --a SIDE --b SIDE [--out DIR] [--no-fit]``, a SIDE being
 ``preset[/engine][/key=value...]`` (``reduced/yade``, ``paper``: the preset's data set,
 ``pipeline.dataset.selection``). Reads each side's runs, every seed: the reversals (theta = 180), the theta = 90
-runs and, where both sides have them, the theta = 150 runs, at the default rotation. Per run, with the fidelity study's measures (``pipeline.studies.fidelity.summary``):
-the steady values before each change of direction (tau12/p as ``mu``, |A|, A12 as ``A_aligned``, Phi of the central
-band and of the gap), the central band's strain per nominal strain, the fabric's shear component after each change
-as a fraction of its value before it (``make jump``'s measure) at gamma = 0.0005 ... 0.5 (below 0.005 from the runs
-with dense samples), for runs that tracked their contacts what the contact budget shows at 0.005, 0.05 and 0.2
-strain (``budget.change_measures``: persistence, the fraction followed, the strong network's share of it, the
-packing's rise), and, for the reversals, the global fit on the run alone in the paper's definitions.
+runs and, where both sides have them, the theta = 150 runs, at the default rotation. Per run, with the fidelity
+study's measures (``pipeline.studies.fidelity.summary``): the steady values before each change of direction (tau12/p
+as ``mu``, |A|, A12 as ``A_aligned``, Phi of the central band and of the gap), the central band's strain per nominal
+strain, the fabric's shear component after each change as a fraction of its value before it (``make jump``'s
+measure) at gamma = 0.0005 ... 0.5 (below 0.005 from the runs with dense samples), for runs that tracked their
+contacts what the contact budget shows at 0.005, 0.05 and 0.2 strain (``budget.change_measures``: persistence, the
+fraction followed, the strong network's share of it, the packing's rise), and, for the reversals, the global fit on
+the run alone in the paper's definitions.
 
 Each quantity's mean over a side's runs, its standard error from their scatter (seeds are independent; for the
 steady values and the fit never below the runs' own errors, ``welch.own_floor``), and the
@@ -41,8 +42,8 @@ from ..errors import PipelineError
 from ..paths import RESULTS_DIR
 from ..spec import ENGINES, parse_overrides
 from . import welch
-from .fidelity.summary import PAPER_DEFINITIONS, own_fit, steady_values
 from .budget import change_measures
+from .fidelity.summary import PAPER_DEFINITIONS, own_fit, steady_values
 from .jump import mean_and_error, run_profiles
 
 TRANSIENT_GAMMAS = (0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
