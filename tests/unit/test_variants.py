@@ -22,9 +22,11 @@ VARIANT_SETS = [Params(variant="loading", chi=0.4), Params(variant="loading", ch
                 Params(variant="compaction", compaction_gain=100.0, compaction_strain=0.5),
                 Params(variant="compaction", compaction_gain=400.0, compaction_strain=0.05),
                 Params(variant="elastic_compaction", elastic_fabric=-0.013, elastic_strain=0.01, compaction_gain=190.0,
+                       compaction_strain=0.8),
+                Params(variant="handover", elastic_fabric=-0.013, elastic_strain=0.01, compaction_gain=190.0,
                        compaction_strain=0.8)]
 IDS = ["loading+", "loading-", "memory-slow", "memory-half-fast", "jump-", "jump+", "elastic-", "elastic+",
-       "compaction-slow", "compaction-fast", "elastic_compaction"]
+       "compaction-slow", "compaction-fast", "elastic_compaction", "handover"]
 #: the variants that change nothing in a reversal, where A stays in the plane of D'
 LEAVE_A_REVERSAL = ("loading", "memory", "compaction")
 #: the law's own state that is a tensor (K packed, named K11 ... K23), turned with the material; the rest are scalars
@@ -128,7 +130,7 @@ def test_the_fabric_law_is_an_isotropic_function(params):
         # the whole fabric the law returns (the state plus kappa D'/|D'| of "jump", K of "elastic"), not its state only
         base, rotated = fabric_of(A, D, np.eye(3)), fabric_of(R @ A @ R.T, R @ D @ R.T, R)
         np.testing.assert_allclose(rotated, R @ base @ R.T, atol=1e-12)
-        assert params.variant not in ("jump", "elastic", "elastic_compaction") or not np.allclose(base, A)
+        assert params.variant in ("loading", "memory", "compaction") or not np.allclose(base, A)
 
 
 @pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
@@ -173,8 +175,7 @@ def stepped(params, steps, spun, strain=1.0):
     return A[0], turn(strain)
 
 
-@pytest.mark.parametrize("params", [PAPER, *VARIANT_SETS[5::2], VARIANT_SETS[-1]],
-                         ids=["rk2025", *IDS[5::2], IDS[-1]])
+@pytest.mark.parametrize("params", [PAPER, *VARIANT_SETS[5::2]], ids=["rk2025", *IDS[5::2]])
 def test_objective_under_a_rotation_that_varies_in_time(params):
     """With a rigid spin superposed on the whole motion the fabric is the turned one, Q(t) A Q(t)^T, to the order of
     the stepping: halving the steps quarters the difference (midpoint velocity gradients), whichever law, with its
