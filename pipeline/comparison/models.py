@@ -205,6 +205,18 @@ def pooled(rows: list[dict]) -> float:
     return float(np.sqrt(sum(r["chi2"] for r in rows) / sum(r["samples"] for r in rows)))
 
 
+def runnable(run, sets: dict) -> dict:
+    """``metrics.model_for`` of the parameter sets whose law can run the run's cycle (one that cannot draws no curve;
+    its held-out score says so)."""
+    out = {}
+    for label, params in sets.items():
+        try:
+            out.update(metrics.model_for(run, {label: params}))
+        except model.SolverError:
+            continue
+    return out
+
+
 def curves(runs: list, results: list[dict]) -> dict:
     """What the figure draws: per variant, the memory of the old direction after the turns of 120 and 150 (the DEM's
     cycle mean; each variant fitted without 120 and 150, the ``angles`` split) and the first JUMP_SPAN strain after
@@ -217,7 +229,7 @@ def curves(runs: list, results: list[dict]) -> dict:
         if not run.default_rotation:
             continue
         if run.theta_deg in (120.0, 150.0):
-            preds = metrics.model_for(run, {v: model.Params.from_dict(p) for v, p in sets.items()})
+            preds = runnable(run, {v: model.Params.from_dict(p) for v, p in sets.items()})
             for c in metrics.memory_curves(run, preds):
                 if c["segment"] == "after the turn to theta":
                     out["memory"].append({"run": run.path.stem, "seed": run.spec.seed, "theta": run.theta_deg,
@@ -225,7 +237,7 @@ def curves(runs: list, results: list[dict]) -> dict:
                                           "dem": c["dem"].mean(axis=0),
                                           "model": {v: m[1] for v, m in c["model"].items()}})
         if run.is_reversal:
-            preds = metrics.model_for(run, {v: model.Params.from_dict(p) for v, p in full.items()})
+            preds = runnable(run, {v: model.Params.from_dict(p) for v, p in full.items()})
             out["jump"].append(jump_curve(run, preds))
     return out
 
