@@ -178,10 +178,10 @@ def test_the_models_figure_refuses_curves_whose_runs_changed_since(tmp_path):
 
 
 def test_the_figure_draws_the_laws_that_can_run_a_cycle_and_leaves_out_one_that_cannot(tmp_path):
-    """A fitted law that cannot run a run's cycle (here a1 > 0: Eq. 13 stalls after the reversal) has no curve; the
-    others keep theirs, so one sick law does not stop ``make models``."""
+    """A fitted law that cannot run a run's cycle (here c3 = 0.5: Eq. 18's packing fraction leaves (0, 1)) has no
+    curve; the others keep theirs, so one sick law does not stop ``make models``."""
     run = synthetic_run(tmp_path, theta=180.0, name="t180", n_cycles=2)
-    preds = models.runnable(run, {"rk2025": model.PAPER, "stalls": model.PAPER.replace(a1=0.05)})
+    preds = models.runnable(run, {"rk2025": model.PAPER, "sick": model.PAPER.replace(c3=0.5)})
     assert list(preds) == ["rk2025"]
     with pytest.raises(model.SolverError):  # as it does on its own
-        models.metrics.model_for(run, {"stalls": model.PAPER.replace(a1=0.05)})
+        models.metrics.model_for(run, {"sick": model.PAPER.replace(c3=0.5)})
