@@ -81,8 +81,9 @@ def test_a_law_that_cannot_be_fitted_on_a_splits_runs_predicts_none_of_its_held_
 
 #: the paper cell's noise as ``make models`` measures it (``pipeline.calibration.noise``, the committed runs at
 #: I = 1e-3): per sample of a cycle, 0.0025-0.0033 on A (the noise given), correlated along strain over 0.05-0.13
-#: (integrated length; an AR(1) of 0.1 here) and with tau/p's at -0.57 to -0.66
-DEM_NOISE = {"correlation_strain": 0.1, "a_tau_correlation": -0.6}
+#: (integrated length, sample_strain (1 + 2 sum rho); an AR(1) of 0.05 here, integrated 0.1) and with tau/p's at
+#: -0.57 to -0.66
+DEM_NOISE = {"correlation_strain": 0.05, "a_tau_correlation": -0.6}
 #: each law's added parameters, as the recovery test sets them
 BOTH = {"elastic_fabric": -0.013, "elastic_strain": 0.01, "compaction_gain": 100.0, "compaction_strain": 0.3}
 ADDED = {"loading": {"chi": 0.35}, "memory": {"memory_share": 0.6, "memory_rate": 8.0}, "jump": {"jump_fabric": -0.013},
