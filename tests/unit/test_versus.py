@@ -132,3 +132,23 @@ def test_cycle_by_cycle_meets_cycle_1_with_cycle_1_and_pools_the_later_cycles(tm
     assert "### θ = 180, cycles 2 on (3 and 1 runs)" in text and "z within ‡" in text
     only_first = versus.summarise({"180": {"many": many, "single": single}}, fits=False)["cycle_groups"]
     assert set(only_first) == {"180, cycle 1"}  # a one-cycle side has no later cycles to meet
+
+
+def test_both_engines_give_the_same_contact_budget_after_a_turn_within_their_seeds_scatter():
+    """The committed reduced runs at 150 degrees, two seeds of each engine, all tracking their contacts: the contact
+    budget (persistence, the memory left, the strong network's share of it, the packing's rise, at 0.005, 0.05 and
+    0.2 strain after each turn) agrees between Yade and LAMMPS within Welch's test, all but one quantity in twenty
+    as chance allows, seed against seed and cycle against cycle."""
+    from pipeline.dataset.lookup import seed_runs
+    from pipeline.paths import ROOT
+
+    roots = (ROOT / "data" / "reference",)
+    runs = {label: seed_runs(versus.side(f"reduced/{label}"), 150.0, roots) for label in ("yade", "lammps")}
+    assert all(len(r) == 2 and all(run.contacts is not None for run in r) for r in runs.values())
+    summary = versus.summarise({"150": runs}, fits=False)
+    rows = [r for r in summary["groups"]["150"]["rows"]
+            if r["quantity"].split(" at γ")[0] in ("persistence", "memory left", "strong share of the memory",
+                                                  "Φ rise")]
+    assert len(rows) == 12 and all(r["yade"]["n"] == 2 and r["lammps"]["n"] == 2 for r in rows)
+    tested = [r["agree"] for r in rows if r["agree"] is not None]
+    assert len(tested) == 12 and sum(tested) >= 11, [(r["quantity"], r["z"]) for r in rows]
