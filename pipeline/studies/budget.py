@@ -1,8 +1,8 @@
 """The contact budget after each change of direction (``make budget``): what the DEM's contacts do, set against Eq. 13.
 
 ``python -m pipeline.studies.budget [--preset P] [--engine E] [--set k=v ...] [--params FILE] [--out DIR]`` reads the
-data set's runs that tracked their contacts (``dem/core/budget.py``; without ``--engine``, the preset's LAMMPS data set
-where its default one has none) and, for every change of direction, over strain windows after it, measures:
+data set's runs that tracked their contacts (``dem/core/budget.py``; without ``--engine``, the preset's data set,
+of either engine, with the most such runs) and, for every change of direction, over strain windows after it, measures:
 
 - the fabric's rate of change per unit nominal strain, split into the contacts **made**, **lost** (and their sum, the
   **exchange**, which alone does not depend on the tracking spacing), **kept** (rotating) and **crossing** the
@@ -49,6 +49,7 @@ from ..dataset.dem_file import load
 from ..dataset.lookup import every_seed
 from ..errors import PipelineError
 from ..paths import preset_output
+from ..spec import ENGINES
 
 #: windows of nominal strain after a change: the jump (dense samples) first, then the slow memory
 WINDOWS = ((0.0, 0.0005), (0.0005, 0.001), (0.001, 0.002), (0.002, 0.005), (0.005, 0.02), (0.02, 0.05),
@@ -346,13 +347,15 @@ def tracked_runs(chosen) -> list:
 
 
 def choose(args) -> tuple:
-    """The data set and its runs with a contact budget; without ``--engine``, the preset's LAMMPS data set where its
-    default one has none."""
+    """The data set and its runs with a contact budget; without ``--engine`` (and ``--set``), of the preset's data sets
+    of each engine the one with the most such runs (the default engine's on a tie)."""
     chosen = selection.from_arguments(args)
     runs = tracked_runs(chosen)
-    if not runs and args.engine is None and not args.set:
-        other = selection.data_set(chosen.preset, "lammps")
-        runs, chosen = tracked_runs(other), other
+    if args.engine is None and not args.set:
+        for engine in ENGINES:
+            other = selection.data_set(chosen.preset, engine)
+            if other != chosen and len(found := tracked_runs(other)) > len(runs):
+                runs, chosen = found, other
     if not runs:
         raise PipelineError(f"no run of {chosen.label} tracked its contacts: make one with `make dem ... ENGINE="
                             f"{chosen.engine}` (contact_track_strain > 0, the default)")
