@@ -9,7 +9,6 @@ parameter array ``p`` (``Params.as_array``: Eq. 13's parameters, the law's code,
 - ``removal``: what beta2 |D'| removes in place of A (Eq. 13's recovery term), packed (11, 22, 12, 13, 23); the
   dispatcher hands it the kernels' state ``y`` too, which a law with a state of its own may read;
 - ``extra_rate``: a rate per unit |D'| t added beside the Jaumann spin (scaled by Lambda as it is), packed alike;
-  the dispatcher hands it the kernels' state ``y`` too;
 - ``offset``: kappa, where the fabric of Eqs. 14 and 18 is the state A plus kappa D'/|D'|;
 - a state of its own (``STATE``, its names; after the kernels' ``BASE`` components): ``state_rates`` writes its
   rates per unit |D'| t times ``scale`` (given Eq. 18's g and c2), ``state_fabric(y)`` the part of the fabric it
@@ -32,16 +31,15 @@ import dataclasses
 import numpy as np
 
 from ..jit import jit
-from . import compaction, elastic, elastic_compaction, handover, jump, loading, memory, rk2025
+from . import compaction, elastic, elastic_compaction, jump, loading, memory, rk2025
 from .parameter import OWN, Parameter
 
 #: the registry: every fabric law, Eq. 13's first (its code is its place here)
-LAWS = {law.NAME: law for law in (rk2025, loading, memory, jump, elastic, compaction, elastic_compaction, handover)}
+LAWS = {law.NAME: law for law in (rk2025, loading, memory, jump, elastic, compaction, elastic_compaction)}
 DEFAULT = rk2025.NAME
 CODE = {name: float(k) for k, name in enumerate(LAWS)}
 _LOADING, _MEMORY, _JUMP = CODE[loading.NAME], CODE[memory.NAME], CODE[jump.NAME]
 _ELASTIC, _COMPACTION, _BOTH = CODE[elastic.NAME], CODE[compaction.NAME], CODE[elastic_compaction.NAME]
-_HANDOVER = CODE[handover.NAME]
 _TOGETHER = elastic_compaction
 LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
 #: the kernels' state before a law's own (``model.integrator``: A packed, t, G, v)
@@ -63,7 +61,7 @@ def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
     code = p[LAW_INDEX]
     if code == _COMPACTION:
         return compaction.removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, compaction.FIRST, OWN)
-    if code == _BOTH or code == _HANDOVER:
+    if code == _BOTH:
         return compaction.removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p,
                                   _TOGETHER.COMPACTION_FIRST, _TOGETHER.COMPACTION_OWN)
     if code == _LOADING:
@@ -74,13 +72,10 @@ def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
 
 
 @jit
-def extra_rate(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
-    """The law's rate beside the spin, per unit |D'| t (Eq. 13: none); ``y`` the kernels' state."""
-    code = p[LAW_INDEX]
-    if code == _MEMORY:
+def extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
+    """The law's rate beside the spin, per unit |D'| t (Eq. 13: none)."""
+    if p[LAW_INDEX] == _MEMORY:
         return memory.extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
-    if code == _HANDOVER:
-        return handover.extra_rate(y, d11, d22, d33, d12, d13, d23, p)
     return 0.0, 0.0, 0.0, 0.0, 0.0
 
 
@@ -123,7 +118,7 @@ def state_rates(y, Dh, Wn, p, g, c2, out, scale):
         elastic.state_rates(y, Dh, Wn, p, out, scale, elastic.FIRST, OWN)
     elif code == _COMPACTION:
         compaction.state_rates(y, p, g, c2, out, scale, compaction.FIRST, OWN)
-    elif code == _BOTH or code == _HANDOVER:
+    elif code == _BOTH:
         elastic.state_rates(y, Dh, Wn, p, out, scale, _TOGETHER.ELASTIC_FIRST, _TOGETHER.ELASTIC_OWN)
         compaction.state_rates(y, p, g, c2, out, scale, _TOGETHER.COMPACTION_FIRST, _TOGETHER.COMPACTION_OWN)
 
@@ -134,7 +129,7 @@ def set_packing(y, u, p):
     code = p[LAW_INDEX]
     if code == _COMPACTION:
         compaction.set_packing(y, u, compaction.FIRST)
-    elif code == _BOTH or code == _HANDOVER:
+    elif code == _BOTH:
         compaction.set_packing(y, u, _TOGETHER.COMPACTION_FIRST)
 
 
@@ -144,14 +139,14 @@ def state_fabric(y, p):
     code = p[LAW_INDEX]
     if code == _ELASTIC:
         return elastic.state_fabric(y, elastic.FIRST)
-    if code == _BOTH or code == _HANDOVER:
+    if code == _BOTH:
         return elastic.state_fabric(y, _TOGETHER.ELASTIC_FIRST)
     return 0.0, 0.0, 0.0, 0.0, 0.0
 
 
 @dataclasses.dataclass(frozen=True)
 class ReferenceParts:
-    """A law's parts on 3x3 tensors for ``model.reference``: ``removal(A, Dh, X, phi)``, ``extra(A, Dh, X)`` (per unit
+    """A law's parts on 3x3 tensors for ``model.reference``: ``removal(A, Dh, X, phi)``, ``extra(A, Dh)`` (per unit
     |D'| t), ``offset`` (kappa), and for a law with a state X of its own (a flat array; None for none)
     ``state_start(Dh, phi)``, ``state_rate(X, A, phi, L)`` (dX/dt) and ``state_fabric(X)`` (the part of the fabric
     it holds, 3x3)."""
@@ -174,8 +169,7 @@ def reference_parts(name: str, values: dict) -> ReferenceParts:
     return ReferenceParts(
         (lambda A, Dh, X, phi: removal_of(A, Dh, values, *((X, phi) if state_of else ()))) if removal_of
         else (lambda A, Dh, X, phi: A),
-        (lambda A, Dh, X: extra_of(A, Dh, values, *((X,) if state_of else ()))) if extra_of
-        else (lambda A, Dh, X: np.zeros((3, 3))),
+        (lambda A, Dh: extra_of(A, Dh, values)) if extra_of else (lambda A, Dh: np.zeros((3, 3))),
         float(law.reference_offset(values)) if hasattr(law, "reference_offset") else 0.0,
         (lambda Dh, phi: law.reference_start(Dh, phi, values)) if state_of else None,
         (lambda X, A, phi, L: state_of(X, A, phi, L, values)) if state_of else None,

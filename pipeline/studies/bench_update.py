@@ -41,8 +41,6 @@ VARIANT_PARAMS = (PAPER, Params(variant="loading", chi=0.45),
                   Params(variant="elastic", elastic_fabric=-0.035, elastic_strain=0.01),
                   Params(variant="compaction", compaction_gain=190.0, compaction_strain=0.8),
                   Params(variant="elastic_compaction", elastic_fabric=-0.035, elastic_strain=0.01,
-                         compaction_gain=190.0, compaction_strain=0.8),
-                  Params(variant="handover", elastic_fabric=-0.035, elastic_strain=0.01,
                          compaction_gain=190.0, compaction_strain=0.8))
 
 

@@ -88,8 +88,7 @@ DEM_NOISE = {"correlation_strain": 0.05, "a_tau_correlation": -0.6}
 BOTH = {"elastic_fabric": -0.013, "elastic_strain": 0.01, "compaction_gain": 100.0, "compaction_strain": 0.3}
 ADDED = {"loading": {"chi": 0.35}, "memory": {"memory_share": 0.6, "memory_rate": 8.0}, "jump": {"jump_fabric": -0.013},
          "elastic": {"elastic_fabric": -0.013, "elastic_strain": 0.01},
-         "compaction": {"compaction_gain": 100.0, "compaction_strain": 0.3}, "elastic_compaction": BOTH,
-         "handover": BOTH}
+         "compaction": {"compaction_gain": 100.0, "compaction_strain": 0.3}, "elastic_compaction": BOTH}
 
 
 @pytest.mark.slow

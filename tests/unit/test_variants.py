@@ -22,11 +22,9 @@ VARIANT_SETS = [Params(variant="loading", chi=0.4), Params(variant="loading", ch
                 Params(variant="compaction", compaction_gain=100.0, compaction_strain=0.5),
                 Params(variant="compaction", compaction_gain=400.0, compaction_strain=0.05),
                 Params(variant="elastic_compaction", elastic_fabric=-0.013, elastic_strain=0.01, compaction_gain=190.0,
-                       compaction_strain=0.8),
-                Params(variant="handover", elastic_fabric=-0.013, elastic_strain=0.01, compaction_gain=190.0,
                        compaction_strain=0.8)]
 IDS = ["loading+", "loading-", "memory-slow", "memory-half-fast", "jump-", "jump+", "elastic-", "elastic+",
-       "compaction-slow", "compaction-fast", "elastic_compaction", "handover"]
+       "compaction-slow", "compaction-fast", "elastic_compaction"]
 #: the variants that change nothing in a reversal, where A stays in the plane of D'
 LEAVE_A_REVERSAL = ("loading", "memory", "compaction")
 #: the law's own state that is a tensor (K packed, named K11 ... K23), turned with the material; the rest are scalars
