@@ -40,7 +40,6 @@ DEFAULT = rk2025.NAME
 CODE = {name: float(k) for k, name in enumerate(LAWS)}
 _LOADING, _MEMORY, _JUMP = CODE[loading.NAME], CODE[memory.NAME], CODE[jump.NAME]
 _ELASTIC, _COMPACTION, _BOTH = CODE[elastic.NAME], CODE[compaction.NAME], CODE[elastic_compaction.NAME]
-_TOGETHER = elastic_compaction
 LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
 #: the kernels' state before a law's own (``model.integrator``: A packed, t, G, v)
 BASE = 8
@@ -63,7 +62,7 @@ def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
         return compaction.removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, compaction.FIRST, OWN)
     if code == _BOTH:
         return compaction.removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p,
-                                  _TOGETHER.COMPACTION_FIRST, _TOGETHER.COMPACTION_OWN)
+                                  elastic_compaction.COMPACTION_FIRST, elastic_compaction.COMPACTION_OWN)
     if code == _LOADING:
         return loading.removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
     if code == _MEMORY:
@@ -119,8 +118,10 @@ def state_rates(y, Dh, Wn, p, g, c2, out, scale):
     elif code == _COMPACTION:
         compaction.state_rates(y, p, g, c2, out, scale, compaction.FIRST, OWN)
     elif code == _BOTH:
-        elastic.state_rates(y, Dh, Wn, p, out, scale, _TOGETHER.ELASTIC_FIRST, _TOGETHER.ELASTIC_OWN)
-        compaction.state_rates(y, p, g, c2, out, scale, _TOGETHER.COMPACTION_FIRST, _TOGETHER.COMPACTION_OWN)
+        elastic.state_rates(y, Dh, Wn, p, out, scale, elastic_compaction.ELASTIC_FIRST,
+                            elastic_compaction.ELASTIC_OWN)
+        compaction.state_rates(y, p, g, c2, out, scale, elastic_compaction.COMPACTION_FIRST,
+                               elastic_compaction.COMPACTION_OWN)
 
 
 @jit
@@ -130,7 +131,7 @@ def set_packing(y, u, p):
     if code == _COMPACTION:
         compaction.set_packing(y, u, compaction.FIRST)
     elif code == _BOTH:
-        compaction.set_packing(y, u, _TOGETHER.COMPACTION_FIRST)
+        compaction.set_packing(y, u, elastic_compaction.COMPACTION_FIRST)
 
 
 @jit
@@ -140,7 +141,7 @@ def state_fabric(y, p):
     if code == _ELASTIC:
         return elastic.state_fabric(y, elastic.FIRST)
     if code == _BOTH:
-        return elastic.state_fabric(y, _TOGETHER.ELASTIC_FIRST)
+        return elastic.state_fabric(y, elastic_compaction.ELASTIC_FIRST)
     return 0.0, 0.0, 0.0, 0.0, 0.0
 
 

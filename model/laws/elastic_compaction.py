@@ -26,6 +26,8 @@ STATE = elastic.STATE + compaction.STATE
 ELASTIC_FIRST, ELASTIC_OWN = elastic.FIRST, OWN
 COMPACTION_FIRST, COMPACTION_OWN = elastic.FIRST + len(elastic.STATE), OWN + len(elastic.PARAMETERS)
 _K = len(elastic.STATE)
+#: K's size in the reference's own state (3x3, flattened), before 1/Phi_r
+_K_FLAT = 9
 
 
 def start(Dh, phi, values):
@@ -44,15 +46,15 @@ def reference_start(Dh, phi, values):
 
 def reference_fabric(X):
     """The part of the fabric the reference's own state holds: K."""
-    return elastic.reference_fabric(X[:9])
+    return elastic.reference_fabric(X[:_K_FLAT])
 
 
 def reference_removal(A, Dh, values, X, phi):
     """A - (1 - g) N on 3x3 tensors (``model.reference``)."""
-    return compaction.reference_removal(A, Dh, values, X[9:], phi)
+    return compaction.reference_removal(A, Dh, values, X[_K_FLAT:], phi)
 
 
 def reference_state_rate(X, A, phi, L, values):
     """dK/dt (flattened) and d(1/Phi_r)/dt (``model.reference``)."""
-    return np.concatenate([elastic.reference_state_rate(X[:9], A, phi, L, values),
-                           compaction.reference_state_rate(X[9:], A, phi, L, values)])
+    return np.concatenate([elastic.reference_state_rate(X[:_K_FLAT], A, phi, L, values),
+                           compaction.reference_state_rate(X[_K_FLAT:], A, phi, L, values)])

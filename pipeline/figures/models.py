@@ -26,12 +26,11 @@ def read_groups(path: Path, kind: str) -> list:
     """The ``kind`` groups ("memory" or "jump") of a checked ``models.h5``, open."""
     f = h5py.File(path, "r")
     version = schema.MODELS_VERSION
-    if f.attrs.get("schema") != schema.MODELS_SCHEMA or f.attrs.get("schema_version") != version or \
-            "made_from" not in f.attrs:
-        f.close()
-        raise PipelineError(f"{path}: not a models.h5 of version {version} that records what made it (run `make "
-                            "models`)")
     try:
+        if f.attrs.get("schema") != schema.MODELS_SCHEMA or f.attrs.get("schema_version") != version or \
+                "made_from" not in f.attrs:
+            raise PipelineError(f"{path}: not a models.h5 of version {version} that records what made it (run "
+                                "`make models`)")
         schema.MadeFrom.from_dict(json.loads(f.attrs["made_from"]), path).require_unchanged(
             f"{path} judged runs", "models")
     except PipelineError:

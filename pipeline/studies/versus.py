@@ -49,8 +49,8 @@ from .jump import mean_and_error, run_profiles
 TRANSIENT_GAMMAS = (0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
 STEADY = {"mu": "τ12/p", "A_norm": "|A|", "A_aligned": "A12", "phi_central": "Φ band", "phi_gap": "Φ gap"}
 FIT_NAMES = ("C", "n", "a1", "a2", "b1", "b2")
-#: the angles compared: the reversals and 90 degrees always, 150 degrees (the slow memory) where both sides ran it
-ANGLES = (180.0, 90.0, 150.0)
+#: the angles compared always (the reversals and 90 degrees), and where both sides ran it (150: the slow memory)
+ALWAYS, WHERE_BOTH = ("180", "90"), ("150",)
 #: two-sided level of the agreement test
 LEVEL = 0.95
 
@@ -309,8 +309,8 @@ def main(argv=None) -> int:
     if sides[0] == sides[1]:
         raise PipelineError(f"--a {args.a} and --b {args.b} are the same data set ({sides[0].label})")
     out = io.check_writable_dir(args.out)
-    runs = {f"{theta:g}": {s.label: seed_runs(s, theta) for s in sides} for theta in ANGLES}
-    runs = {theta: by_side for theta, by_side in runs.items() if theta in ("180", "90") or all(by_side.values())}
+    runs = {theta: {s.label: seed_runs(s, float(theta)) for s in sides} for theta in ALWAYS + WHERE_BOTH}
+    runs = {theta: by_side for theta, by_side in runs.items() if theta in ALWAYS or all(by_side.values())}
     none = [s for s in sides if not any(r.is_reversal for r in runs["180"][s.label])]
     if none:
         raise PipelineError(f"{none[0].label} has no reversal run: make dem THETA=180 PRESET={none[0].preset} "
