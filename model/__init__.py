@@ -26,7 +26,7 @@ with keyed_by_sources():
         steady_shear,
         stretching,
     )
-    from .material_point import Update, update
+    from .material_point import Update, update, update_inputs
     from .params import PAPER, ParameterError, Params
     from .solver import Result, SolverError, integrate, periodic, predict, reversal_start_rate, steady_state
 
@@ -38,5 +38,5 @@ __all__ = [
     "Segment", "SolverError", "deviator", "laws", "hardening_variable_stack", "integrate", "modulus", "periodic",
     "periodic_cycle", "predict", "reversal", "reversal_start_rate", "rotation_about_e2", "shear_direction",
     "shear_segment", "shear_velocity_gradient", "spin", "steady_shear", "steady_state", "stretching", "Update",
-    "update",
+    "update", "update_inputs",
 ]

@@ -14,7 +14,7 @@ import numpy as np
 
 from . import laws
 from .jit import jit
-from .tensors import spin_rate
+from .tensors import double_dot, spin_rate
 
 # indices into Params.as_array() of Eq. 13's parameters; the fabric law's code and its own follow (model.laws)
 (C, N, M, A1, B1, A2, B2, K_PERSIST, C1, C2_COEF, C2_EXP, C3, PHI_C) = range(13)
@@ -43,12 +43,6 @@ def fabric_within_bounds(a11, a22, a12, a13, a23, slack):
     r = 2.0 * math.sqrt(j2 / 3.0)
     lo, hi = FABRIC_BOUNDS
     return r * math.cos(t) <= hi + slack and r * math.cos(t + 2.0 * math.pi / 3.0) >= lo - slack
-
-
-@jit
-def double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23):
-    """A:D for traceless A (A33 = -A11 - A22) and symmetric D."""
-    return a11 * d11 + a22 * d22 - (a11 + a22) * d33 + 2.0 * (a12 * d12 + a13 * d13 + a23 * d23)
 
 
 @jit

@@ -181,13 +181,19 @@ def _shrunk(h, err):
 
 
 @jit
-def _stage(tableau, s, y, h, Dh, Wn, rate, p, lam_ref, K, ytmp):
-    """Stage s >= 1 of an explicit Runge-Kutta step of size h from y: K[s] = f(y + h sum_j a_sj K[j])."""
+def _stage_state(tableau, s, y, h, K, ytmp):
+    """ytmp = y + h sum_j a_sj K[j], where stage s >= 1 of an explicit Runge-Kutta step of size h from y is taken."""
     for i in range(y.shape[0]):
         acc = 0.0
         for j in range(s):
             acc += tableau[s, j] * K[j, i]
         ytmp[i] = y[i] + h * acc
+
+
+@jit
+def _stage(tableau, s, y, h, Dh, Wn, rate, p, lam_ref, K, ytmp):
+    """Stage s >= 1 of an explicit Runge-Kutta step of size h from y: K[s] = f(y + h sum_j a_sj K[j])."""
+    _stage_state(tableau, s, y, h, K, ytmp)
     _rhs_s(ytmp, Dh, Wn, rate, p, lam_ref, K[s])
 
 

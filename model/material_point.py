@@ -27,7 +27,7 @@ from .equations import K_PERSIST, PHI_MAX, fabric_within_bounds, hardening_varia
 from .equations import C as C_INDEX
 from .jit import jit
 from .params import Params
-from .solver import DEFAULT_S_REF, SolverError, _params
+from .solver import DEFAULT_S_REF, Result, SolverError, _fabric, _initial_state, _params
 
 DEFAULT_RTOL = 1e-9  # per step: A, Phi and tau/p within 1e-6 of ``model.predict`` over whole cycles
 DEFAULT_ATOL = 1e-11
@@ -176,7 +176,7 @@ def _write_state(y, Dh, p, A_out, tau_out):
 
 
 @jit
-def _update_range(start, stop, A, phi, X, L, dt, p, lam_ref, rtol, atol,
+def _update_range(start, stop, A, phi, X, L, dt, p, lam_ref, rtol, atol, scale,
                   A_out, phi_out, X_out, tau_out, S_out, steps_out, stationary_out):
     """Points start..stop-1; returns (failures, first failing point, its status). A failing point keeps
     its input state. Scratch is allocated once per call, not per point; ``A_out`` may be ``A``, ``X_out`` ``X``
@@ -234,7 +234,7 @@ def _update_range(start, stop, A, phi, X, L, dt, p, lam_ref, rtol, atol,
         for j in range(n_own):
             y[integrator.N_STATE + j] = X[i, j]
         laws.set_packing(y, 1.0 / phi[i], p)  # what the law holds of the packing is the point's phi
-        steps, status = stepper.advance(y, Dh, Wn, rate, p, lam_ref, dti, rtol, atol, MAX_STEPS, work)
+        steps, status = stepper.advance(y, Dh, Wn, rate, p, lam_ref, dti, rtol, atol, scale, MAX_STEPS, work)
         steps_out[i] = steps
         stationary_out[i] = False
         # Eq. 18 in closed form: 1/Phi(dt) = exp(-G)/Phi(0) + v (see model.integrator)
@@ -260,9 +260,9 @@ def _update_range(start, stop, A, phi, X, L, dt, p, lam_ref, rtol, atol,
 
 
 @jit
-def _update_serial(A, phi, X, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, X_out, tau_out, S_out, steps_out,
-                   stationary_out):
-    return _update_range(0, A.shape[0], A, phi, X, L, dt, p, lam_ref, rtol, atol,
+def _update_serial(A, phi, X, L, dt, p, lam_ref, rtol, atol, scale, A_out, phi_out, X_out, tau_out, S_out,
+                   steps_out, stationary_out):
+    return _update_range(0, A.shape[0], A, phi, X, L, dt, p, lam_ref, rtol, atol, scale,
                          A_out, phi_out, X_out, tau_out, S_out, steps_out, stationary_out)
 
 
@@ -273,8 +273,8 @@ _POOL = threading.Lock()
 
 
 @numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
-def _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, X_out, tau_out, S_out, steps_out,
-                     stationary_out):
+def _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, scale, A_out, phi_out, X_out, tau_out, S_out,
+                     steps_out, stationary_out):
     n = A.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
     failures = np.zeros(n_chunks, dtype=np.int64)
@@ -282,7 +282,7 @@ def _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, A_out, phi_out, X
     status = np.zeros(n_chunks, dtype=np.int64)
     for c in numba.prange(n_chunks):
         failures[c], first[c], status[c] = _update_range(
-            c * CHUNK, min(n, (c + 1) * CHUNK), A, phi, X, L, dt, p, lam_ref, rtol, atol,
+            c * CHUNK, min(n, (c + 1) * CHUNK), A, phi, X, L, dt, p, lam_ref, rtol, atol, scale,
             A_out, phi_out, X_out, tau_out, S_out, steps_out, stationary_out)
     total = 0
     first_failure, first_status = -1, 0
@@ -372,6 +372,23 @@ def _law_state(law_state, params: Params, L: np.ndarray, phi: np.ndarray, n: int
     return _array("law_state", np.broadcast_to(X, (n, own)), ((n, own),))  # the layout of a given one
 
 
+def update_inputs(result: Result, params: Params | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(A, phi, law_state) at each output of ``model.predict`` or ``model.integrate`` (``result``, run with
+    ``params``) as ``update`` takes them: the fabric less the part the law holds beyond it under the acting D'
+    (``Result.D_dev``; kappa D'/|D'| of "jump", K of "elastic"), the packing fraction and the law's own state."""
+    params = _params(params)
+    own = result.law_state if result.law_state is not None else np.empty((len(result.strain), 0))
+    if own.shape[1] != len(laws.state_names(params.variant)):
+        raise SolverError(f"the result carries {own.shape[1]} law state variables, {params.variant!r} has "
+                          f"{len(laws.state_names(params.variant))}: it was not made with these params")
+    D = np.asarray(result.D_dev, dtype=float)
+    norm = np.sqrt(np.sum(D * D, axis=(1, 2)))[:, None, None]
+    Dh = np.divide(D, norm, out=np.zeros_like(D), where=norm > 0)
+    packed = Dh[:, [0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]  # 11, 22, 33, 12, 13, 23
+    held = np.array([_fabric(_initial_state(np.zeros((3, 3)), x), params, d) for x, d in zip(own, packed, strict=True)])
+    return result.A - held, np.array(result.packing_fraction, dtype=float), np.array(own, dtype=float)
+
+
 def update(A, phi, L, dt, params: Params | None = None, out: Update | None = None, *, law_state=None,
            rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL, s_ref: float = DEFAULT_S_REF,
            fabric_tol: float = FABRIC_TOL, threads: int = 1) -> Update:
@@ -425,16 +442,17 @@ def update(A, phi, L, dt, params: Params | None = None, out: Update | None = Non
     out = _out(out, n, params)
     _check_overlaps({"A": A, "phi": phi, "L": L, "dt": dt, "law_state": X}, out)
     lam_ref = s_ref ** p[K_PERSIST]
+    scale = np.concatenate([np.ones(integrator.N_STATE), laws.state_tolerance(params.variant)])
     arrays = (out.A, out.phi, out.law_state, out.tau_over_p, out.S, out.substeps, out.stationary)
     if threads == 1 and (n < CHUNK or threading.current_thread() is not threading.main_thread()):
         # a few points, or a caller's own thread (numba's workqueue pool takes one caller at a time): no pool
-        failures, first, status = _update_serial(A, phi, X, L, dt, p, lam_ref, rtol, atol, *arrays)
+        failures, first, status = _update_serial(A, phi, X, L, dt, p, lam_ref, rtol, atol, scale, *arrays)
     else:  # the pool's kernel, on one thread too: compiled as a parallel loop it runs about 15 % faster per thread
         with _POOL:
             previous = numba.get_num_threads()
             numba.set_num_threads(threads)
             try:
-                failures, first, status = _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, *arrays)
+                failures, first, status = _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, scale, *arrays)
             finally:
                 numba.set_num_threads(previous)
     if failures:

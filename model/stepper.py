@@ -24,8 +24,9 @@ import math
 import numpy as np
 from scipy.integrate._ivp.rk import RK45
 
-from .equations import hardening_variable, jit, persistence
-from .integrator import NOT_FINITE, STEP_UNDERFLOW, SUCCESS, T_INDEX, TOO_MANY_STEPS, _rhs_s, _stage
+from . import laws
+from .equations import C1, hardening_variable, jit, persistence
+from .integrator import G_INDEX, NOT_FINITE, STEP_UNDERFLOW, SUCCESS, T_INDEX, TOO_MANY_STEPS, _rhs_s, _stage_state
 
 OVERSHOOT = 1.02  # a step aims this far past the end in t; most updates then take one step
 NEAR_END = 0.9  # an end this close to the step's end is taken from the interpolant without a defect check
@@ -53,6 +54,23 @@ ERROR_EXPONENT = -1.0 / 5.0
 
 
 @jit
+def _rhs(y, Dh, Wn, rate, p, lam_ref, out):
+    """dy/ds as ``model.integrator``'s, with G's place holding H = G + c1 K:Dh / c (``laws.relaxing_part``; 0 but for
+    a law whose state holds a fast-relaxing part K of the fabric). Eq. 18's g carries c1 K:Dh, which after a change
+    of direction relaxes over a strain 1/c a step would otherwise have to resolve; H's rate cancels it
+    (dK/d(|D'| t) = c (kappa Dh - K) + spin), leaving the slow kappa and the spin's part over c."""
+    _rhs_s(y, Dh, Wn, rate, p, lam_ref, out)
+    out[G_INDEX] += p[C1] * laws.relaxing_part(out, Dh, p)
+
+
+@jit
+def _stage(tableau, s, y, h, Dh, Wn, rate, p, lam_ref, K, ytmp):
+    """Stage s >= 1 of an explicit Runge-Kutta step of size h from y: K[s] = f(y + h sum_j a_sj K[j])."""
+    _stage_state(tableau, s, y, h, K, ytmp)
+    _rhs(ytmp, Dh, Wn, rate, p, lam_ref, K[s])
+
+
+@jit
 def _combine(weights, y, h, K, out):
     """out = y + h sum_j weights_j K[j]."""
     for i in range(y.shape[0]):
@@ -63,16 +81,16 @@ def _combine(weights, y, h, K, out):
 
 
 @jit
-def _error_norm(weights, y, y_new, K, h, rtol, atol):
+def _error_norm(weights, y, y_new, K, h, rtol, atol, scale):
     """RMS over the components of the embedded error estimate h sum_j weights_j K[j], scaled by
-    atol + rtol max(|y|, |y_new|)."""
+    scale_i (atol + rtol max(|y|, |y_new|))."""
     acc = 0.0
     n = y.shape[0]
     for i in range(n):
         e = 0.0
         for j in range(weights.shape[0]):
             e += weights[j] * K[j, i]
-        acc += (h * e / (atol + rtol * max(abs(y[i]), abs(y_new[i])))) ** 2
+        acc += (h * e / (scale[i] * (atol + rtol * max(abs(y[i]), abs(y_new[i]))))) ** 2
     return math.sqrt(acc / n)
 
 
@@ -82,7 +100,7 @@ def _dp5_step(y, h, Dh, Wn, rate, p, lam_ref, K, y_new, ytmp):
     for s in range(1, DP_A.shape[0]):
         _stage(DP_A, s, y, h, Dh, Wn, rate, p, lam_ref, K, ytmp)
     _combine(DP_B, y, h, K, y_new)
-    _rhs_s(y_new, Dh, Wn, rate, p, lam_ref, K[N_K - 1])
+    _rhs(y_new, Dh, Wn, rate, p, lam_ref, K[N_K - 1])
 
 
 @jit
@@ -146,7 +164,7 @@ def _aim(y, f0, rate, t_end, h):
 
 
 @jit
-def _conclude(y, h, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, work):
+def _conclude(y, h, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, scale, work):
     """Judge a computed step (work holds its stages): (REJECTED, next h), (ADVANCED, next h) with y moved
     to the step's end, or (FINISHED, h) with y at t_end, taken from the interpolant."""
     n = y.shape[0]
@@ -155,7 +173,7 @@ def _conclude(y, h, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, work):
     y_new = work[N_K + N_DENSE]
     ytmp = work[N_K + N_DENSE + 1]
     f0 = work[N_K + N_DENSE + 2]
-    err = _error_norm(DP_E, y, y_new, K, h, rtol, atol)
+    err = _error_norm(DP_E, y, y_new, K, h, rtol, atol, scale)
     if not err <= 1.0:
         return REJECTED, h * (max(0.2, 0.9 * err ** ERROR_EXPONENT) if math.isfinite(err) else 0.2)
     h_next = h * (10.0 if err == 0.0 else min(10.0, 0.9 * err ** ERROR_EXPONENT))
@@ -172,11 +190,11 @@ def _conclude(y, h, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, work):
     for i in range(n):
         ytmp[i] = _value_slope(Q, y, h, x, i)[0]
     if x < NEAR_END:
-        _rhs_s(ytmp, Dh, Wn, rate, p, lam_ref, y_new)  # y_new now holds f at the end
+        _rhs(ytmp, Dh, Wn, rate, p, lam_ref, y_new)  # y_new now holds f at the end
         defect = 0.0
         for i in range(n):
             slope = _value_slope(Q, y, h, x, i)[1]
-            defect += (h * (slope - y_new[i]) / (atol + rtol * abs(ytmp[i]))) ** 2
+            defect += (h * (slope - y_new[i]) / (scale[i] * (atol + rtol * abs(ytmp[i])))) ** 2
         defect = math.sqrt(defect / n)
         if not defect <= 1.0:
             return REJECTED, h * (max(0.2, 0.9 * defect ** ERROR_EXPONENT) if math.isfinite(defect) else 0.2)
@@ -197,17 +215,17 @@ def _status(y, steps, max_steps, outcome):
 
 
 @jit
-def _direct(y, Dh, Wn, rate, p, t_end, rtol, atol, work):
+def _direct(y, Dh, Wn, rate, p, t_end, rtol, atol, scale, work):
     """One Cash-Karp step in the strain |D'| t itself (the rates without regularisation, lam_ref = 0)
     over the whole interval, so it lands on t_end exactly; True, with y at t_end, if its error passes."""
     K = work[:N_K]
     y_new = work[N_K + N_DENSE]
-    _rhs_s(y, Dh, Wn, rate, p, 0.0, K[0])
+    _rhs(y, Dh, Wn, rate, p, 0.0, K[0])
     h = (t_end - y[T_INDEX]) * rate
     for s in range(1, CK_A.shape[0]):
         _stage(CK_A, s, y, h, Dh, Wn, rate, p, 0.0, K, work[N_K + N_DENSE + 1])
     _combine(CK_B, y, h, K, y_new)
-    if not _error_norm(CK_E, y, y_new, K, h, rtol, atol) <= 1.0:
+    if not _error_norm(CK_E, y, y_new, K, h, rtol, atol, scale) <= 1.0:
         return False
     for i in range(y.shape[0]):
         y[i] = y_new[i]
@@ -216,24 +234,35 @@ def _direct(y, Dh, Wn, rate, p, t_end, rtol, atol, work):
 
 
 @jit
-def advance(y, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, max_steps, work):
+def advance(y, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, scale, max_steps, work):
     """Integrate the packed state ``y`` in place under one constant L from y[t] to ``t_end``.
 
-    ``Dh``, ``Wn``, ``rate``, ``p``, ``lam_ref`` as in ``model.integrator``; ``work`` is scratch of
-    shape (WORK_ROWS, len(y)). Where Lambda(S) at the start is at least ``lam_ref`` the whole interval
-    is first tried as one step in the strain itself (``_direct``); otherwise, or if that step fails
-    its error test, in the regularised s. Returns (steps taken, accepted and rejected; status code).
+    ``Dh``, ``Wn``, ``rate``, ``p``, ``lam_ref`` as in ``model.integrator``; ``scale`` (len(y)) multiplies each
+    component's tolerance (1 but for a law's state whose errors do not accumulate: ``model.laws.state_tolerance``);
+    ``work`` is scratch of shape (WORK_ROWS, len(y)). Where Lambda(S) at the start is at least ``lam_ref`` the whole
+    interval is first tried as one step in the strain itself (``_direct``); otherwise, or if that step fails its
+    error test, in the regularised s. G is integrated as H (``_rhs``). Returns (steps taken, accepted and rejected;
+    status code).
     """
+    y[G_INDEX] += p[C1] * laws.relaxing_part(y, Dh, p)
+    steps, status = _advance(y, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, scale, max_steps, work)
+    y[G_INDEX] -= p[C1] * laws.relaxing_part(y, Dh, p)
+    return steps, status
+
+
+@jit
+def _advance(y, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, scale, max_steps, work):
+    """``advance`` on the state with H in G's place."""
     steps = 0
     if y[T_INDEX] < t_end and lam_ref > 0.0:
         a11, a22, a12, a13, a23 = y[0], y[1], y[2], y[3], y[4]
         S = hardening_variable(a11, a22, a12, a13, a23, Dh[0], Dh[1], Dh[2], Dh[3], Dh[4], Dh[5])
         if persistence(S, p) >= lam_ref:
             steps = 1
-            if _direct(y, Dh, Wn, rate, p, t_end, rtol, atol, work):
+            if _direct(y, Dh, Wn, rate, p, t_end, rtol, atol, scale, work):
                 return steps, _status(y, steps, max_steps, FINISHED)
     f0 = work[N_K + N_DENSE + 2]
-    _rhs_s(y, Dh, Wn, rate, p, lam_ref, f0)
+    _rhs(y, Dh, Wn, rate, p, lam_ref, f0)
     outcome = ADVANCED if y[T_INDEX] < t_end else FINISHED
     h = 0.0
     h_min = 1e-14 * (t_end - y[T_INDEX]) * rate  # round-off against the whole interval's s
@@ -245,5 +274,5 @@ def advance(y, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, max_steps, work):
         for i in range(y.shape[0]):
             work[0, i] = f0[i]
         _dp5_step(y, h, Dh, Wn, rate, p, lam_ref, work[:N_K], work[N_K + N_DENSE], work[N_K + N_DENSE + 1])
-        outcome, h = _conclude(y, h, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, work)
+        outcome, h = _conclude(y, h, Dh, Wn, rate, p, lam_ref, t_end, rtol, atol, scale, work)
     return steps, _status(y, steps, max_steps, outcome)

@@ -18,3 +18,9 @@ def spin_rate(w12, w13, w23, a11, a22, a12, a13, a23):
     m20 = -w13 * a11 - w23 * a12
     m21 = -w13 * a12 - w23 * a22
     return 2.0 * m00, 2.0 * m11, m01 + m10, m02 + m20, m12 + m21
+
+
+@jit
+def double_dot(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23):
+    """A:D for traceless A (A33 = -A11 - A22) and symmetric D."""
+    return a11 * d11 + a22 * d22 - (a11 + a22) * d33 + 2.0 * (a12 * d12 + a13 * d13 + a23 * d23)

@@ -13,7 +13,8 @@ parameter array ``p`` (``Params.as_array``: Eq. 13's parameters, the law's code,
 - a state of its own (``STATE``, its names; after the kernels' ``BASE`` components): ``state_rates`` writes its
   rates per unit |D'| t times ``scale`` (given Eq. 18's g and c2), ``state_fabric(y)`` the part of the fabric it
   holds beyond A (packed), ``set_packing(y, u)`` sets what it holds of the packing fraction 1/u where a history or
-  step starts, ``start(Dh, phi, values)`` that part (3x3) and the state where a history starts;
+  step starts, ``start(Dh, phi, values)`` that part (3x3) and the state where a history starts, and optionally
+  ``STATE_TOLERANCE``, the material-point update's tolerance on each, in units of A's;
 
 and for the independent reference (``model.reference``, plain numpy on 3x3 tensors) the same as
 ``reference_removal`` (given the law's own state and Phi where it reads them), ``reference_extra``,
@@ -45,8 +46,8 @@ LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
 BASE = 8
 
 __all__ = ["BASE", "DEFAULT", "LAWS", "OWN", "Parameter", "extra_rate", "law_parameters", "offset",
-           "reference_parts", "removal", "set_packing", "start", "state_fabric", "state_names",
-           "state_rates"]
+           "reference_parts", "relaxing_part", "removal", "set_packing", "start", "state_fabric", "state_names",
+           "state_rates", "state_tolerance"]
 
 
 def law_parameters(name: str) -> tuple[Parameter, ...]:
@@ -96,6 +97,12 @@ def state_names(name: str) -> tuple[str, ...]:
     return getattr(LAWS[name], "STATE", ())
 
 
+def state_tolerance(name: str) -> tuple[float, ...]:
+    """Per own state variable, the material-point update's tolerance in units of A's (``model.stepper``): 1 unless
+    the law declares ``STATE_TOLERANCE`` (a state whose local errors decay and do not add up step after step)."""
+    return getattr(LAWS[name], "STATE_TOLERANCE", (1.0,) * len(state_names(name)))
+
+
 def start(name: str, Dh, values: dict, phi) -> tuple[np.ndarray, np.ndarray]:
     """Where a history starts under the unit stretching ``Dh`` (3x3, or a stack) at the packing fraction ``phi``: the
     part of the fabric beyond the state A (kappa Dh of "jump", K of "elastic") and the law's own state (packed,
@@ -122,6 +129,18 @@ def state_rates(y, Dh, Wn, p, g, c2, out, scale):
                             elastic_compaction.ELASTIC_OWN)
         compaction.state_rates(y, p, g, c2, out, scale, elastic_compaction.COMPACTION_FIRST,
                                elastic_compaction.COMPACTION_OWN)
+
+
+@jit
+def relaxing_part(v, Dh, p):
+    """For a law whose own state holds a part K of the fabric that relaxes fast (rate c per unit |D'| t), K:Dh / c of
+    the state ``v`` (or of its rate, the map being linear); 0 for the others (``model.stepper``)."""
+    code = p[LAW_INDEX]
+    if code == _ELASTIC:
+        return elastic.relaxing_part(v, Dh, p, elastic.FIRST, OWN)
+    if code == _BOTH:
+        return elastic.relaxing_part(v, Dh, p, elastic_compaction.ELASTIC_FIRST, elastic_compaction.ELASTIC_OWN)
+    return 0.0
 
 
 @jit

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ..jit import jit
-from ..tensors import spin_rate
+from ..tensors import double_dot, spin_rate
 from .parameter import Parameter
 
 NAME = "elastic"
@@ -26,6 +26,10 @@ PARAMETERS = (
 )
 #: the law's own state: K packed (11, 22, 12, 13, 23)
 STATE = ("K11", "K22", "K12", "K13", "K23")
+#: the material-point update's tolerance on K, in units of A's (``model.stepper``): an error in K decays over
+#: gamma_e and enters tau/p (Eq. 14) once, where A's and Phi's add up over the hundreds of updates of a cycle; at
+#: 1000 the update stays within 5e-8 of ``model.predict`` over whole cycles (``make bench``)
+STATE_TOLERANCE = (1000.0,) * len(STATE)
 #: where the law's state sits in the kernels' state (model.integrator: A, t, G, v before it) and its parameters in
 #: the parameter array (kappa, gamma_e); a law that combines it with another passes its own places
 FIRST = 8
@@ -43,6 +47,15 @@ def state_rates(y, Dh, Wn, p, out, scale, first, own):
     out[first + 2] = scale * (c * (kappa * Dh[3] - k12) + s12)
     out[first + 3] = scale * (c * (kappa * Dh[4] - k13) + s13)
     out[first + 4] = scale * (c * (kappa * Dh[5] - k23) + s23)
+
+
+@jit
+def relaxing_part(v, Dh, p, first, own):
+    """K:D'/|D'| over K's relaxation rate sqrt2/gamma_e, K packed at ``v[first:first + 5]`` (or, the map being
+    linear, the same of its rate): the part of Eq. 18's integral of g/c1 that K's fast relaxation holds
+    (``model.stepper``)."""
+    return double_dot(v[first], v[first + 1], v[first + 2], v[first + 3], v[first + 4],
+                      Dh[0], Dh[1], Dh[2], Dh[3], Dh[4], Dh[5]) * p[own + 1] / math.sqrt(2.0)
 
 
 @jit

@@ -22,6 +22,8 @@ JOINS = (elastic.NAME, compaction.NAME)
 PARAMETERS = elastic.PARAMETERS + compaction.PARAMETERS
 #: the law's own state: K packed, then 1/Phi and 1/Phi_r
 STATE = elastic.STATE + compaction.STATE
+#: the material-point update's tolerance on each (``model.laws.state_tolerance``)
+STATE_TOLERANCE = elastic.STATE_TOLERANCE + (1.0,) * len(compaction.STATE)
 #: where each part's state and parameters sit (``model.laws`` hands them to the two laws' kernels)
 ELASTIC_FIRST, ELASTIC_OWN = elastic.FIRST, OWN
 COMPACTION_FIRST, COMPACTION_OWN = elastic.FIRST + len(elastic.STATE), OWN + len(elastic.PARAMETERS)

@@ -6,7 +6,8 @@
   theta = 90 deg cycle (so reversal-adjacent steps come in their true share), 0.005 strain per update,
   each on its own velocity gradient; the best of repeated runs of ``STEPS`` updates.
 - Work-precision: both for several tolerances; threads: the default tolerance on 1..cores threads (at most
-  numba's thread count); each fabric-law variant (``VARIANT_PARAMS``) on one thread on its own cycle's points; and
+  numba's thread count); each fabric-law variant (``VARIANT_PARAMS``) on one thread on its own cycle's points (each
+  in its own state there: ``model.update_inputs``), with its error over that cycle; and
   the same points advanced by ``model.integrate`` one at a time, all measured side by side.
 
 Writes results/bench/update.json and update.md.
@@ -22,8 +23,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from model import PAPER, History, Params, Segment, Update, integrate, periodic_cycle, predict, update
-from model.equations import observables
+from model import PAPER, History, Params, Segment, Update, integrate, periodic_cycle, predict, update, update_inputs
 from model.material_point import DEFAULT_RTOL
 
 from ..cli import Parser
@@ -54,20 +54,21 @@ def cycle_steps(theta: float, params: Params = PAPER):
     return L, cycle
 
 
-def worst_error(rtol: float) -> float:
-    """Max |error| in A, Phi and tau/p over whole cycles stepped at 0.005 strain (worst angle); tau/p
-    at a step's end is compared with Eq. 14 on the predicted fabric and that step's D'."""
+def worst_error(rtol: float, params: Params = PAPER, angles=ACCURACY_ANGLES) -> float:
+    """Max |error| in A, Phi, the law's own state and tau/p over whole cycles stepped at 0.005 strain (worst angle);
+    tau/p where the step's D' is the one the prediction's output carries (all but a segment's last step)."""
     worst = 0.0
-    for theta in ACCURACY_ANGLES:
-        L, cycle = cycle_steps(theta)
-        A, phi = cycle.A[:1].copy(), cycle.packing_fraction[:1].copy()
+    for theta in angles:
+        L, cycle = cycle_steps(theta, params)
+        states, packing, owns = update_inputs(cycle, params)
+        A, phi, own = states[:1], packing[:1], owns[:1]
         for k, Lk in enumerate(L):
-            step = update(A, phi, Lk, STRAIN_STEP, rtol=rtol, atol=rtol * 1e-2)
-            A, phi = step.A, step.phi
-            tau = observables(cycle.A[k + 1:k + 2], (0.5 * (Lk + Lk.T))[None], PAPER.as_array())["tau"][0]
-            worst = max(worst, float(np.max(np.abs(A[0] - cycle.A[k + 1]))),
-                        abs(float(phi[0] - cycle.packing_fraction[k + 1])),
-                        float(np.max(np.abs(step.tau_over_p[0] - tau))))
+            step = update(A, phi, Lk, STRAIN_STEP, params=params, law_state=own, rtol=rtol, atol=rtol * 1e-2)
+            A, phi, own = step.A, step.phi, step.law_state
+            worst = max(worst, float(np.max(np.abs(A[0] - states[k + 1]))), abs(float(phi[0] - packing[k + 1])),
+                        float(np.max(np.abs(own[0] - owns[k + 1]), initial=0.0)))
+            if k + 1 < len(L) and np.array_equal(L[k + 1], Lk):
+                worst = max(worst, float(np.max(np.abs(step.tau_over_p[0] - cycle.tau[k + 1]))))
     return worst
 
 
@@ -76,19 +77,20 @@ MAX_POINTS = 2_000_000
 
 
 def spread_points(n: int, params: Params = PAPER):
-    """n points at phases spread over the theta = 90 deg cycle: their states and each step's L."""
+    """n points at phases spread over the theta = 90 deg cycle: their states (A, phi, the law's own, as
+    ``model.update`` takes them), each step's L and each point's phase."""
     L, cycle = cycle_steps(SPEED_ANGLE, params)
     phase = np.arange(n) % len(L)
-    return cycle.A[phase].copy(), cycle.packing_fraction[phase].copy(), L, phase
+    A, phi, own = update_inputs(cycle, params)
+    return A[phase], phi[phase], own[phase], L, phase
 
 
 def updates_per_second(n: int, rtol: float, threads: int, repeats: int = 3,
                        params: Params = PAPER) -> tuple[float, float]:
     """(point-updates per second, mean substeps) for ``STEPS`` updates of n spread points; best of repeats."""
-    A0, phi0, L, phase = spread_points(n, params)
+    A0, phi0, own, L, phase = spread_points(n, params)
     gradients = [np.ascontiguousarray(L[(phase + k) % len(L)]) for k in range(STEPS)]
     state = Update.empty(n, params)
-    own = update(A0, phi0, gradients[0], 0.0, params=params).law_state  # each point's law state where it starts
     best, substeps = np.inf, 0.0
     for _ in range(repeats):
         state.A[:], state.phi[:], state.law_state[:] = A0, phi0, own
@@ -105,7 +107,7 @@ def updates_per_second(n: int, rtol: float, threads: int, repeats: int = 3,
 
 def integrate_per_second(n: int) -> float:
     """Point-updates per second when each point's step is a ``model.integrate`` call of its own."""
-    A0, phi0, L, phase = spread_points(n)
+    A0, phi0, _, L, phase = spread_points(n)
     start = time.perf_counter()
     for i in range(n):
         history = History((Segment(STRAIN_STEP, L[phase[i]]),))
@@ -125,10 +127,11 @@ def markdown(data: dict) -> str:
     lines += ["", "| threads | updates/s | speed-up |", "|---|---|---|"]
     base = data["threads"][0]["per_second"]
     lines += [f"| {r['threads']} | {r['per_second']:.3g} | {r['per_second'] / base:.2f}x |" for r in data["threads"]]
-    lines += ["", "| fabric law | updates/s, 1 thread | against Eq. 13 | substeps per update |", "|---|---|---|---|"]
+    lines += ["", "| fabric law | updates/s, 1 thread | against Eq. 13 | substeps per update | max error, theta = 90 |",
+              "|---|---|---|---|---|"]
     first = data["variants"][0]["per_second"]
-    lines += [f"| {r['variant']} | {r['per_second']:.3g} | {r['per_second'] / first:.2f}x | {r['substeps']:.3f} |"
-              for r in data["variants"]]
+    lines += [f"| {r['variant']} | {r['per_second']:.3g} | {r['per_second'] / first:.2f}x | {r['substeps']:.3f} | "
+              f"{r['error']:.2g} |" for r in data["variants"]]
     lines += ["", f"`model.integrate` one point at a time: {data['integrate_per_second']:.3g} updates/s; "
               f"`model.update` (default rtol, 1 thread) is {base / data['integrate_per_second']:.0f}x that.", ""]
     return "\n".join(lines)
@@ -143,7 +146,7 @@ def main(argv=None) -> int:
         parser.error(f"--points={args.points} must lie in 1..{MAX_POINTS} (each point holds about 2 kB here)")
     args.out.mkdir(parents=True, exist_ok=True)
     cores = min(os.cpu_count() or 1, numba.config.NUMBA_NUM_THREADS)
-    A, phi, L, _ = spread_points(4)
+    A, phi, _, L, _ = spread_points(4)
     for threads in range(1, cores + 1):
         for params in VARIANT_PARAMS:
             update(A, phi, L[:4], STRAIN_STEP, params=params, threads=threads)  # compile / load before timing
@@ -157,7 +160,8 @@ def main(argv=None) -> int:
     variants = []
     for params in VARIANT_PARAMS:
         rate, substeps = updates_per_second(args.points, DEFAULT_RTOL, 1, params=params)
-        variants.append(dict(variant=params.variant, params=params.to_dict(), per_second=rate, substeps=substeps))
+        variants.append(dict(variant=params.variant, params=params.to_dict(), per_second=rate, substeps=substeps,
+                             error=worst_error(DEFAULT_RTOL, params, (SPEED_ANGLE,))))
     data = dict(machine=f"{platform.processor() or platform.machine()}, {cores} cores", points=args.points,
                 strain_step=STRAIN_STEP, work_precision=rows, threads=threads, variants=variants,
                 integrate_per_second=integrate_per_second(min(args.points, 2000)))

@@ -22,6 +22,8 @@ def test_every_law_declares_parameters_in_range_whose_neutral_values_are_eq13(na
     joined = getattr(laws.LAWS[name], "JOINS", ())  # a law joining two owns both laws' parameters, no other
     assert (len(own) <= 2 if not joined else own == sum((laws.law_parameters(j) for j in joined), ()))
     assert len({q.name for q in own}) == len(own)
+    tolerance = laws.state_tolerance(name)  # the update's tolerance on each state variable, never tighter than A's
+    assert len(tolerance) == len(laws.state_names(name)) and all(t >= 1.0 for t in tolerance)
     for q in own:
         assert q.low <= q.neutral <= q.high and q.low <= q.start <= q.high and q.meaning
         assert q.name not in Params.names()

@@ -279,22 +279,27 @@ def test_jump_moves_the_fabric_at_once_by_kappa_times_the_change_of_direction():
 @pytest.mark.parametrize("params", VARIANT_SETS, ids=IDS)
 def test_the_material_point_update_takes_the_variant(params):
     """``update`` carries the model's state: the fabric less what the law holds beyond it (kappa D'/|D'| of "jump"
-    under the step's D', K of "elastic", whose own state ``law_state`` it carries too)."""
-    from model.solver import _fabric, _initial_state
-
+    under the step's D', K of "elastic", whose own state ``law_state`` it carries too), as ``update_inputs`` reads
+    it from a prediction; stepped through a whole cycle it stays on the prediction, tau/p of Eq. 14 included."""
     strains = np.arange(281) * 0.005
     cycle = predict(150, params=params, times=strains, rtol=1e-12, atol=1e-14)
     history = periodic_cycle(150)
-    owner = history.segment_index(strains)  # the segment whose D' an output of predict carries
-    own = cycle.law_state
-    state = cycle.A - np.array([_fabric(_initial_state(np.zeros((3, 3)), own[i]), params, history.packed.D_unit[k])
-                                for i, k in enumerate(owner)])
-    A, phi, X = state[:1].copy(), cycle.packing_fraction[:1].copy(), own[:1].copy()
+    state, packing, own = model.update_inputs(cycle, params)
+    A, phi, X = state[:1].copy(), packing[:1].copy(), own[:1].copy()
     for k in range(280):
-        segment = history.segments[history.segment_index(np.array([(k + 0.5) * 0.005]))[0]]
-        result = update(A, phi, segment.L, 0.005, params=params, law_state=X)
+        segment = history.segment_index(np.array([(k + 0.5) * 0.005, (k + 1) * 0.005]))
+        result = update(A, phi, history.segments[segment[0]].L, 0.005, params=params, law_state=X)
         A, phi, X = result.A.copy(), result.phi.copy(), result.law_state.copy()
         assert np.max(np.abs(A[0] - state[k + 1])) < 1e-6 and np.max(np.abs(X[0] - own[k + 1]), initial=0) < 1e-6
+        assert abs(phi[0] - packing[k + 1]) < 1e-6
+        if segment[0] == segment[1]:  # predict's tau/p at k + 1 is under this step's D'
+            assert np.max(np.abs(result.tau_over_p[0] - cycle.tau[k + 1])) < 1e-6
+
+
+def test_update_inputs_refuse_a_prediction_of_another_law():
+    cycle = predict(150, params=Params(variant="elastic", elastic_fabric=-0.03), times=[0.0, 0.1])
+    with pytest.raises(model.SolverError, match="carries 5 law state variables, 'rk2025' has 0"):
+        model.update_inputs(cycle, PAPER)
 
 
 @pytest.mark.parametrize("values, message", [
