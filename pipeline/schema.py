@@ -140,6 +140,91 @@ def read_params(path: Path) -> ParamsFile:
 
 
 # ---------------------------------------------------------------- fit.json
+class _Record:
+    """A record nested in a file: read from and written to its JSON object with the keys ``RENAMED`` maps to its
+    fields (a key that is no identifier), a missing or unknown key refused in one line (``_fields_of``)."""
+
+    VERSION = 1
+    WHAT = "record"
+    RENAMED: dict = {}
+
+    @classmethod
+    def from_dict(cls, data: dict, path="fit.json"):
+        if not isinstance(data, dict):
+            raise PipelineError(f"{path}: the {cls.WHAT} is not a JSON object")
+        return cls(**_fields_of(cls, data, path, cls.WHAT, cls.RENAMED))
+
+    def to_dict(self) -> dict:
+        key = {field: name for name, field in self.RENAMED.items()}
+        return {key.get(f.name, f.name): getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+@dataclasses.dataclass(frozen=True)
+class StepwiseBootstrap(_Record):
+    """The paper's stepwise route (mean over the reversal runs) on ``replicates`` resamplings of every run's
+    cycles: per estimate in ``free``, the standard deviation, half the central 68 % range and the 2.5 and 97.5 %
+    percentiles."""
+
+    WHAT = "stepwise bootstrap"
+    RENAMED = {"percentile_2.5": "percentile_2_5", "percentile_97.5": "percentile_97_5"}
+
+    free: list
+    replicates: int
+    cycles: int
+    standard_deviation: list
+    half_width_68: list
+    percentile_2_5: list
+    percentile_97_5: list
+    seed: int
+
+
+@dataclasses.dataclass(frozen=True)
+class Bootstrap(_Record):
+    """The global fit refitted on copies of the data with fresh draws of the DEM's noise (in blocks of
+    ``block_strain``): each refit's values (``replicates``, one row per refit, columns ``free``), their standard
+    deviation, and the basic-bootstrap 68 and 95 % intervals about the fit; ``stepwise``, the stepwise route on
+    the same number of resamplings."""
+
+    WHAT = "bootstrap"
+
+    free: list
+    replicates: list
+    standard_deviation: list
+    block_strain: float
+    seed: int
+    interval_68: list
+    interval_95: list
+    stepwise: StepwiseBootstrap | None = None
+
+    @classmethod
+    def from_dict(cls, data: dict, path="fit.json") -> Bootstrap:
+        record = super().from_dict(data, path)
+        step = record.stepwise
+        return dataclasses.replace(record, stepwise=None if step is None else StepwiseBootstrap.from_dict(step, path))
+
+    def to_dict(self) -> dict:
+        return {**super().to_dict(), "stepwise": None if self.stepwise is None else self.stepwise.to_dict()}
+
+
+@dataclasses.dataclass(frozen=True)
+class Jackknife(_Record):
+    """The global fit refitted leaving out one group of runs at a time (``over``: "seeds" or "angles"; ``left_out``
+    labels the groups; ``values``, one row per refit, columns ``free``): the jackknife standard error, its ratio to
+    the whole sandwich's and to the part of it from the left-out runs' noise, and each refit's shift from the fit
+    in standard deviations of what the noise alone would give it (``shift_z``; None where undefined)."""
+
+    WHAT = "jackknife"
+
+    free: list
+    left_out: list
+    values: list
+    standard_error: list
+    over_sandwich: list
+    over_their_noise: list
+    shift_z: list
+    over: str = ""
+
+
 @dataclasses.dataclass(frozen=True)
 class FitSummary:
     """``fit.json``: the calibration of one data set (``make fit``). ``params`` are the fit's; ``global_fit`` the
@@ -167,8 +252,8 @@ class FitSummary:
     identifiability: dict | None
     next_runs: list | None
     dilatancy: dict | None
-    bootstrap: dict | None
-    jackknife: dict | None
+    bootstrap: Bootstrap | None
+    jackknife: Jackknife | None
     global_runs: list | None
     residual_map: list | None
     notes: list
@@ -176,11 +261,17 @@ class FitSummary:
 
     @classmethod
     def from_dict(cls, data: dict, path="fit.json") -> FitSummary:
-        return cls(**_fields_of(cls, data, path, "fit summary", {"global": "global_fit"}))
+        fields = _fields_of(cls, data, path, "fit summary", {"global": "global_fit"})
+        for name, record in (("bootstrap", Bootstrap), ("jackknife", Jackknife)):
+            if fields.get(name) is not None:
+                fields[name] = record.from_dict(fields[name], path)
+        return cls(**fields)
 
     def to_dict(self) -> dict:
         out = {"schema_version": self.VERSION, **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)}}
         out["global"] = out.pop("global_fit")
+        for name in ("bootstrap", "jackknife"):
+            out[name] = None if out[name] is None else out[name].to_dict()
         return out
 
 

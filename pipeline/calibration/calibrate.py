@@ -21,7 +21,7 @@ from .. import io, schema
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..errors import CalibrationError
 from ..schema import FitSummary
-from . import design, global_fit, identifiability
+from . import design, global_fit, identifiability, resampling
 from .residual_map import residual_map
 from .stepwise import calibrate_run, combine, cross_check_run, fitted_params, sensitivity, stepwise_bootstrap
 
@@ -103,8 +103,8 @@ class Calibration:
     noise: object | None
     identifiability: dict | None
     next_runs: list
-    bootstrap: dict | None
-    jackknife: dict | None
+    bootstrap: schema.Bootstrap | None
+    jackknife: schema.Jackknife | None
     global_runs: list
     notes: list
     residual_map: list | None = None
@@ -128,7 +128,8 @@ class Calibration:
                 "noise": None if self.noise is None else self.noise.to_dict(),
                 "identifiability": self.identifiability, "next_runs": self.next_runs,
                 "dilatancy": None if self.dilatancy is None else self.dilatancy.to_dict(),
-                "bootstrap": self.bootstrap, "jackknife": self.jackknife, "global_runs": self.global_runs,
+                "bootstrap": self.bootstrap and self.bootstrap.to_dict(),
+                "jackknife": self.jackknife and self.jackknife.to_dict(), "global_runs": self.global_runs,
                 "residual_map": self.residual_map, "notes": self.notes, "made_from": self.made_from.to_dict()})
 
     def params_metadata(self) -> dict | None:
@@ -241,21 +242,22 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
                                     [r.with_definitions(settings.definitions) for r in left_out], data,
                                     settings.stress, settings.weight)
         if settings.bootstrap:
-            boot = global_fit.bootstrap(data, noise, refined, settings.bootstrap, progress=_progress("bootstrap"))
-            boot["stepwise"] = stepwise_bootstrap(reversals, settings.bootstrap, window)
+            boot = dataclasses.replace(
+                resampling.bootstrap(data, noise, refined, settings.bootstrap, progress=_progress("bootstrap")),
+                stepwise=stepwise_bootstrap(reversals, settings.bootstrap, window))
         if settings.jackknife:
-            jack = global_fit.jackknife(data, jackknife_groups(settings.jackknife, reversals, cross_runs), refined,
-                                        noise, progress=_progress("jackknife"), weight=settings.weight)
-            jack["over"] = settings.jackknife
+            jack = resampling.jackknife(data, jackknife_groups(settings.jackknife, reversals, cross_runs), refined,
+                                        noise, progress=_progress("jackknife"), weight=settings.weight,
+                                        over=settings.jackknife)
         angles = jackknife_groups("angles", reversals, cross_runs) if identifiable["misfit_noted"] else {}
         if len(angles) >= 3:  # the model misses the runs: the noise's ± would mislead
-            spread = jack if settings.jackknife == "angles" else global_fit.jackknife(
+            spread = jack if settings.jackknife == "angles" else resampling.jackknife(
                 data, angles, refined, noise, progress=_progress("the model misses the runs: refit without angle"),
                 weight=settings.weight)
             identifiable["spread_over_angles"] = identifiability.spread_over_angles(spread)
     resampled = None
     if len(reversals) == 1 and reversals[0].spec.n_cycles > 1:  # one run: its error from its cycles
-        resampled = boot["stepwise"] if boot else stepwise_bootstrap(reversals, STEPWISE_RESAMPLES, window)
+        resampled = boot.stepwise if boot else stepwise_bootstrap(reversals, STEPWISE_RESAMPLES, window)
     estimates = combine(per_run, resampled)
     bad = [k for k in ("C_eq15", "n", "m", "a1", "b1", "a2", "b2") if not math.isfinite(estimates[k]["value"])]
     if bad:

@@ -24,7 +24,7 @@ import model
 
 from ..dataset.derived import bulk_over_nominal
 from ..errors import CalibrationError
-from . import global_fit
+from . import covariance, global_fit
 from .fit_cycle import FitCycle
 from .noise import NoiseModel
 
@@ -80,7 +80,7 @@ def candidate_data(c: Candidate, period: float, ratio: float, noise: NoiseModel,
 
 
 def candidate_parts(data: FitCycle, noise: NoiseModel, fit: global_fit.GlobalFit, cache: dict | None = None) -> tuple:
-    """A candidate's pseudo-run's parts of the least squares (``global_fit.run_parts``) at the best fit, its
+    """A candidate's pseudo-run's parts of the least squares (``covariance.run_parts``) at the best fit, its
     Jacobian by forward differences."""
     base = fit.params
     f0 = global_fit.residuals(fit.values, [data], base, fit.names)
@@ -90,7 +90,7 @@ def candidate_parts(data: FitCycle, noise: NoiseModel, fit: global_fit.GlobalFit
         shifted = fit.values.copy()
         shifted[k] += step
         jac[:, k] = (global_fit.residuals(shifted, [data], base, fit.names) - f0) / step
-    return global_fit.run_parts(jac, [data], noise, cache)[0]
+    return covariance.run_parts(jac, [data], noise, cache)[0]
 
 
 def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: list, data: list[FitCycle],
@@ -113,7 +113,7 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: lis
     seconds_per_strain = float(np.mean([r.cpu_seconds / (r.spec.pre_strain + r.spec.n_cycles
                                                          * r.spec.period_strain) for r in runs]))
     ratio = bulk_over_nominal(reference)
-    present = global_fit.run_parts(fit.jacobian, data, noise)
+    present = covariance.run_parts(fit.jacobian, data, noise)
     fit_from = data[0].fit_from
     committed = {(r.spec.theta_deg, r.spec.rotate_at_strain): r for r in left_out}
     fitted = {}
@@ -148,7 +148,7 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: lis
             failed.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "error": str(exc)})
             continue
         weights = [d.weight for d in global_fit.weighed([*data, probe], weight)]
-        after = measures(global_fit.sandwich([*present, part], weights)[0])
+        after = measures(covariance.sandwich([*present, part], weights)[0])
         hours = c.cost_factor * c.strain_run(spec.period_strain, spec.pre_strain) * seconds_per_strain / 3600
         gain = 1 - after[0] / before[0]
         out.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "n_cycles": c.n_cycles,

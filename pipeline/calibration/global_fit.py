@@ -6,9 +6,9 @@ integrated for each run's protocol (theta, rotate_at) in the runs' strain measur
 11, 22 and 13 components of A and tau/p, each divided by its noise per sample (``noise.NoiseModel``:
 pooled over runs, cycles and seeds). The covariance of the estimates is the sandwich
 ``H^-1 J^T Sigma J H^-1`` with ``H = J^T J`` and ``Sigma`` the noise's measured correlation along strain and
-between A and tau (``refine``): the noise as it is, not a Jacobian scaled by a reduced chi^2 that is
-model misfit. ``misfit`` (chi^2 per degree of freedom in noise units) says how far the model is from the
-data beyond their noise.
+between A and tau (``refine``, from ``pipeline.calibration.covariance``): the noise as it is, not a Jacobian scaled
+by a reduced chi^2 that is model misfit. ``misfit`` (chi^2 per degree of freedom in noise units) says how far the
+model is from the data beyond their noise. Refits on resampled data: ``pipeline.calibration.resampling``.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ import model
 from ..dataset.derived import states_after_changes
 from ..errors import CalibrationError
 from . import noise as noise_model
+from .covariance import covariances, directions
 from .fit_cycle import FitCycle
 from .naming import STRESS_DEFAULT, WEIGHT_DEFAULT
 from .noise import COMPONENTS, QUANTITIES
@@ -164,24 +165,6 @@ class GlobalFit:
                 "directions": list(self.directions)}
 
 
-def directions(covariance: np.ndarray, values: np.ndarray, names) -> tuple[dict, ...]:
-    """Eigen-directions of the covariance in relative parameters (d ln theta), weakest first.
-
-    ``relative_step`` is one standard deviation along the direction, as a relative change: a large
-    step is a combination the data do not fix; ``inf`` where they fix nothing at all.
-    """
-    scale = np.where(values != 0, np.abs(values), 1.0)
-    finite = np.where(np.isfinite(covariance), covariance, 0.0)
-    strength, vectors = np.linalg.eigh(finite / np.outer(scale, scale))
-    undetermined = ~np.isfinite(np.diag(covariance))
-    out = []
-    for lam, v in zip(strength[::-1], vectors.T[::-1], strict=True):
-        v = v * np.sign(v[np.argmax(np.abs(v))])
-        step = np.inf if np.any(undetermined & (np.abs(v) > 0.01)) else float(np.sqrt(max(lam, 0.0)))
-        out.append({"relative_step": step, "direction": {n: float(c) for n, c in zip(names, v, strict=True)}})
-    return tuple(sorted(out, key=lambda d: -d["relative_step"]))
-
-
 def scaled_residuals(d: FitCycle, pred, pick=slice(None)) -> tuple[np.ndarray, np.ndarray]:
     """(A, tau) residuals ``(samples, components)`` of ``pred`` against the samples ``pick`` of ``d``, over the
     noise scale."""
@@ -235,89 +218,6 @@ def residuals(values: np.ndarray, data: list[FitCycle], base: model.Params, name
         for c in range(len(COMPONENTS)):
             out += [root * r_A[:, c], root * r_tau[:, c]]
     return np.concatenate(out)
-
-
-def sample_covariance(noise: noise_model.NoiseModel, k: int, d: FitCycle, cache: dict | None = None) -> np.ndarray:
-    """The noise's correlation of component ``k`` over the cycle's (A, tau) samples, at the cycle's sampling step
-    (the noise's lags scaled to it: ``NoiseModel.covariance``); for a restarted cycle, the rows and columns of its
-    kept samples out of the full grid's (the gaps keep their true lags). ``cache`` keeps each full grid's matrix
-    for the next cycle of the same grid."""
-    index = np.arange(len(d.strain)) if d.grid_index is None else d.grid_index
-    full = int(index[-1]) + 1
-    key = (k, full, round((d.sample_step or noise.sample_strain) / noise.sample_strain, 9))
-    cache = {} if cache is None else cache
-    if key not in cache:
-        cache[key] = noise.covariance(k, full, lag_scale=key[2])
-    if d.grid_index is None:
-        return cache[key]
-    pick = np.concatenate([index, index + full])
-    return cache[key][np.ix_(pick, pick)]
-
-
-def run_parts(jac: np.ndarray, data: list[FitCycle], noise: noise_model.NoiseModel | None,
-              cache: dict | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Each run's parts of the least squares, ``(J^T J, J^T Sigma J)``, with ``J`` its unweighted rows of ``jac``
-    (the Jacobian of the weighted residuals: per run, per component, the A block then the tau block) and
-    ``Sigma`` the noise's correlation (``sample_covariance``; white without a noise model); the noise is
-    independent between runs and components. ``cache``: as for ``sample_covariance``."""
-    out, row, cache = [], 0, {} if cache is None else cache
-    for d in data:
-        length, JJ, JSJ = len(d.strain), 0.0, 0.0
-        for k in range(len(COMPONENTS)):
-            J = jac[row:row + 2 * length] / np.sqrt(d.weight)
-            sigma = np.eye(2 * length) if noise is None else sample_covariance(noise, k, d, cache)
-            JJ, JSJ, row = JJ + J.T @ J, JSJ + J.T @ sigma @ J, row + 2 * length
-        out.append((JJ, JSJ))
-    return out
-
-
-def sandwich(parts: list[tuple], weights: list[float], runs=None) -> tuple[np.ndarray, np.ndarray]:
-    """(sandwich, white) covariance of the least squares over runs with ``parts`` (``run_parts``) weighted by
-    ``weights``: ``H^-1 M H^-1`` with ``H = sum w J^T J`` and ``M = sum w^2 J^T Sigma J``, and ``H^-1`` (the noise
-    taken as white). With ``runs`` (indices) ``M`` sums those runs alone: the part of the sandwich from their noise
-    (the parts add up to the whole). Parameters the data do not fix (a null direction of H) get infinite
-    variance."""
-    H = sum(w * JJ for w, (JJ, _) in zip(weights, parts, strict=True))
-    strength, vectors = np.linalg.eigh(H)
-    null = strength <= 1e-10 * max(strength.max(), 1e-300)
-    inverse = np.linalg.pinv(H, hermitian=True, rcond=1e-10)
-    runs = range(len(parts)) if runs is None else set(runs)
-    meat = sum(w**2 * JSJ for i, (w, (_, JSJ)) in enumerate(zip(weights, parts, strict=True)) if i in runs)
-    covariance, white = inverse @ meat @ inverse, inverse.copy()
-    loose = np.any(np.abs(vectors[:, null]) > 0.01, axis=1)
-    for m in (covariance, white):
-        m[loose, :] = np.inf
-        m[:, loose] = np.inf
-    return covariance, white
-
-
-def covariances(jac: np.ndarray, data: list[FitCycle], noise: noise_model.NoiseModel | None,
-                runs=None) -> tuple:
-    """``sandwich`` of the fit whose weighted residuals have the Jacobian ``jac`` over ``data``: (the sandwich
-    ``H^-1 J^T W Sigma W J H^-1``, ``W`` the runs' weights, or with ``runs`` its part from those runs' noise;
-    ``H^-1``, the noise taken as white)."""
-    return sandwich(run_parts(jac, data, noise), [d.weight for d in data], runs)
-
-
-def shift_covariance(jac: np.ndarray, data: list[FitCycle], noise: noise_model.NoiseModel | None,
-                     left_out: list[int], kept_weights: list[float] | None = None) -> np.ndarray:
-    """The covariance, from the noise alone, of (the fit without the runs ``left_out``) - (the fit with all),
-    linearized about the fit with all (``jac``, the Jacobian of its weighted residuals): each is
-    ``-H^-1 J^T W r`` over its own runs with its own weights ``W`` (the kept runs': ``kept_weights``, one per run
-    of ``data``, by default their weights in the fit with all), and the noise is independent between runs, so
-    the shift's covariance is the sum over runs of ``P J^T Sigma J P^T`` with
-    ``P = w_kept H_kept^-1 - w H^-1`` (``J`` unweighted; ``w_kept`` = 0 for a run left out)."""
-    weights = [0.0 if i in left_out else (d.weight if kept_weights is None else kept_weights[i])
-               for i, d in enumerate(data)]
-    parts = run_parts(jac, data, noise)
-    inverse = np.linalg.pinv(jac.T @ jac, hermitian=True, rcond=1e-10)
-    inverse_kept = np.linalg.pinv(sum(w * JJ for w, (JJ, _) in zip(weights, parts, strict=True)), hermitian=True,
-                                  rcond=1e-10)
-    out = np.zeros_like(inverse)
-    for w_kept, d, (_, JSJ) in zip(weights, data, parts, strict=True):
-        P = w_kept * inverse_kept - d.weight * inverse
-        out += P @ JSJ @ P.T
-    return out
 
 
 def refine(data: list[FitCycle], start: model.Params, names=FREE, max_nfev: int = 200,
@@ -385,83 +285,3 @@ def refine_dilatancy(data: list[FitCycle], params: model.Params) -> GlobalFit:
     return GlobalFit(fitted, DILATANCY, sol.x, se, cov / np.outer(se, se), chi2, int(sol.nfev), True, sol.message)
 
 
-def with_noise(data: FitCycle, noise: noise_model.NoiseModel, block: int, rng: np.random.Generator) -> FitCycle:
-    """``data`` plus a draw of the measured noise: blocks of ``block`` samples of the DEM's own deviations
-    (every component of A and tau at once, from a random series and start), scaled to the noise of
-    ``data``'s cycle mean."""
-    length = len(data.strain)
-    picks = []
-    while sum(len(p["A"]) for p in picks) < length:
-        series = noise.pool[rng.integers(len(noise.pool))]
-        start = rng.integers(len(series["A"]))
-        idx = (start + np.arange(block)) % len(series["A"])
-        picks.append({q: series[q][idx] for q in QUANTITIES})
-    fields = {}
-    for q, attr in zip(QUANTITIES, ("A", "tau"), strict=True):
-        draw = np.concatenate([p[q] for p in picks])[:length]
-        gain = np.ones((3, 3))
-        for (i, j), target, pooled in zip(COMPONENTS, noise.sigma(q, data.n_cycles), noise.pool_sigma[q], strict=True):
-            gain[i, j] = target / pooled
-        fields[attr] = getattr(data, attr) + draw * gain
-    return dataclasses.replace(data, **fields)
-
-
-def bootstrap(data: list[FitCycle], noise: noise_model.NoiseModel, best: GlobalFit, replicates: int,
-              block_strain: float = 0.2, seed: int = 0, progress=None) -> dict:
-    """Refit ``best``'s parameters on ``replicates`` copies of the data, each with a fresh draw of the
-    DEM's own noise added in blocks of ``block_strain`` (``with_noise``). The spread of the refits about
-    ``best`` is the noise's; the basic-bootstrap 68 and 95 % intervals reflect it about ``best``."""
-    block = max(1, round(block_strain / noise.sample_strain))
-    rng = np.random.default_rng(seed)
-    values = []
-    for k in range(replicates):
-        noisy = [with_noise(d, noise, block, rng) for d in data]
-        values.append(refine(noisy, best.params, best.names).values)
-        if progress:
-            progress(k + 1, replicates)
-    v = np.array(values)
-    out = {"free": list(best.names), "replicates": v.tolist(), "standard_deviation": v.std(axis=0, ddof=1).tolist(),
-           "block_strain": block * noise.sample_strain, "seed": seed}
-    for level, (lo, hi) in {"68": (16, 84), "95": (2.5, 97.5)}.items():
-        q_lo, q_hi = np.percentile(v, lo, axis=0), np.percentile(v, hi, axis=0)
-        out[f"interval_{level}"] = np.stack([2 * best.values - q_hi, 2 * best.values - q_lo], axis=1).tolist()
-    return out
-
-
-def jackknife(data: list[FitCycle], groups: dict[str, list[int]], best: GlobalFit,
-              noise: noise_model.NoiseModel | None = None, progress=None, weight: str = WEIGHT_DEFAULT) -> dict:
-    """Refit ``best``'s parameters leaving out one group of runs at a time (``groups``: a label for each, and
-    the indices in ``data`` of its runs; at least three groups), the runs kept weighted anew by ``weight``
-    (``weighed``: the same estimator on fewer runs); ``noise``: the noise model ``best`` was fitted with.
-
-    Over the seeds of one protocol, the jackknife standard error sqrt((N-1)/N sum (theta_i - mean)^2) carries
-    everything that differs between seeds (the packing, the fit's nonlinearity), which a noise model measured
-    within runs may miss; it redraws only the noise of the runs it leaves out, so it is told against that part
-    of the sandwich (``over_their_noise``; ``covariances`` with ``runs``), not the whole (``over_sandwich``),
-    which also holds every other run's noise. Over the angles, which are no exchangeable draws, it is no standard
-    error; there each refit's shift from ``best`` is told in units of the standard deviation the noise alone
-    would give it (``shift_covariance``): a |z| of many says the group pulls the parameter where the others do not
-    follow, i.e. one parameter set does not fit every group."""
-    if len(groups) < 3:
-        raise CalibrationError(f"a jackknife needs at least 3 groups of runs to leave out, not {len(groups)} "
-                               f"({', '.join(groups) or 'none'})")
-    values, shift_z = [], []
-    for k, left in enumerate(groups.values()):
-        kept = [i for i in range(len(data)) if i not in left]
-        reweighed = dict(zip(kept, weighed([data[i] for i in kept], weight), strict=True))
-        refit = refine(list(reweighed.values()), best.params, best.names)
-        values.append(refit.values)
-        kept_weights = [reweighed[i].weight if i in reweighed else 0.0 for i in range(len(data))]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            noise_only = np.sqrt(np.diag(shift_covariance(best.jacobian, data, noise, left, kept_weights)))
-            shift_z.append(np.where(noise_only > 0, (refit.values - best.values) / noise_only, np.nan))
-        if progress:
-            progress(k + 1, len(groups))
-    v = np.array(values)
-    n = len(groups)
-    se = np.sqrt((n - 1) / n * np.sum((v - v.mean(axis=0)) ** 2, axis=0))
-    their_noise, _ = covariances(best.jacobian, data, noise, runs=[i for left in groups.values() for i in left])
-    finite = lambda a: np.where(np.isfinite(a), a, None).tolist()  # noqa: E731
-    return {"free": list(best.names), "left_out": list(groups), "values": v.tolist(), "standard_error": se.tolist(),
-            "over_sandwich": (se / best.standard_errors).tolist(),
-            "over_their_noise": finite(se / np.sqrt(np.diag(their_noise))), "shift_z": finite(np.array(shift_z))}

@@ -16,6 +16,7 @@ from scipy.linalg import eigh
 
 import model
 
+from ..schema import Jackknife
 from . import global_fit
 
 DETERMINED, LOOSE = 0.1, 0.5  # relative standard error limits
@@ -105,11 +106,11 @@ def summary(fit: global_fit.GlobalFit, data: list, hold: dict | None = None, mea
             "noise_measured": measured, "table2": None if hold or not measured else table2_test(fit, data)}
 
 
-def spread_over_angles(jack: dict) -> dict:
-    """Each parameter's range over the refits without one angle (``global_fit.jackknife`` over the angles). Where
+def spread_over_angles(jack: Jackknife) -> dict:
+    """Each parameter's range over the refits without one angle (``resampling.jackknife`` over the angles). Where
     one parameter set does not fit every angle, this range, not an interval from the noise, is the scale of what
     the runs say about a parameter: which angles are in the data set moves it."""
-    values = np.array(jack["values"], dtype=float)
-    return {"left_out": list(jack["left_out"]),
+    values = np.array(jack.values, dtype=float)
+    return {"left_out": list(jack.left_out),
             "ranges": {name: [float(values[:, k].min()), float(values[:, k].max())]
-                       for k, name in enumerate(jack["free"])}}
+                       for k, name in enumerate(jack.free)}}

@@ -27,6 +27,7 @@ import model
 from ..dataset.derived import bulk_over_nominal, cycle_D_dev, resampled_cycle
 from ..dataset.smoothing import relaxation_strain, smooth_segments
 from ..errors import CalibrationError
+from ..schema import StepwiseBootstrap
 from . import estimators as cal
 
 
@@ -162,7 +163,7 @@ def small_sample_factor(cycles: int) -> float:
     return math.sqrt(cycles / (cycles - 1)) * float(scipy.stats.t.ppf(0.8413, cycles - 1))
 
 
-def combine(per_run: list[dict], resampled: dict | None = None) -> dict:
+def combine(per_run: list[dict], resampled: StepwiseBootstrap | None = None) -> dict:
     """Mean over runs with its standard error; for a single run, half the 68 % interval over ``resampled``
     (``stepwise_bootstrap`` of its cycles; robust to the heavy tail of Phi_c, which goes as 1/c2_coef) widened
     by ``small_sample_factor``, else NaN: a regression's own error treats the smoothed, correlated samples as
@@ -173,9 +174,9 @@ def combine(per_run: list[dict], resampled: dict | None = None) -> dict:
         mean = float(np.nanmean(values))
         if len(values) > 1:
             se, source = float(np.nanstd(values, ddof=1) / np.sqrt(np.isfinite(values).sum())), "runs"
-        elif resampled is not None and key in resampled["free"]:
-            half_width = resampled["half_width_68"][resampled["free"].index(key)]
-            se, source = half_width * small_sample_factor(resampled["cycles"]), "cycle resamples"
+        elif resampled is not None and key in resampled.free:
+            half_width = resampled.half_width_68[resampled.free.index(key)]
+            se, source = half_width * small_sample_factor(resampled.cycles), "cycle resamples"
         else:
             se, source = float("nan"), None
         out[key] = {"value": mean, "standard_error": se, "error_from": source, "per_run": values.tolist()}
@@ -205,7 +206,7 @@ def sensitivity(runs: list) -> dict:
             "eq15_window": {f"{a:g}-{b:g}": means(c_window=(a, b))["C_eq15"] for a, b in EQ15_WINDOWS}}
 
 
-def stepwise_bootstrap(runs: list, replicates: int, window: float, seed: int = 0) -> dict:
+def stepwise_bootstrap(runs: list, replicates: int, window: float, seed: int = 0) -> StepwiseBootstrap:
     """The stepwise calibration (mean over runs) on ``replicates`` resamplings of every run's cycles."""
     rng = np.random.default_rng(seed)
     values = []
@@ -217,11 +218,10 @@ def stepwise_bootstrap(runs: list, replicates: int, window: float, seed: int = 0
         values.append([np.nanmean([r[key] for r in per_run]) for key in BOOTSTRAPPED])
     v = np.array(values)
     lo, hi = np.nanpercentile(v, [15.87, 84.13], axis=0)
-    return {"free": list(BOOTSTRAPPED), "replicates": replicates,
-            "cycles": min(run.spec.n_cycles for run in runs),
-            "standard_deviation": np.nanstd(v, axis=0, ddof=1).tolist(), "half_width_68": ((hi - lo) / 2).tolist(),
-            "percentile_2.5": np.nanpercentile(v, 2.5, axis=0).tolist(),
-            "percentile_97.5": np.nanpercentile(v, 97.5, axis=0).tolist(), "seed": seed}
+    return StepwiseBootstrap(list(BOOTSTRAPPED), replicates, min(run.spec.n_cycles for run in runs),
+                             np.nanstd(v, axis=0, ddof=1).tolist(), ((hi - lo) / 2).tolist(),
+                             np.nanpercentile(v, 2.5, axis=0).tolist(), np.nanpercentile(v, 97.5, axis=0).tolist(),
+                             seed)
 
 
 def fitted_params(estimates: dict) -> model.Params:

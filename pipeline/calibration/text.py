@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ..schema import FitSummary
+from ..schema import FitSummary, Jackknife
 
 
 def print_global(report: FitSummary) -> None:
@@ -105,13 +105,12 @@ def print_report(report: FitSummary, out: Path) -> None:
         print_next_runs(report)
     if report.bootstrap:
         b = report.bootstrap
-        print(f"noise bootstrap ({len(b['replicates'])} refits, blocks of {b['block_strain']:g} strain), 68 %: "
-              + ", ".join(f"{n} [{lo:+.4g}, {hi:+.4g}]" for n, (lo, hi) in zip(b["free"], b["interval_68"],
-                                                                               strict=True)))
-        st = b["stepwise"]
+        print(f"noise bootstrap ({len(b.replicates)} refits, blocks of {b.block_strain:g} strain), 68 %: "
+              + ", ".join(f"{n} [{lo:+.4g}, {hi:+.4g}]" for n, (lo, hi) in zip(b.free, b.interval_68, strict=True)))
+        st = b.stepwise
         print("the stepwise route on the same resamplings, 95 %: "
               + ", ".join(f"{n} [{lo:+.4g}, {hi:+.4g}]" for n, lo, hi in
-                          zip(st["free"], st["percentile_2.5"], st["percentile_97.5"], strict=True)
+                          zip(st.free, st.percentile_2_5, st.percentile_97_5, strict=True)
                           if not n.startswith("persistence_exponent")))
     if report.jackknife:
         print_jackknife(report.jackknife)
@@ -142,21 +141,21 @@ def print_report(report: FitSummary, out: Path) -> None:
           + (", params_stepwise.json" if report.params_stepwise else ""))
 
 
-def print_jackknife(j: dict) -> None:
+def print_jackknife(j: Jackknife) -> None:
     """Over seeds, the jackknife's standard errors against the noise model's; over angles (no exchangeable
     draws: no standard error), each refit without one angle and its shift in noise-only standard deviations."""
-    if j["over"] == "seeds":
-        print(f"jackknife over the {len(j['left_out'])} reversal seeds: standard errors, and in brackets their ratio "
+    if j.over == "seeds":
+        print(f"jackknife over the {len(j.left_out)} reversal seeds: standard errors, and in brackets their ratio "
               "to the noise model's part from these runs (about 1 where the seeds differ by noise alone; rough with "
               "few seeds) and to the whole sandwich's: "
               + ", ".join(f"{n} {se:.2g} ({r:.1f}x, {w:.1f}x)" for n, se, r, w in
-                          zip(j["free"], j["standard_error"], j["over_their_noise"], j["over_sandwich"], strict=True)))
+                          zip(j.free, j.standard_error, j.over_their_noise, j.over_sandwich, strict=True)))
         return
-    print(f"each of the {len(j['left_out'])} angles left out (with all its runs): the refit, and in brackets its "
+    print(f"each of the {len(j.left_out)} angles left out (with all its runs): the refit, and in brackets its "
           "shift from the fit on all of them in standard deviations of what the noise alone would give it "
           "(|z| of many: one parameter set does not follow every angle)")
-    for left, values, z in zip(j["left_out"], j["values"], j["shift_z"], strict=True):
+    for left, values, z in zip(j.left_out, j.values, j.shift_z, strict=True):
         shifts = ["--" if s is None else f"{s:+.1f}" for s in z]
         print(f"  without {left}: " + ", ".join(f"{n} {v:+.4g} ({s})" for n, v, s in
-                                               zip(j["free"], values, shifts, strict=True)))
+                                               zip(j.free, values, shifts, strict=True)))
 

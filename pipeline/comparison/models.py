@@ -31,7 +31,7 @@ import numpy as np
 import model
 
 from .. import io, schema
-from ..calibration import global_fit
+from ..calibration import covariance, global_fit
 from ..calibration.definitions import own_reversal
 from ..calibration.fit_cycle import FitCycle
 from ..calibration.noise import COMPONENTS
@@ -106,7 +106,7 @@ def held_out(run, params: model.Params, noise, stress: str, cache: dict | None =
     """``run`` predicted by ``params``: per component of A and of the fitted tau/p, the RMS error in units of the
     run's noise (``noise``, measured on the fit's runs) and per the DEM's steady value, and the sum of squared
     noise-scaled residuals with their count (``chi2``, ``samples``). ``_blocks`` (not written) keeps, per component,
-    the scaled (A, tau) residuals and the noise's correlation over them (``global_fit.sample_covariance``; ``cache``
+    the scaled (A, tau) residuals and the noise's correlation over them (``covariance.sample_covariance``; ``cache``
     shares the matrices) for ``compared``."""
     cycle = global_fit.scaled_cycle(run, noise, 0.0, stress)
     try:
@@ -115,7 +115,7 @@ def held_out(run, params: model.Params, noise, stress: str, cache: dict | None =
         return not_predicted(run, str(exc).split(" (parameters off")[0])
     row = {"run": run.path.stem, "protocol": protocol(run), "seed": run.spec.seed, "components": {}, "error": None}
     r_A, r_tau = global_fit.scaled_residuals(cycle, pred)
-    row["_blocks"] = [(np.concatenate([r_A[:, k], r_tau[:, k]]), global_fit.sample_covariance(noise, k, cycle, cache))
+    row["_blocks"] = [(np.concatenate([r_A[:, k], r_tau[:, k]]), covariance.sample_covariance(noise, k, cycle, cache))
                       for k in range(len(COMPONENTS))]
     chi2 = samples = 0.0
     for name, ours, dem, scale in (("A", pred.A, cycle.A, cycle.A_scale), ("tau", pred.tau, cycle.tau,

@@ -217,20 +217,20 @@ def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path, cap
             for t in (180.0, 90.0)]
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], bootstrap=12)
     boot, g = report.bootstrap, report.global_fit
-    assert len(boot["replicates"]) == 12
-    ratio = np.array(boot["standard_deviation"]) / np.array(g["standard_errors"])
+    assert len(boot.replicates) == 12
+    ratio = np.array(boot.standard_deviation) / np.array(g["standard_errors"])
     assert np.all((ratio > 0.3) & (ratio < 3)), dict(zip(g["free"], ratio, strict=True))
     # the stepwise calibration, bootstrapped over cycles: a spread, and an interval around its value
-    step = boot["stepwise"]
+    step = boot.stepwise
     for key in ("C_eq15", "n", "m", "b1", "b2", "c2_coef", "phi_c"):
-        i = step["free"].index(key)
-        assert 0 < step["standard_deviation"][i] < np.inf, key
-        assert step["percentile_2.5"][i] <= report.estimates[key]["value"] <= step["percentile_97.5"][i], key
+        i = step.free.index(key)
+        assert 0 < step.standard_deviation[i] < np.inf, key
+        assert step.percentile_2_5[i] <= report.estimates[key]["value"] <= step.percentile_97_5[i], key
     # one reversal: its stepwise errors are the spread over the resamplings of its cycles
     for key in ("C_eq15", "m", "phi_c"):
         e = report.estimates[key]
         assert e["error_from"] == "cycle resamples"
-        half_width = step["half_width_68"][step["free"].index(key)]
+        half_width = step.half_width_68[step.free.index(key)]
         assert e["standard_error"] == pytest.approx(half_width * small_sample_factor(4)) and half_width > 0, key
     print_report(report, tmp_path / "fit")
     out = capsys.readouterr().out

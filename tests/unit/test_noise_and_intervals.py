@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import model
-from pipeline.calibration import global_fit, identifiability, noise
+from pipeline.calibration import covariance, global_fit, identifiability, noise, resampling
 from pipeline.calibration.fit_cycle import FitCycle
 from pipeline.calibration.profile import profiles
 from pipeline.schema import FitSummary
@@ -62,10 +62,10 @@ def test_a_cycles_noise_correlation_follows_its_own_sampling_and_its_restarted_g
     strain = np.arange(40) * 0.0025
     zeros, ones = np.zeros((40, 3, 3)), np.ones((40, 3, 3))
     dense = FitCycle(180.0, 0.05, 0.1, 1.0, 2, strain, zeros, zeros, np.zeros(40), ones, ones)
-    np.testing.assert_array_equal(global_fit.sample_covariance(nm, 1, dense), nm.covariance(1, 40, lag_scale=0.5))
+    np.testing.assert_array_equal(covariance.sample_covariance(nm, 1, dense), nm.covariance(1, 40, lag_scale=0.5))
     kept = np.r_[4:20, 24:40]
     restarted = dataclasses.replace(dense, strain=strain[kept], grid_index=kept)
-    sigma = global_fit.sample_covariance(nm, 1, restarted)
+    sigma = covariance.sample_covariance(nm, 1, restarted)
     full = nm.covariance(1, 40, lag_scale=0.5)
     assert sigma.shape == (2 * len(kept),) * 2
     assert sigma[15, 16] == full[19, 24]  # across the gap: 5 samples apart, not 1
@@ -162,10 +162,10 @@ def test_the_noise_bootstrap_agrees_with_the_sandwich_errors(tmp_path):
     runs = [synthetic_run(tmp_path, name=f"b{s}", seed=s + 50, **NOISE) for s in range(3)]
     data, nm = global_fit.prepare(runs)
     best = global_fit.refine(data, TRUE, noise=nm)
-    boot = global_fit.bootstrap(data, nm, best, 16, block_strain=0.2)
-    ratio = np.array(boot["standard_deviation"]) / best.standard_errors
+    boot = resampling.bootstrap(data, nm, best, 16, block_strain=0.2)
+    ratio = np.array(boot.standard_deviation) / best.standard_errors
     assert np.all((ratio > 0.4) & (ratio < 2.5)), dict(zip(best.names, ratio, strict=True))
-    for (low, high), value in zip(boot["interval_68"], best.values, strict=True):
+    for (low, high), value in zip(boot.interval_68, best.values, strict=True):
         assert low < value < high
 
 
@@ -174,11 +174,11 @@ def test_the_jackknife_over_seeds_agrees_with_the_noise_model_where_seeds_differ
     runs = [synthetic_run(tmp_path, name=f"j{s}", seed=s + 90, **NOISE) for s in range(5)]
     data, nm = global_fit.prepare(runs)
     best = global_fit.refine(data, TRUE, noise=nm)
-    jack = global_fit.jackknife(data, {f"seed {s}": [s] for s in range(5)}, best, nm)
-    ratio = np.array(jack["over_sandwich"])
+    jack = resampling.jackknife(data, {f"seed {s}": [s] for s in range(5)}, best, nm)
+    ratio = np.array(jack.over_sandwich)
     assert np.all((ratio > 0.25) & (ratio < 3)) and 0.5 < np.exp(np.mean(np.log(ratio))) < 2, ratio
     with pytest.raises(global_fit.CalibrationError, match="at least 3 groups of runs to leave out, not 2"):
-        global_fit.jackknife(data[:2], {"seed 0": [0], "seed 1": [1]}, best)
+        resampling.jackknife(data[:2], {"seed 0": [0], "seed 1": [1]}, best)
 
 
 @pytest.mark.slow
@@ -196,13 +196,13 @@ def test_leaving_out_each_angle_shifts_the_parameters_by_noise_alone_unless_one_
                               else TRUE, **NOISE) for k, t in enumerate(thetas)]
         data, nm = global_fit.prepare(runs)
         best = global_fit.refine(data, TRUE, noise=nm)
-        jack = global_fit.jackknife(data, groups, best, nm)
-        z[label] = np.array(jack["shift_z"], dtype=float)
+        jack = resampling.jackknife(data, groups, best, nm)
+        z[label] = np.array(jack.shift_z, dtype=float)
     one = np.array([z[f"one {k}"] for k in range(3)])
     assert np.isfinite(one).all() and 0.6 < np.sqrt(np.mean(one ** 2)) < 1.4 and 0.5 < np.mean(np.abs(one) < 1) < 0.85
-    b2 = jack["free"].index("b2")
+    b2 = jack.free.index("b2")
     assert abs(z["other"][2, b2]) > 5, z["other"]
-    without = dict(zip(jack["left_out"], np.array(jack["values"])[:, b2], strict=True))
+    without = dict(zip(jack.left_out, np.array(jack.values)[:, b2], strict=True))
     assert min(without, key=lambda g: abs(without[g] - TRUE.b2)) == "theta = 90", without
 
 
@@ -356,8 +356,8 @@ def test_runs_of_the_data_set_are_weighed_from_their_own_data_even_where_the_mod
     committed = ranked["fit the committed theta = 60, rotated at 0.7 (no new run)"]
     assert committed["weakest_after"] == pytest.approx(float(np.sqrt(weakest @ refit.covariance @ weakest)), rel=0.1)
     assert ranked["another seed at theta = 60"]["weakest_after"] == committed["weakest_after"]
-    present = global_fit.run_parts(fit.jacobian, data, nm)
-    at_90 = global_fit.sandwich([*present, present[2]], [1.0] * 4)[0]
+    present = covariance.run_parts(fit.jacobian, data, nm)
+    at_90 = covariance.sandwich([*present, present[2]], [1.0] * 4)[0]
     assert ranked["another seed at theta = 90"]["weakest_after"] == pytest.approx(
         float(np.sqrt(weakest @ at_90 @ weakest)), rel=1e-12)
     assert ranked["another reversal seed (theta = 180)"]["weakest_after"] < committed["weakest_before"]
@@ -412,10 +412,10 @@ def test_with_each_angle_counted_once_the_intervals_and_the_seed_jackknifes_shif
         fit = global_fit.refine(data, TRUE, noise=nm)
         hits.append(np.abs(fit.values - np.array([getattr(TRUE, n) for n in fit.names])) <= fit.standard_errors)
         if draw < 6:
-            jack = global_fit.jackknife(data, {f"seed {k}": [k] for k in range(3)}, fit, nm, weight="angles")
-            z.append(np.array(jack["shift_z"], dtype=float))
-            theirs.append(np.array(jack["over_their_noise"], dtype=float))
-            whole.append(jack["over_sandwich"])
+            jack = resampling.jackknife(data, {f"seed {k}": [k] for k in range(3)}, fit, nm, weight="angles")
+            z.append(np.array(jack.shift_z, dtype=float))
+            theirs.append(np.array(jack.over_their_noise, dtype=float))
+            whole.append(jack.over_sandwich)
         for r in runs:
             r.path.unlink()
     assert 0.55 <= np.mean(hits) <= 0.80, np.mean(hits, axis=0)

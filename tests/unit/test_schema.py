@@ -37,6 +37,23 @@ def test_each_file_reads_back_as_written_and_names_its_version(tmp_path):
     assert model.Params.from_json((tmp_path / "params.json").read_text()) == model.Params()  # what continuum codes read
 
 
+def test_a_fits_resamplings_read_back_as_records_under_the_files_keys(tmp_path):
+    step = schema.StepwiseBootstrap(["C_eq15"], 4, 5, [0.1], [0.08], [-5.2], [-4.9], 0)
+    boot = schema.Bootstrap(["C"], [[-5.0], [-5.1]], [0.07], 0.2, 0, [[-5.1, -4.9]], [[-5.2, -4.8]], step)
+    jack = schema.Jackknife(["C"], ["seed 1", "seed 2", "seed 3"], [[-5.0], [-5.1], [-4.9]], [0.1], [1.2], [None],
+                            [[0.5], [None], [-0.5]], "seeds")
+    fit = fit_summary(bootstrap=boot, jackknife=jack)
+    schema.write_fit(tmp_path / "fit.json", fit)
+    written = json.loads((tmp_path / "fit.json").read_text())
+    assert written["bootstrap"]["stepwise"]["percentile_97.5"] == [-4.9] and written["jackknife"]["over"] == "seeds"
+    back = schema.read_fit(tmp_path / "fit.json")
+    assert back == fit and back.bootstrap.stepwise.percentile_2_5 == [-5.2] and back.jackknife.shift_z[1] == [None]
+    written["jackknife"]["colour"] = 1
+    (tmp_path / "fit.json").write_text(json.dumps(written))
+    with pytest.raises(PipelineError, match=r"is not a jackknife of this version: missing \[\], unknown \['colour'\]"):
+        schema.read_fit(tmp_path / "fit.json")
+
+
 @pytest.mark.parametrize("change, fragment", [
     (lambda d: {**d, "schema_version": 2}, "is a comparison of version 2; this code reads version 1"),
     (lambda d: {k: v for k, v in d.items() if k != "errors"}, "missing ['errors']"),
