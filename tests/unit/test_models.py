@@ -8,8 +8,10 @@ import pytest
 
 import model
 from pipeline.calibration import global_fit
-from pipeline.comparison import models
+from pipeline.calibration.model_selection import __main__ as cli
+from pipeline.calibration.model_selection import curves, judge, scores, splits, text
 from pipeline.dataset.derived import PAPER_DEFINITIONS
+from pipeline.errors import CalibrationError
 from tests.helpers import synthetic_run
 
 
@@ -22,16 +24,16 @@ def fake_runs():
 
 def test_no_split_fits_a_run_it_predicts_and_each_predicts_what_it_says():
     runs = fake_runs()
-    splits = {s.name: s for s in models.splits(runs)}
-    for s in splits.values():
+    made = {s.name: s for s in splits.splits(runs)}
+    for s in made.values():
         assert not set(s.train) & set(s.test) and s.train and s.test
-    angles = splits["angles"]
-    assert {runs[i].theta_deg for i in angles.train} == set(models.TRAIN_ANGLES)
+    angles = made["angles"]
+    assert {runs[i].theta_deg for i in angles.train} == set(splits.TRAIN_ANGLES)
     assert sorted((runs[i].theta_deg, runs[i].default_rotation) for i in angles.test) == [
         (90.0, False), (90.0, False), (120.0, True), (120.0, True), (150.0, True)]
-    assert sorted(n for n in splits if n != "angles") == [f"without {t}" for t in (120, 150, 180, 30, 60, 90)]
+    assert sorted(n for n in made if n != "angles") == [f"without {t}" for t in (120, 150, 180, 30, 60, 90)]
     for theta in (30.0, 120.0, 180.0):
-        s = splits[f"without {theta:g}"]
+        s = made[f"without {theta:g}"]
         assert {runs[i].theta_deg for i in s.test} == {theta}
         assert theta not in {runs[i].theta_deg for i in s.train}
         assert all(runs[i].default_rotation for i in s.train)  # Fig. 7's turns are never fitted
@@ -40,20 +42,20 @@ def test_no_split_fits_a_run_it_predicts_and_each_predicts_what_it_says():
 def test_a_split_with_nothing_to_predict_or_nothing_to_fit_is_not_made():
     """The demo's data set (180 and 90, both training angles) has no ``angles`` split; one angle has no split."""
     demo = [SimpleNamespace(theta_deg=t, default_rotation=True) for t in (180.0, 90.0)]
-    assert [s.name for s in models.splits(demo)] == ["without 180", "without 90"]
-    assert models.splits(demo[:1]) == []
-    assert models.other_data_sets(None, ["none"]) == {}
-    with pytest.raises(models.CalibrationError, match="none stands alone"):
-        models.other_data_sets(None, ["none", "reduced"])
+    assert [s.name for s in splits.splits(demo)] == ["without 180", "without 90"]
+    assert splits.splits(demo[:1]) == []
+    assert cli.other_data_sets(None, ["none"]) == {}
+    with pytest.raises(CalibrationError, match="none stands alone"):
+        cli.other_data_sets(None, ["none", "reduced"])
 
 
 def test_a_law_that_cannot_run_the_held_out_cycle_fails_the_test(tmp_path):
     run = synthetic_run(tmp_path, theta=180.0, name="rev", n_cycles=2, noise=0.002)
     data, noise = global_fit.prepare([run])
-    good = models.held_out(run, model.PAPER, noise, global_fit.STRESS_DEFAULT)
+    good = scores.held_out(run, model.PAPER, noise, global_fit.STRESS_DEFAULT)
     assert 0 < good["rms_noise"] < 3 and good["error"] is None  # the truth predicts its run within the noise
-    bad = models.held_out(run, model.PAPER.replace(a1=0.05, a2=2.0, b2=0.0), noise, global_fit.STRESS_DEFAULT)
-    assert bad["error"] and bad["rms_noise"] == np.inf and models.pooled([good, bad]) == np.inf
+    bad = scores.held_out(run, model.PAPER.replace(a1=0.05, a2=2.0, b2=0.0), noise, global_fit.STRESS_DEFAULT)
+    assert bad["error"] and bad["rms_noise"] == np.inf and scores.pooled([good, bad]) == np.inf
 
 
 @pytest.mark.slow
@@ -62,21 +64,21 @@ def test_a_law_that_cannot_be_fitted_on_a_splits_runs_predicts_none_of_its_held_
     its held-out runs, and the other splits go on."""
     runs = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=2, noise=0.003, seed=int(t))
             .with_definitions(PAPER_DEFINITIONS) for t in (180.0, 90.0)]
-    real_fit = models.fit
+    real_fit = judge.fit
 
     def fit(train, *args):
         if [r.theta_deg for r in train] == [90.0]:
-            raise models.CalibrationError("the global fit did not converge (budget)")
+            raise CalibrationError("the global fit did not converge (budget)")
         return real_fit(train, *args)
 
-    monkeypatch.setattr(models, "fit", fit)
-    out = models.judge(model.params.DEFAULT_VARIANT, runs, {}, global_fit.STRESS_DEFAULT, global_fit.WEIGHT_DEFAULT,
+    monkeypatch.setattr(judge, "fit", fit)
+    out = judge.judge(model.params.DEFAULT_VARIANT, runs, {}, global_fit.STRESS_DEFAULT, global_fit.WEIGHT_DEFAULT,
                        lambda: None)
     failed, made = out["splits"]
     assert failed["name"] == "without 180" and failed["params"] is None and failed["rms_noise"] == np.inf
     assert failed["rows"][0]["error"].startswith("not fitted on the other runs: the global fit did not converge")
     assert made["name"] == "without 90" and made["error"] is None and np.isfinite(made["rms_noise"])
-    assert "without 180 | inf" in models.markdown("demo", [out], [])
+    assert "without 180 | inf" in text.markdown("demo", [out], [])
 
 
 #: the paper cell's noise as ``make models`` measures it (``pipeline.calibration.noise``, the committed runs at
@@ -104,7 +106,7 @@ def test_the_fit_recovers_a_variants_known_parameters(tmp_path, variant):
         runs = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}-{noise}", n_cycles=3, noise=noise, seed=int(t),
                               params=truth, **(DEM_NOISE if noise else {})).with_definitions(PAPER_DEFINITIONS)
                 for t in (180.0, 150.0, 120.0, 90.0)]
-        fit, _ = models.fit(runs, variant, global_fit.STRESS_DEFAULT, global_fit.WEIGHT_DEFAULT)
+        fit, _ = judge.fit(runs, variant, global_fit.STRESS_DEFAULT, global_fit.WEIGHT_DEFAULT)
         assert fit.names[-len(added):] == tuple(added)
         if noise == 0:
             np.testing.assert_allclose(fit.values, [getattr(truth, n) for n in fit.names], rtol=1e-4, atol=1e-6)
@@ -120,11 +122,11 @@ def test_the_held_out_comparison_tells_the_truth_from_a_wrong_law_and_is_antisym
     runs = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=2, noise=0.003, seed=int(t))
             for t in (180.0, 90.0)]
     _, noise = global_fit.prepare(runs)
-    truth = [models.held_out(r, model.PAPER, noise, global_fit.STRESS_DEFAULT, {}) for r in runs]
-    wrong = [models.held_out(r, model.PAPER.replace(b2=-30.0), noise, global_fit.STRESS_DEFAULT, {}) for r in runs]
-    assert models.compared(truth, wrong) > models.BEYOND_NOISE_Z
-    assert models.compared(wrong, truth) == pytest.approx(-models.compared(truth, wrong))
-    assert models.compared(truth, truth) == 0.0
+    truth = [scores.held_out(r, model.PAPER, noise, global_fit.STRESS_DEFAULT, {}) for r in runs]
+    wrong = [scores.held_out(r, model.PAPER.replace(b2=-30.0), noise, global_fit.STRESS_DEFAULT, {}) for r in runs]
+    assert scores.compared(truth, wrong) > scores.BEYOND_NOISE_Z
+    assert scores.compared(wrong, truth) == pytest.approx(-scores.compared(truth, wrong))
+    assert scores.compared(truth, truth) == 0.0
 
 
 @pytest.mark.slow
@@ -142,8 +144,8 @@ def test_the_comparisons_z_is_a_unit_normal_about_its_noise_free_value(tmp_path)
         _, noise = global_fit.prepare(runs)
         z = {}
         for label, judged in (("noisy", runs), ("clean", clean)):
-            one, two = ([models.held_out(r, law, noise, global_fit.STRESS_DEFAULT, {}) for r in judged] for law in laws)
-            z[label] = models.compared(one, two)
+            one, two = ([scores.held_out(r, law, noise, global_fit.STRESS_DEFAULT, {}) for r in judged] for law in laws)
+            z[label] = scores.compared(one, two)
         shifts.append(z["noisy"] - z["clean"])
         for r in runs:
             r.path.unlink()
@@ -151,18 +153,17 @@ def test_the_comparisons_z_is_a_unit_normal_about_its_noise_free_value(tmp_path)
 
 
 def test_the_laws_asked_for_are_judged_in_the_registrys_order_with_eq13s_first_and_an_unknown_one_is_refused():
-    assert models.law_list("elastic") == [model.params.DEFAULT_VARIANT, "elastic"]
-    assert models.law_list(" jump,loading ") == [model.params.DEFAULT_VARIANT, "loading", "jump"]
+    assert cli.law_list("elastic") == [model.params.DEFAULT_VARIANT, "elastic"]
+    assert cli.law_list(" jump,loading ") == [model.params.DEFAULT_VARIANT, "loading", "jump"]
     for bad in ("", "elastic,nope"):
-        with pytest.raises(models.argparse.ArgumentTypeError, match="is not a comma-separated list of rk2025"):
-            models.law_list(bad)
+        with pytest.raises(cli.argparse.ArgumentTypeError, match="is not a comma-separated list of rk2025"):
+            cli.law_list(bad)
 
 
 def test_the_models_figure_refuses_curves_whose_runs_changed_since(tmp_path):
     import pytest
 
     from pipeline import schema
-    from pipeline.comparison import models as judged_models
     from pipeline.errors import PipelineError
     from pipeline.figures import models as figure
 
@@ -170,7 +171,7 @@ def test_the_models_figure_refuses_curves_whose_runs_changed_since(tmp_path):
     run.write_bytes(b"a run")
     drawn = {"memory": [{"run": "theta150", "seed": 1, "theta": 150.0, "strain": [0.0, 0.1], "dem": [0.5, 0.4],
                          "model": {"rk2025": [0.5, 0.3]}}]}
-    judged_models.write_curves(tmp_path / "models.h5", drawn, schema.MadeFrom.of([run], {"laws": ["rk2025"]}))
+    curves.write_curves(tmp_path / "models.h5", drawn, schema.MadeFrom.of([run], {"laws": ["rk2025"]}))
     assert len(figure.read_groups(tmp_path / "models.h5", "memory")) == 1
     run.write_bytes(b"another run")
     with pytest.raises(PipelineError, match="judged runs that have changed or gone since"):
@@ -181,7 +182,7 @@ def test_the_figure_draws_the_laws_that_can_run_a_cycle_and_leaves_out_one_that_
     """A fitted law that cannot run a run's cycle (here c3 = 0.5: Eq. 18's packing fraction leaves (0, 1)) has no
     curve; the others keep theirs, so one sick law does not stop ``make models``."""
     run = synthetic_run(tmp_path, theta=180.0, name="t180", n_cycles=2)
-    preds = models.runnable(run, {"rk2025": model.PAPER, "sick": model.PAPER.replace(c3=0.5)})
+    preds = curves.runnable(run, {"rk2025": model.PAPER, "sick": model.PAPER.replace(c3=0.5)})
     assert list(preds) == ["rk2025"]
     with pytest.raises(model.SolverError):  # as it does on its own
-        models.metrics.model_for(run, {"sick": model.PAPER.replace(c3=0.5)})
+        curves.metrics.model_for(run, {"sick": model.PAPER.replace(c3=0.5)})

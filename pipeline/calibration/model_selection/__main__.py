@@ -1,0 +1,123 @@
+"""``python -m pipeline.calibration.model_selection``: ``make models`` (see the package's text)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import model
+
+from ... import io, schema
+from ...cli import Parser, one_line_errors
+from ...dataset import selection
+from ...dataset.derived import PAPER_DEFINITIONS
+from ...dataset.lookup import every_seed
+from ...errors import CalibrationError
+from ...paths import preset_output
+from .. import global_fit
+from .curves import curves, write_curves
+from .judge import judge, without_blocks
+from .scores import BEYOND_NOISE_Z, judged, verdict_lines
+from .splits import TRAIN_ANGLES, splits
+from .text import markdown
+
+
+def read(chosen) -> list:
+    """Every run of the data set ``chosen``, every seed, read with ``make fit``'s definitions (the paper's)."""
+    return [r.with_definitions(PAPER_DEFINITIONS) for r in every_seed(chosen)]
+
+
+def other_data_sets(chosen, across: list[str]) -> dict[str, list]:
+    """The runs of each data set named ``P[:E]`` in ``across``; by default the most faithful other preset with a
+    reversal run; none for ``none``."""
+    if across == ["none"]:
+        return {}
+    if "none" in across:
+        raise CalibrationError(f"--across {' '.join(across)}: none stands alone (no other data set)")
+    if not across:
+        across = [p for p in selection.PRESETS_BY_FIDELITY
+                  if p != chosen.preset and selection.has_reversal(selection.data_set(p))][:1]
+    out = {}
+    for item in across:
+        preset, _, engine = item.partition(":")
+        other = selection.data_set(preset, engine or None)
+        runs = read(other)
+        if not any(r.is_reversal for r in runs):
+            raise CalibrationError(f"--across {item}: the data set {other.label} has no reversal run")
+        out[other.folder] = runs
+    return out
+
+
+def law_list(text: str) -> list[str]:
+    """``--laws``: known law names, comma-separated, in the registry's order with Eq. 13's first."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    known = model.params.VARIANTS
+    if not names or not set(names) <= set(known):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of {', '.join(known)}")
+    return [v for v in known if v in names or v == model.params.DEFAULT_VARIANT]
+
+
+@one_line_errors
+def main(argv=None) -> int:
+    parser = Parser(prog="python -m pipeline.calibration.model_selection",
+                    description=sys.modules[__package__].__doc__.splitlines()[0])
+    selection.add_arguments(parser, "preset whose runs judge the variants")
+    parser.add_argument("--across", action="append", default=[], metavar="PRESET[:ENGINE]",
+                        help="another data set to predict from this one and back (repeatable; default: the most "
+                             "faithful other preset with a reversal run; none: no other)")
+    parser.add_argument("--laws", type=law_list, default=list(model.params.VARIANTS), metavar="LAW,LAW...",
+                        help="the fabric laws judged (default every one; Eq. 13's, rk2025, is always judged, first)")
+    parser.add_argument("--out", type=Path, help="output folder (default results/<data set>/models)")
+    args = parser.parse_args(argv)
+    chosen = selection.from_arguments(args)
+    runs = read(chosen)
+    if not any(r.is_reversal for r in runs):
+        raise CalibrationError(f"no reversal run of {chosen.label}: make one with `make dem THETA=180 ...`")
+    others = other_data_sets(chosen, args.across)
+    out = io.check_writable_dir(args.out or preset_output(chosen.folder, "models"))
+    variants = args.laws
+    total, done, began = len(variants) * (1 + len(splits(runs)) + len(others)), [0], time.monotonic()
+
+    def progress():
+        done[0] += 1
+        rate = done[0] / (time.monotonic() - began)
+        print(f"models: {done[0]}/{total} fits ({100 * done[0] / total:.0f}%), {rate:.2f} fits/s, "
+              f"ETA {(total - done[0]) / rate:.0f} s", flush=True)
+
+    print(f"runs: {chosen.label}; across: {', '.join(others) or 'none'}", flush=True)
+    stress, weight = global_fit.STRESS_DEFAULT, global_fit.WEIGHT_DEFAULT
+    results, not_fitted = [], {}
+    for v in variants:
+        try:
+            results.append(judge(v, runs, others, stress, weight, progress))
+        except CalibrationError as exc:  # this law cannot be fitted on these runs: the others are still judged
+            if v == variants[0]:
+                raise CalibrationError(f"Eq. 13's law (the one the others are judged against): {exc}") from None
+            not_fitted[v] = str(exc)
+            done[0] += total // len(variants)  # its fits, none made
+            print(f"models: {v} not fitted on every run ({exc}): left out", flush=True)
+    judgements = judged(results)
+    results = without_blocks(results)
+    made_from = schema.MadeFrom.of([r.path for r in (*runs, *(r for rs in others.values() for r in rs))],
+                                   {"laws": variants, "across": list(others), "stress": stress, "weight": weight})
+    summary = {"schema_version": schema.MODELS_VERSION, "data_set": chosen.folder, "stress_fitted": stress,
+               "weight": weight, "train_angles": list(TRAIN_ANGLES), "beyond_noise_z": BEYOND_NOISE_Z,
+               "variants": results, "not_fitted": not_fitted, "verdict": judgements,
+               "made_from": made_from.to_dict()}
+    with io.atomic_paths(*(out / n for n in ("models.json", "models.md", "models.h5"))) as (js, md, h5):
+        io.write_bytes(js, io.json_text(summary).encode())
+        io.write_bytes(md, markdown(chosen.label, results, judgements, not_fitted).encode())
+        write_curves(h5, curves(runs, results), made_from)
+    for r in results:
+        io.write_params(out / f"params-{r['variant']}.json", model.Params.from_dict(r["params"]),
+                        {"fit": "global (pipeline.calibration.model_selection: every run of the default protocol)",
+                         "misfit": r["misfit"]})
+    print("\n".join(verdict_lines(judgements)))
+    print(f"wrote {out / 'models.md'}, models.json, models.h5 and params-<variant>.json")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
