@@ -7,11 +7,9 @@ the reversal (each law fitted on every run), the DEM's cycle mean against each v
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
-import h5py
 import matplotlib.pyplot as plt
 
 from .. import schema
@@ -22,25 +20,8 @@ from ..paths import preset_output
 from .output import legend_of_all, save
 
 
-def read_groups(path: Path, kind: str) -> list:
-    """The ``kind`` groups ("memory" or "jump") of a checked ``models.h5``, open."""
-    f = h5py.File(path, "r")
-    version = schema.MODELS_VERSION
-    try:
-        if f.attrs.get("schema") != schema.MODELS_SCHEMA or f.attrs.get("schema_version") != version or \
-                "made_from" not in f.attrs:
-            raise PipelineError(f"{path}: not a models.h5 of version {version} that records what made it (run "
-                                "`make models`)")
-        schema.MadeFrom.from_dict(json.loads(f.attrs["made_from"]), path).require_unchanged(
-            f"{path} judged runs", "models")
-    except PipelineError:
-        f.close()
-        raise
-    return [f[kind][k] for k in sorted(f.get(kind, {}))]
-
-
 def plot(path: Path, out: Path, title: str) -> Path:
-    memory, jump = read_groups(path, "memory"), read_groups(path, "jump")
+    memory, jump = schema.read_models_h5(path, "memory"), schema.read_models_h5(path, "jump")
     panels = [*memory, *jump[:1]]
     if not panels:
         raise PipelineError(f"{path}: no run at 120, 150 or 180 degrees to draw")

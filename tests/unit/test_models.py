@@ -7,11 +7,12 @@ import numpy as np
 import pytest
 
 import model
+from pipeline import schema
 from pipeline.calibration import global_fit
 from pipeline.calibration.model_selection import __main__ as cli
 from pipeline.calibration.model_selection import curves, judge, scores, splits, text
 from pipeline.dataset.derived import PAPER_DEFINITIONS
-from pipeline.errors import CalibrationError
+from pipeline.errors import CalibrationError, PipelineError
 from tests.helpers import synthetic_run
 
 
@@ -53,9 +54,9 @@ def test_a_law_that_cannot_run_the_held_out_cycle_fails_the_test(tmp_path):
     run = synthetic_run(tmp_path, theta=180.0, name="rev", n_cycles=2, noise=0.002)
     data, noise = global_fit.prepare([run])
     good = scores.held_out(run, model.PAPER, noise, global_fit.STRESS_DEFAULT)
-    assert 0 < good["rms_noise"] < 3 and good["error"] is None  # the truth predicts its run within the noise
+    assert 0 < good.rms_noise < 3 and good.error is None  # the truth predicts its run within the noise
     bad = scores.held_out(run, model.PAPER.replace(a1=0.05, a2=2.0, b2=0.0), noise, global_fit.STRESS_DEFAULT)
-    assert bad["error"] and bad["rms_noise"] == np.inf and scores.pooled([good, bad]) == np.inf
+    assert bad.error and bad.rms_noise == np.inf and scores.pooled([good, bad]) == np.inf
 
 
 @pytest.mark.slow
@@ -74,10 +75,15 @@ def test_a_law_that_cannot_be_fitted_on_a_splits_runs_predicts_none_of_its_held_
     monkeypatch.setattr(judge, "fit", fit)
     out = judge.judge(model.params.DEFAULT_VARIANT, runs, {}, global_fit.STRESS_DEFAULT, global_fit.WEIGHT_DEFAULT,
                        lambda: None)
-    failed, made = out["splits"]
-    assert failed["name"] == "without 180" and failed["params"] is None and failed["rms_noise"] == np.inf
-    assert failed["rows"][0]["error"].startswith("not fitted on the other runs: the global fit did not converge")
-    assert made["name"] == "without 90" and made["error"] is None and np.isfinite(made["rms_noise"])
+    failed, made = out.splits
+    assert failed.name == "without 180" and failed.params is None and failed.rms_noise == np.inf
+    assert failed.rows[0].error.startswith("not fitted on the other runs: the global fit did not converge")
+    assert made.name == "without 90" and made.error is None and np.isfinite(made.rms_noise)
+    written = schema.ModelsSummary("demo", "shear", "runs", [180.0], 2.0, [out], {}, [], {"inputs": {}, "options": {}})
+    (tmp_path / "models.json").write_bytes(schema.models_json(written))
+    back = schema.read_models(tmp_path / "models.json")  # as written, but the residual blocks kept in memory alone
+    assert back == written and back.variants[0].splits[1].rows[0].blocks is None
+    assert "blocks" not in (tmp_path / "models.json").read_text()
     assert "without 180 | inf" in text.markdown("demo", [out], [])
 
 
@@ -161,21 +167,15 @@ def test_the_laws_asked_for_are_judged_in_the_registrys_order_with_eq13s_first_a
 
 
 def test_the_models_figure_refuses_curves_whose_runs_changed_since(tmp_path):
-    import pytest
-
-    from pipeline import schema
-    from pipeline.errors import PipelineError
-    from pipeline.figures import models as figure
-
     run = tmp_path / "theta180.h5"
     run.write_bytes(b"a run")
     drawn = {"memory": [{"run": "theta150", "seed": 1, "theta": 150.0, "strain": [0.0, 0.1], "dem": [0.5, 0.4],
                          "model": {"rk2025": [0.5, 0.3]}}]}
-    curves.write_curves(tmp_path / "models.h5", drawn, schema.MadeFrom.of([run], {"laws": ["rk2025"]}))
-    assert len(figure.read_groups(tmp_path / "models.h5", "memory")) == 1
+    schema.write_models_h5(tmp_path / "models.h5", drawn, schema.MadeFrom.of([run], {"laws": ["rk2025"]}))
+    assert len(schema.read_models_h5(tmp_path / "models.h5", "memory")) == 1
     run.write_bytes(b"another run")
     with pytest.raises(PipelineError, match="judged runs that have changed or gone since"):
-        figure.read_groups(tmp_path / "models.h5", "memory")
+        schema.read_models_h5(tmp_path / "models.h5", "memory")
 
 
 def test_the_figure_draws_the_laws_that_can_run_a_cycle_and_leaves_out_one_that_cannot(tmp_path):

@@ -1,4 +1,4 @@
-"""The files the stages hand each other (``pipeline/schema.py``): what the writers write reads back as the same
+"""The files the stages hand each other (``pipeline/schema/``): what the writers write reads back as the same
 typed object, and a file of another version, with a key missing or unknown, or not JSON, is refused in one line."""
 
 import json

@@ -17,9 +17,9 @@ from ...dataset.lookup import every_seed
 from ...errors import CalibrationError
 from ...paths import preset_output
 from .. import global_fit
-from .curves import curves, write_curves
-from .judge import judge, without_blocks
-from .scores import BEYOND_NOISE_Z, judged, verdict_lines
+from .curves import curves
+from .judge import judge
+from .scores import BEYOND_NOISE_Z, judged
 from .splits import TRAIN_ANGLES, splits
 from .text import markdown
 
@@ -99,22 +99,19 @@ def main(argv=None) -> int:
             done[0] += total // len(variants)  # its fits, none made
             print(f"models: {v} not fitted on every run ({exc}): left out", flush=True)
     judgements = judged(results)
-    results = without_blocks(results)
     made_from = schema.MadeFrom.of([r.path for r in (*runs, *(r for rs in others.values() for r in rs))],
                                    {"laws": variants, "across": list(others), "stress": stress, "weight": weight})
-    summary = {"schema_version": schema.MODELS_VERSION, "data_set": chosen.folder, "stress_fitted": stress,
-               "weight": weight, "train_angles": list(TRAIN_ANGLES), "beyond_noise_z": BEYOND_NOISE_Z,
-               "variants": results, "not_fitted": not_fitted, "verdict": judgements,
-               "made_from": made_from.to_dict()}
+    summary = schema.ModelsSummary(chosen.folder, stress, weight, list(TRAIN_ANGLES), BEYOND_NOISE_Z, results,
+                                   not_fitted, judgements, made_from.to_dict())
     with io.atomic_paths(*(out / n for n in ("models.json", "models.md", "models.h5"))) as (js, md, h5):
-        io.write_bytes(js, io.json_text(summary).encode())
+        io.write_bytes(js, schema.models_json(summary))
         io.write_bytes(md, markdown(chosen.label, results, judgements, not_fitted).encode())
-        write_curves(h5, curves(runs, results), made_from)
+        schema.write_models_h5(h5, curves(runs, results), made_from)
     for r in results:
-        io.write_params(out / f"params-{r['variant']}.json", model.Params.from_dict(r["params"]),
+        io.write_params(out / f"params-{r.variant}.json", model.Params.from_dict(r.params),
                         {"fit": "global (pipeline.calibration.model_selection: every run of the default protocol)",
-                         "misfit": r["misfit"]})
-    print("\n".join(verdict_lines(judgements)))
+                         "misfit": r.misfit})
+    print("\n".join(j.line() for j in judgements))
     print(f"wrote {out / 'models.md'}, models.json, models.h5 and params-<variant>.json")
     return 0
 

@@ -1,17 +1,14 @@
-"""What ``models.png`` draws (``figures.models``), written to ``models.h5``: each law's memory of the old direction
-after the large turns and its first strain after the reversal, beside the DEM's."""
+"""What ``models.png`` draws (``figures.models``), written to ``models.h5`` (``schema.write_models_h5``): each law's
+memory of the old direction after the large turns and its first strain after the reversal, beside the DEM's."""
 
 from __future__ import annotations
-
-import json
-from pathlib import Path
 
 import numpy as np
 
 import model
 
-from ... import io, schema
 from ...comparison import metrics
+from ...schema import LawScore
 
 #: strain after a reversal over which the figure follows the jump
 JUMP_SPAN = 0.05
@@ -29,14 +26,14 @@ def runnable(run, sets: dict) -> dict:
     return out
 
 
-def curves(runs: list, results: list[dict]) -> dict:
+def curves(runs: list, results: list[LawScore]) -> dict:
     """What the figure draws: per variant, the memory of the old direction after the turns of 120 and 150 (the DEM's
     cycle mean; each variant fitted without 120 and 150, the ``angles`` split) and the first JUMP_SPAN strain after
     the reversal (A's component along the old direction per its steady value; each variant's fit on every run)."""
     out = {"memory": [], "jump": []}
-    full = {r["variant"]: r["params"] for r in results}
+    full = {r.variant: r.params for r in results}
     # each law's fit of the ``angles`` split (made wherever a run at 120 or 150 is held out), where it was fitted
-    sets = {r["variant"]: s["params"] for r in results for s in r["splits"] if s["name"] == "angles" and s["params"]}
+    sets = {r.variant: s.params for r in results for s in r.splits if s.name == "angles" and s.params}
     for run in runs:
         if not run.default_rotation:
             continue
@@ -71,19 +68,3 @@ def jump_curve(run, preds: dict) -> dict:
         late = metrics.segment_windows(data.strain, old_start, old_end)[1]
         out["model"][variant] = np.interp(grid[after], data.strain, a) / a[late].mean()
     return out
-
-
-def write_curves(path: Path, drawn: dict, made_from: schema.MadeFrom) -> None:
-    with io.h5_file(path) as f:
-        f.attrs.update(schema=schema.MODELS_SCHEMA, schema_version=schema.MODELS_VERSION,
-                       made_from=json.dumps(made_from.to_dict()))
-        for kind, items in drawn.items():
-            for k, item in enumerate(items):
-                g = f.create_group(f"{kind}/{k:02d}")
-                g.attrs["run"], g.attrs["seed"] = item["run"], item["seed"]
-                g.attrs["theta"] = item.get("theta", 180.0)
-                g["strain"], g["dem"] = item["strain"], item["dem"]
-                for variant, values in item["model"].items():
-                    g[f"model/{variant}"] = values
-
-

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import CalibrationError
+from ...schema import AcrossScore, LawScore, SplitScore
 from .. import global_fit
 from ..definitions import own_reversal
 from .scores import held_out, information, not_predicted, pooled
@@ -25,46 +26,32 @@ def fit_prepared(data, noise, variant: str) -> global_fit.GlobalFit:
     return global_fit.refine(data, global_fit.start_of(variant), global_fit.free_names(variant), noise=noise)
 
 
-def judge(variant: str, runs: list, other_runs: dict[str, list], stress: str, weight: str, progress) -> dict:
-    """Everything ``make models`` reports of one variant (see the module's text)."""
+def judge(variant: str, runs: list, other_runs: dict[str, list], stress: str, weight: str, progress) -> LawScore:
+    """Everything ``make models`` reports of one variant (see the package's text)."""
     default = [r for r in runs if r.default_rotation]
     data, noise = global_fit.prepare(default, 0.0, stress, weight)  # once: the fit and the residuals' count
     full = fit_prepared(data, noise, variant)
     params = global_fit.with_eq19_c1(full.params)
-    out = {"variant": variant, "params": params.to_dict(), "free": list(full.names),
-           "values": full.values.tolist(), "standard_errors": full.standard_errors.tolist(),
-           "misfit": full.misfit, **information(full, global_fit.fitted_residuals(data)),
-           "own_reversal": own_reversal(params), "splits": [], "across": []}
     progress()
+    scores = []
     for split in splits(runs):
         try:
             trained, train_noise = fit([runs[i] for i in split.train], variant, stress, weight)
         except CalibrationError as exc:  # the law cannot be fitted on these runs alone: it predicts nothing
             rows = [not_predicted(runs[i], f"not fitted on the other runs: {exc}") for i in split.test]
-            out["splits"].append({"name": split.name, "params": None, "misfit": None, "error": str(exc),
-                                  "rows": rows, "rms_noise": np.inf})
+            scores.append(SplitScore(split.name, None, None, str(exc), rows, np.inf))
         else:
             rows = [held_out(runs[i], trained.params, train_noise, stress, {}) for i in split.test]
-            out["splits"].append({"name": split.name, "params": trained.params.to_dict(), "misfit": trained.misfit,
-                                  "error": None, "rows": rows, "rms_noise": pooled(rows)})
+            scores.append(SplitScore(split.name, trained.params.to_dict(), trained.misfit, None, rows, pooled(rows)))
         progress()
+    across = []
     for label, others in other_runs.items():
         there = [r for r in others if r.default_rotation]
         trained, there_noise = fit(there, variant, stress, weight)
         here = [held_out(r, trained.params, noise, stress) for r in runs]
         back = [held_out(r, full.params, there_noise, stress) for r in others]
-        out["across"].append({"other": label, "params_there": trained.params.to_dict(),
-                              "here_from_there": here, "rms_noise_here": pooled(here),
-                              "there_from_here": back, "rms_noise_there": pooled(back)})
+        across.append(AcrossScore(label, trained.params.to_dict(), here, pooled(here), back, pooled(back)))
         progress()
-    return out
-
-
-def without_blocks(results: list[dict]) -> list[dict]:
-    """``results`` without the residual blocks ``held_out`` keeps for ``compared`` (not written)."""
-    strip = lambda rows: [{k: v for k, v in row.items() if k != "_blocks"} for row in rows]  # noqa: E731
-    return [{**r, "splits": [{**s, "rows": strip(s["rows"])} for s in r["splits"]],
-             "across": [{**a, "here_from_there": strip(a["here_from_there"]),
-                         "there_from_here": strip(a["there_from_here"])} for a in r["across"]]} for r in results]
-
-
+    return LawScore(variant, params.to_dict(), list(full.names), full.values.tolist(), full.standard_errors.tolist(),
+                    full.misfit, **information(full, global_fit.fitted_residuals(data)),
+                    own_reversal=own_reversal(params), splits=scores, across=across)

@@ -9,6 +9,7 @@ import numpy as np
 import model
 
 from ...comparison import metrics
+from ...schema import HeldOut, Judgement, LawScore
 from .. import covariance, global_fit
 from ..fit_cycle import FitCycle
 from ..noise import COMPONENTS
@@ -26,10 +27,10 @@ def steady_scale(cycle: FitCycle, quantity: np.ndarray) -> float:
     return float(np.mean(np.hypot(quantity[late, 0, 1], quantity[late, 2, 1])))
 
 
-def held_out(run, params: model.Params, noise, stress: str, cache: dict | None = None) -> dict:
+def held_out(run, params: model.Params, noise, stress: str, cache: dict | None = None) -> HeldOut:
     """``run`` predicted by ``params``: per component of A and of the fitted tau/p, the RMS error in units of the
     run's noise (``noise``, measured on the fit's runs) and per the DEM's steady value, and the sum of squared
-    noise-scaled residuals with their count (``chi2``, ``samples``). ``_blocks`` (not written) keeps, per component,
+    noise-scaled residuals with their count (``chi2``, ``samples``). ``blocks`` (not written) keeps, per component,
     the scaled (A, tau) residuals and the noise's correlation over them (``covariance.sample_covariance``; ``cache``
     shares the matrices) for ``compared``."""
     cycle = global_fit.scaled_cycle(run, noise, 0.0, stress)
@@ -37,11 +38,10 @@ def held_out(run, params: model.Params, noise, stress: str, cache: dict | None =
         pred = cycle.prediction(params)
     except model.SolverError as exc:  # the fitted law cannot run this protocol's cycle: no prediction at all
         return not_predicted(run, str(exc).split(" (parameters off")[0])
-    row = {"run": run.path.stem, "protocol": protocol(run), "seed": run.spec.seed, "components": {}, "error": None}
     r_A, r_tau = global_fit.scaled_residuals(cycle, pred)
-    row["_blocks"] = [(np.concatenate([r_A[:, k], r_tau[:, k]]), covariance.sample_covariance(noise, k, cycle, cache))
-                      for k in range(len(COMPONENTS))]
-    chi2 = samples = 0.0
+    blocks = [(np.concatenate([r_A[:, k], r_tau[:, k]]), covariance.sample_covariance(noise, k, cycle, cache))
+              for k in range(len(COMPONENTS))]
+    components, chi2, samples = {}, 0.0, 0.0
     for name, ours, dem, scale in (("A", pred.A, cycle.A, cycle.A_scale), ("tau", pred.tau, cycle.tau,
                                                                            cycle.tau_scale)):
         steady = steady_scale(cycle, dem)
@@ -50,19 +50,18 @@ def held_out(run, params: model.Params, noise, stress: str, cache: dict | None =
                 continue
             error = ours[:, i, j] - dem[:, i, j]
             in_noise = error / scale[:, i, j]
-            row["components"][f"{name}{i + 1}{j + 1}"] = {
+            components[f"{name}{i + 1}{j + 1}"] = {
                 "rms_noise": float(np.sqrt(np.mean(in_noise**2))),
                 "rms_per_steady": float(np.sqrt(np.mean(error**2)) / steady)}
             chi2, samples = chi2 + float(np.sum(in_noise**2)), samples + len(error)
-    row.update(chi2=chi2, samples=samples, rms_noise=float(np.sqrt(chi2 / samples)))
-    return row
+    return HeldOut(run.path.stem, protocol(run), run.spec.seed, components, None, chi2, samples,
+                   float(np.sqrt(chi2 / samples)), blocks)
 
 
-def not_predicted(run, reason: str) -> dict:
-    """``held_out``'s row for a run the law gives no prediction of (its cycle cannot be run, or the law could not be
+def not_predicted(run, reason: str) -> HeldOut:
+    """``held_out``'s score of a run the law gives no prediction of (its cycle cannot be run, or the law could not be
     fitted on the other runs): an infinite error, no residuals."""
-    return {"run": run.path.stem, "protocol": protocol(run), "seed": run.spec.seed, "components": {},
-            "error": reason, "chi2": np.inf, "samples": 1.0, "rms_noise": np.inf, "_blocks": None}
+    return HeldOut(run.path.stem, protocol(run), run.spec.seed, {}, reason, np.inf, 1.0, np.inf)
 
 
 def information(fit: global_fit.GlobalFit, data_points: float) -> dict:
@@ -72,7 +71,7 @@ def information(fit: global_fit.GlobalFit, data_points: float) -> dict:
     return {"parameters": k, "chi2": fit.chi2, "aic": fit.chi2 + 2 * k, "bic": fit.chi2 + k * np.log(data_points)}
 
 
-def compared(rows: list[dict], base_rows: list[dict]) -> float:
+def compared(rows: list[HeldOut], base_rows: list[HeldOut]) -> float:
     """How far the held-out chi^2 of ``base_rows`` (Eq. 13's) lies above that of ``rows`` (a variant's, the same
     runs and noise), in standard deviations of what the noise alone makes of that difference: with r1, r2 the two
     laws' scaled residuals and C the noise's correlation, chi2_2 - chi2_1 = (r2 - r1).(r2 + r1), whose part from
@@ -80,47 +79,30 @@ def compared(rows: list[dict], base_rows: list[dict]) -> float:
     the base cannot run a held-out cycle; nan where neither can."""
     difference = variance = 0.0
     for mine, base in zip(rows, base_rows, strict=True):
-        if mine["_blocks"] is None or base["_blocks"] is None:
-            return np.nan if mine["_blocks"] is base["_blocks"] else (np.inf if mine["_blocks"] else -np.inf)
-        for (r1, C), (r2, _) in zip(mine["_blocks"], base["_blocks"], strict=True):
+        if mine.blocks is None or base.blocks is None:
+            return np.nan if mine.blocks is base.blocks else (np.inf if mine.blocks else -np.inf)
+        for (r1, C), (r2, _) in zip(mine.blocks, base.blocks, strict=True):
             delta = r2 - r1
             difference += float(delta @ (r2 + r1))
             variance += 4.0 * float(delta @ C @ delta)
     return difference / np.sqrt(variance) if variance > 0 else 0.0
 
 
-def pooled(rows: list[dict]) -> float:
+def pooled(rows: list[HeldOut]) -> float:
     """The RMS held-out error over ``rows`` in noise units (every sample of every scored component alike)."""
-    return float(np.sqrt(sum(r["chi2"] for r in rows) / sum(r["samples"] for r in rows)))
+    return float(np.sqrt(sum(r.chi2 for r in rows) / sum(r.samples for r in rows)))
 
 
-def tests_of(result: dict):
-    """(test, the held-out rows, their pooled RMS in noise units) for every split and cross-cell prediction."""
-    for split in result["splits"]:
-        yield split["name"], split["rows"], split["rms_noise"]
-    for across in result["across"]:
-        yield f"predicting this cell from {across['other']}", across["here_from_there"], across["rms_noise_here"]
-        yield f"predicting {across['other']} from this cell", across["there_from_here"], across["rms_noise_there"]
-
-
-def judged(results: list[dict]) -> list[dict]:
+def judged(results: list[LawScore]) -> list[Judgement]:
     """Per law beyond the first (Eq. 13), per held-out test: both pooled RMS errors and ``compared``'s z (positive:
     the law predicts better), with the word for it (``BEYOND_NOISE_Z``)."""
     base = results[0]
     out = []
     for r in results[1:]:
-        for (name, rows, ours), (_, base_rows, theirs) in zip(tests_of(r), tests_of(base), strict=True):
+        for (name, rows, ours), (_, base_rows, theirs) in zip(r.tests(), base.tests(), strict=True):
             z = compared(rows, base_rows)
             word = ("neither law so fitted runs every held-out cycle" if np.isnan(z) else
                     "better beyond the noise" if z > BEYOND_NOISE_Z else
                     "worse beyond the noise" if z < -BEYOND_NOISE_Z else "within the noise")
-            out.append({"variant": r["variant"], "against": base["variant"], "test": name, "rms_noise": ours,
-                        "rms_noise_against": theirs, "z": z, "verdict": word})
+            out.append(Judgement(r.variant, base.variant, name, ours, theirs, z, word))
     return out
-
-
-def verdict_lines(judgements: list[dict]) -> list[str]:
-    return [f"{j['variant']} against {j['against']}, {j['test']}: {j['rms_noise']:.2f} against "
-            f"{j['rms_noise_against']:.2f} noise units, z = {j['z']:+.1f}: {j['verdict']}" for j in judgements]
-
-

@@ -1,0 +1,151 @@
+"""``fit.json``: the calibration of one data set (``make fit``), its resamplings as records of their own."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import model
+
+from .. import io
+from ..errors import PipelineError
+from .base import MadeFrom, Record, _fields_of, read_json_object
+from .params import read_params
+
+FIT_VERSION = 2  # 2: made_from
+
+
+@dataclasses.dataclass(frozen=True)
+class StepwiseBootstrap(Record):
+    """The paper's stepwise route (mean over the reversal runs) on ``replicates`` resamplings of every run's
+    cycles: per estimate in ``free``, the standard deviation, half the central 68 % range and the 2.5 and 97.5 %
+    percentiles."""
+
+    WHAT = "stepwise bootstrap"
+    RENAMED = {"percentile_2.5": "percentile_2_5", "percentile_97.5": "percentile_97_5"}
+
+    free: list
+    replicates: int
+    cycles: int
+    standard_deviation: list
+    half_width_68: list
+    percentile_2_5: list
+    percentile_97_5: list
+    seed: int
+
+
+@dataclasses.dataclass(frozen=True)
+class Bootstrap(Record):
+    """The global fit refitted on copies of the data with fresh draws of the DEM's noise (in blocks of
+    ``block_strain``): each refit's values (``replicates``, one row per refit, columns ``free``), their standard
+    deviation, and the basic-bootstrap 68 and 95 % intervals about the fit; ``stepwise``, the stepwise route on
+    the same number of resamplings."""
+
+    WHAT = "bootstrap"
+    NESTED = {"stepwise": StepwiseBootstrap}
+
+    free: list
+    replicates: list
+    standard_deviation: list
+    block_strain: float
+    seed: int
+    interval_68: list
+    interval_95: list
+    stepwise: StepwiseBootstrap | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Jackknife(Record):
+    """The global fit refitted leaving out one group of runs at a time (``over``: "seeds" or "angles"; ``left_out``
+    labels the groups; ``values``, one row per refit, columns ``free``): the jackknife standard error, its ratio to
+    the whole sandwich's and to the part of it from the left-out runs' noise, and each refit's shift from the fit
+    in standard deviations of what the noise alone would give it (``shift_z``; None where undefined)."""
+
+    WHAT = "jackknife"
+
+    free: list
+    left_out: list
+    values: list
+    standard_error: list
+    over_sandwich: list
+    over_their_noise: list
+    shift_z: list
+    over: str = ""
+
+
+@dataclasses.dataclass(frozen=True)
+class FitSummary:
+    """``fit.json``: the calibration of one data set (``make fit``). ``params`` are the fit's; ``global_fit`` the
+    global refinement's estimates, errors and misfit (the file's ``global``); ``identifiability`` what the data fix;
+    ``noise`` the noise model; the rest, the tables ``report.md`` and ``make fit`` print."""
+
+    VERSION = FIT_VERSION
+
+    method: str
+    definitions: dict
+    stress_fitted: str
+    weight: str
+    held: dict
+    fit_from: float
+    persistence_exponent: float
+    jaumann_window_strain: float
+    runs: list
+    estimates: dict
+    sensitivity: dict | None
+    params_stepwise: dict | None
+    params: dict
+    cross_check: list
+    global_fit: dict | None
+    noise: dict | None
+    identifiability: dict | None
+    next_runs: list | None
+    dilatancy: dict | None
+    bootstrap: Bootstrap | None
+    jackknife: Jackknife | None
+    global_runs: list | None
+    residual_map: list | None
+    notes: list
+    made_from: dict
+
+    @classmethod
+    def from_dict(cls, data: dict, path="fit.json") -> FitSummary:
+        fields = _fields_of(cls, data, path, "fit summary", {"global": "global_fit"})
+        for name, record in (("bootstrap", Bootstrap), ("jackknife", Jackknife)):
+            if fields.get(name) is not None:
+                fields[name] = record.from_dict(fields[name], path)
+        return cls(**fields)
+
+    def to_dict(self) -> dict:
+        out = {"schema_version": self.VERSION, **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)}}
+        out["global"] = out.pop("global_fit")
+        for name in ("bootstrap", "jackknife"):
+            out[name] = None if out[name] is None else out[name].to_dict()
+        return out
+
+
+def write_fit(path: Path, summary: FitSummary) -> None:
+    """``fit.json`` (inside the calibration's atomic set of outputs)."""
+    io.write_bytes(path, io.json_text(summary.to_dict()).encode())
+
+
+def read_fit(path: Path) -> FitSummary:
+    return FitSummary.from_dict(read_json_object(path, "fit summary", "fit"), path)
+
+
+def check_fitted(params_path: Path) -> None:
+    """Believe a fit's ``params.json`` only if it is what its ``fit.json`` beside it fitted, from the run files as
+    they are now: the same values (not edited by hand, not another fit's), the same record of what made it, and no
+    input changed since. A parameters file with no ``fit.json`` beside it is one's own: taken as it is."""
+    fit_path = Path(params_path).with_name("fit.json")
+    if not fit_path.exists():
+        return
+    fit = read_fit(fit_path)
+    made_from = MadeFrom.from_dict(fit.made_from, fit_path)
+    given = read_params(params_path)
+    if given.params.to_dict() != model.Params.from_dict(fit.params, str(fit_path)).to_dict():
+        raise PipelineError(f"{params_path} does not hold the parameters {fit_path.name} beside it fitted (edited by "
+                            "hand, or another fit's): make fit again, or give your own set from another folder")
+    recorded = (given.metadata or {}).get("made_from")
+    if recorded is not None and recorded != made_from.digest():
+        raise PipelineError(f"{params_path} and {fit_path.name} come from two fits: make fit again")
+    made_from.require_unchanged(f"{fit_path.parent} was fitted on runs", "fit")
