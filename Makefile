@@ -66,7 +66,7 @@ REPORT := $(if $(FIT_SUFFIX),$(COMPARE_DIR),results/$(DATA_SET))/report.md
 # which Make must not delete either
 .PRECIOUS: $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 $(COMPARE_DIR)/metrics.json \
 	$(COMPARE_DIR)/compare.h5 $(REPORT)
-DATASET_CODE := $(filter-out pipeline/targets.py,$(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py \
+DATASET_CODE := $(filter-out pipeline/variables.py,$(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py \
 	config/raw_schema.toml))
 
 FORCE:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import model
 
-from .. import io, schema
+from .. import choices, io, schema
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..errors import CalibrationError
 from ..schema import FitSummary
@@ -25,7 +25,7 @@ from . import design, global_fit, identifiability, resampling
 from .residual_map import residual_map
 from .stepwise import calibrate_run, combine, cross_check_run, fitted_params, sensitivity, stepwise_bootstrap
 
-JACKKNIFE_OVER = ("seeds", "angles")  # what a jackknife can leave out, one at a time
+JACKKNIFE_OVER = choices.JACKKNIFE_OVER
 STEPWISE_RESAMPLES = 40  # resamplings of a single reversal run's cycles that give its stepwise errors
 
 

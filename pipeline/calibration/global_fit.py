@@ -23,6 +23,7 @@ from scipy.optimize import least_squares
 
 import model
 
+from .. import choices
 from ..dataset.derived import states_after_changes
 from ..errors import CalibrationError
 from . import noise as noise_model
@@ -60,7 +61,7 @@ def bounds_of(names) -> tuple[np.ndarray, np.ndarray]:
 #: normal-stress differences (tau33/p about +0.07 in steady flow; rotated in the wall plane they give tau13 at
 #: oblique angles), which tau = C A + Y D'/|D'| cannot give with |A_ii| < 0.004: fitted, they pull the fabric law's
 #: a_i and C (docs/calibration.md). "all" fits them too.
-STRESS_FITS = {"shear": ((0, 1), (2, 1)), "all": COMPONENTS}
+STRESS_FITS = dict(zip(choices.STRESSES, (((0, 1), (2, 1)), COMPONENTS), strict=True))
 
 
 #: how a protocol's runs (theta, rotate_at; its seeds) share the fit. "runs", the default: each run counts once, so
@@ -68,7 +69,7 @@ STRESS_FITS = {"shear": ((0, 1), (2, 1)), "all": COMPONENTS}
 #: each protocol counts once, its runs' squared residuals each weighted by 1 / their number (the same as fitting
 #: their mean with one run's noise): the paper's design of one run per angle with any number of seeds, whose
 #: parameters do not move with how many seeds each angle has while the model misses the runs beyond their noise.
-WEIGHTS = ("runs", "angles")
+WEIGHTS = choices.WEIGHTS
 
 
 def check_weight(weight: str) -> str:

@@ -16,6 +16,8 @@ import numpy as np
 
 from model import deviator, hardening_variable_stack, shear_direction, stretching
 
+from .. import choices
+
 #: the series averaged into the periodic cycle
 CYCLE_KEYS = ("strain_bulk", "A", "tau_over_p", "mean_stress_over_p", "S", "packing_fraction", "w_shear", "w_vol",
               "shear_rate_bulk")
@@ -35,7 +37,7 @@ class Definitions:
     phi: str = "central"
     pressure: str = "target"
 
-    CHOICES = {"strain": ("bulk", "nominal"), "phi": ("central", "gap"), "pressure": ("target", "wall")}
+    CHOICES = {"strain": choices.STRAINS, "phi": choices.PHIS, "pressure": choices.PRESSURES}
 
     def __post_init__(self):
         for name, allowed in self.CHOICES.items():

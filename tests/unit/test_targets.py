@@ -10,6 +10,7 @@ import pytest
 
 from pipeline import spec as run_spec
 from pipeline import targets
+from pipeline.errors import PipelineError
 from pipeline.paths import ROOT
 
 
@@ -19,7 +20,7 @@ def plan(target: str, **variables: str) -> list[str]:
 
 
 def refusal(target: str, **variables: str) -> str:
-    with pytest.raises(targets.PipelineError) as err:
+    with pytest.raises(PipelineError) as err:
         targets.TARGETS[target](targets.Variables(variables))
     assert "\n" not in str(err.value)
     return str(err.value)
@@ -208,6 +209,6 @@ def test_no_stage_imports_the_front_door():
     from pipeline.paths import ROOT
 
     for path in sorted((ROOT / "pipeline").rglob("*.py")):
-        if path.name != "targets.py":
+        if path.parent.name != "targets":
             assert not re.search(r"^\s*(from\s+\S*targets\s+import|import\s+\S*targets)", path.read_text(),
                                  flags=re.MULTILINE), path

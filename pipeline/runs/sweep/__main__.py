@@ -6,7 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from ... import engines
+from ... import choices, engines
 from ...cli import Parser, one_line_errors
 from ...errors import SpecError
 from ...paths import RESULTS_DIR, ROOT
@@ -26,7 +26,7 @@ def main(argv=None) -> int:
     run.add_argument("--rotate-ats", help='strains at which the direction turns (default: half the period)')
     run.add_argument("--seeds", help='seeds, e.g. "1 2 3" (default: the preset\'s)')
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every run")
-    run.add_argument("--launch", choices=("local", "slurm"), default="local")
+    run.add_argument("--launch", choices=choices.LAUNCHES, default="local")
     run.add_argument("--slurm", action="append", default=[], metavar="KEY=VALUE", help="override of [slurm]")
     run.add_argument("--jobs", type=int, help="runs side by side with LAUNCH=local (default: [local] jobs, "
                      "divided by the ranks)")

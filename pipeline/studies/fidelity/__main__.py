@@ -14,7 +14,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ... import engines, io
+from ... import choices, engines, io
 from ...cli import Parser, one_line_errors
 from ...errors import SpecError
 from ...paths import FIDELITY_LADDER, fidelity_output, shown
@@ -31,7 +31,7 @@ def main(argv=None) -> int:
     parser.add_argument("--run", action="store_true", help="make the ladder's missing DEM runs first")
     parser.add_argument("--jobs", type=int, default=2, help="runs side by side (default 2)")
     parser.add_argument("--allow-many", action="store_true", help=f"allow more than {MAX_TASKS} runs (MANY=1)")
-    parser.add_argument("--launch", choices=("local", "slurm"), default="local")
+    parser.add_argument("--launch", choices=choices.LAUNCHES, default="local")
     parser.add_argument("--engine", default=engines.DEFAULT_ENGINE,
                         help=f"the DEM engine of the ladder's runs: {', '.join(engines.ENGINES)}")
     parser.add_argument("--ladder", type=Path, default=FIDELITY_LADDER,
