@@ -20,10 +20,10 @@ RUN_HERE = {
     "help": "test_every_target_is_run_here_or_by_ci",
     **dict.fromkeys(("dem", "engines", "bench-lammps-settings", "bench-dem", "sweep", "runs", "sweep-status",
                      "fidelity"),
-                    "test_the_dem_and_engine_targets_run_at_the_tiny_size"),
+                    "test_a_dem_or_engine_target_runs_at_the_tiny_size"),
     **dict.fromkeys(("fit", "compare", "figures", "compare-seed", "fit-bootstrap", "fit-jackknife", "fit-angles",
                      "fit-definitions", "fidelity-table", "data-card", "clean"),
-                    "test_the_data_targets_run_on_the_committed_data"),
+                    "test_a_data_target_runs_on_the_committed_data"),
     # the demo (its DEM runs, demo-dem, first), what follows it on its data set, and the studies of committed data
     **dict.fromkeys(("demo", "demo-dem", "sweep-collect", "fit-from", "fit-profile", "models", "bench", "versus",
                      "cells", "jump", "budget", "profile-dem", "stability", "model-cycles"), LANE_TEST),
@@ -52,14 +52,14 @@ def test_every_target_is_run_here_or_by_ci(project):
     assert sorted(listed) == sorted([*RUN_HERE, *RUN_BY_CI])
 
 
-def test_the_dem_and_engine_targets_run_at_the_tiny_size(project):
-    make(project, "dem", "THETA=180", "PRESET=tiny")
-    make(project, "dem", "THETA=180", "PRESET=tiny", "ENGINE=lammps")
-    assert (project / "results/tiny/dem/theta180.h5").exists()
-    assert (project / "results/tiny-lammps/dem/theta180.h5").exists()
-    make(project, "engines", "PRESET=tiny")
-    assert "tiny (lammps)" in (project / "results/engines/engines.md").read_text()
-    # a LAMMPS run stopped at its first checkpoint: the folder the settings benchmark resumes from
+def tiny_ladder(project) -> tuple[str, ...]:
+    """``make fidelity``'s variables for a ladder of two tiny runs, written into the project."""
+    (project / "ladder.toml").write_text(TINY_LADDER)
+    return ("LADDER=ladder.toml", "JOBS=2")
+
+
+def stop_at_first_checkpoint(project):
+    """A LAMMPS run stopped at its first checkpoint: the folder the settings benchmark resumes from."""
     proc = subprocess.Popen(["make", "--no-print-directory", "dem", "THETA=90", "PRESET=tiny", "ENGINE=lammps",
                              "SET=seed=9"], cwd=project, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             start_new_session=True)
@@ -68,44 +68,76 @@ def test_the_dem_and_engine_targets_run_at_the_tiny_size(project):
             os.killpg(proc.pid, signal.SIGINT)
             break
     proc.communicate(timeout=120)
-    run_dir = next((project / "results").glob("tiny-lammps-*/dem/theta090.run"))
-    make(project, "bench-lammps-settings", f"RUN_DIR={run_dir.relative_to(project)}")
-    assert (project / "results/bench").is_dir() and any((project / "results/bench").iterdir())
-    make(project, "bench-dem", "PRESETS=tiny", "ENGINES=yade,lammps")
-    make(project, "sweep", "PRESET=tiny", "THETAS=30 60", "JOBS=2")
-    assert (project / "results/tiny/dem/theta030.h5").exists() and (project / "results/tiny/dem/theta060.h5").exists()
-    assert "tiny/theta060" in make(project, "runs")
-    assert "done" in make(project, "sweep-status")
-    (project / "ladder.toml").write_text(TINY_LADDER)
-    said = make(project, "fidelity", "LADDER=ladder.toml", "JOBS=2")
+    return next((project / "results").glob("tiny-lammps-*/dem/theta090.run")).relative_to(project)
+
+
+#: the DEM and engine targets at the tiny size, in order (each may read what one before it made): the target, its
+#: variables (a function of the project where they name a file made before), and what its outputs must hold
+DEM_TARGETS = [
+    ("dem", ("THETA=180", "PRESET=tiny"), lambda p, said: (p / "results/tiny/dem/theta180.h5").exists()),
+    ("dem", ("THETA=180", "PRESET=tiny", "ENGINE=lammps"),
+     lambda p, said: (p / "results/tiny-lammps/dem/theta180.h5").exists()),
+    ("engines", ("PRESET=tiny",), lambda p, said: "tiny (lammps)" in (p / "results/engines/engines.md").read_text()),
+    ("bench-lammps-settings", lambda p: (f"RUN_DIR={stop_at_first_checkpoint(p)}",),
+     lambda p, said: (p / "results/bench").is_dir() and any((p / "results/bench").iterdir())),
+    ("bench-dem", ("PRESETS=tiny", "ENGINES=yade,lammps"),
+     lambda p, said: (p / "results/bench/dem_throughput.md").exists()),
+    ("sweep", ("PRESET=tiny", "THETAS=30 60", "JOBS=2"),
+     lambda p, said: (p / "results/tiny/dem/theta030.h5").exists() and (p / "results/tiny/dem/theta060.h5").exists()),
+    ("runs", (), lambda p, said: "tiny/theta060" in said),
+    ("sweep-status", (), lambda p, said: "done" in said),
     # dt_safety 0.2 is the preset's own: its run, made above, is found; the other is made
-    assert "running 1 ladder run(s)" in said and "2 run(s) of the ladder; 0 not made yet" in said
-    assert "moved from the `tiny` preset" in (project / "results/fidelity-ladder/table.md").read_text()
+    ("fidelity", lambda p: tiny_ladder(p),
+     lambda p, said: "running 1 ladder run(s)" in said and "2 run(s) of the ladder; 0 not made yet" in said
+     and "moved from the `tiny` preset" in (p / "results/fidelity-ladder/table.md").read_text()),
+]
 
 
-def test_the_data_targets_run_on_the_committed_data(project):
-    paper = ("PRESET=paper",)
-    assert "runs: paper (lammps, inertial_number=0.001, cycles from 2 on)" in make(project, "fit", *paper,
-                                                                                   "SKIP_CYCLES=1")
-    make(project, "figures", *paper, "SKIP_CYCLES=1")  # compare first, by the file rules
-    folder = project / "results/paper-lammps-e29c082a"
+@pytest.mark.parametrize("target, variables, holds", DEM_TARGETS,
+                         ids=[f"{k}-{t[0]}" for k, t in enumerate(DEM_TARGETS)])
+def test_a_dem_or_engine_target_runs_at_the_tiny_size(project, target, variables, holds):
+    said = make(project, target, *(variables(project) if callable(variables) else variables))
+    assert holds(project, said), said[-2000:]
+
+
+PAPER = "results/paper-lammps-e29c082a"
+#: the targets of the committed data, in order (a comparison and figures read the fit before them; clean last)
+DATA_TARGETS = [
     # a fit with other options than the defaults: its fit, comparison and report in folders of their own
-    assert "## Drift over the cycles" in (folder / "compare-skip1/report.md").read_text()
-    assert (folder / "fit-skip1/params.json").exists() and not (folder / "fit").exists()
-    make(project, "compare-seed", *paper, "SEED=2")
-    assert (folder / "compare-seed2/metrics.json").exists()
-    for target, extra in (("fit-bootstrap", "BOOT=2"), ("fit-jackknife", "OVER=angles"),
-                          ("fit-angles", "ANGLES=180 90"), ("fit-definitions", None)):
-        make(project, target, *paper, *([extra] if extra else []))
-    assert (folder / "fit/definitions.md").exists() and (folder / "fit-angles-180-90/params.json").exists()
-    make(project, "fit-angles", *paper, "ANGLES=180 90", "VARIANT=jump")  # another law beside Eq. 13's
-    assert '"variant": "jump"' in (folder / "fit-angles-180-90-jump/params.json").read_text()
-    assert '"variant"' not in (folder / "fit-angles-180-90/params.json").read_text()
-    assert "run(s) of the ladder" in make(project, "fidelity-table")
-    make(project, "data-card")
-    assert (project / "data/reference/README.md").read_text() == (ROOT / "data/reference/README.md").read_text()
-    make(project, "clean")
-    assert not (folder / "fit").exists() and not (folder / "compare-seed2").exists()
+    ("fit", ("SKIP_CYCLES=1",),
+     lambda p, said: "runs: paper (lammps, inertial_number=0.001, cycles from 2 on)" in said
+     and (p / PAPER / "fit-skip1/params.json").exists() and not (p / PAPER / "fit").exists()),
+    ("compare", ("SKIP_CYCLES=1",), lambda p, said: (p / PAPER / "compare-skip1/metrics.json").exists()
+     and not (p / PAPER / "compare-skip1/report.md").exists()),
+    ("figures", ("SKIP_CYCLES=1",),
+     lambda p, said: "## Drift over the cycles" in (p / PAPER / "compare-skip1/report.md").read_text()),
+    ("compare-seed", ("SEED=2",), lambda p, said: (p / PAPER / "compare-seed2/metrics.json").exists()),
+    ("fit-bootstrap", ("BOOT=2",),
+     lambda p, said: '"interval_68"' in (p / PAPER / "fit-bootstrap/fit.json").read_text()),
+    ("fit-jackknife", ("OVER=angles",),
+     lambda p, said: '"over": "angles"' in (p / PAPER / "fit-jackknife-angles/fit.json").read_text()),
+    ("fit-angles", ("ANGLES=180 90",),
+     lambda p, said: '"variant"' not in (p / PAPER / "fit-angles-180-90/params.json").read_text()),
+    ("fit-angles", ("ANGLES=180 90", "VARIANT=jump"),  # another law beside Eq. 13's, in a folder of its own
+     lambda p, said: '"variant": "jump"' in (p / PAPER / "fit-angles-180-90-jump/params.json").read_text()),
+    ("fit-definitions", (), lambda p, said: (p / PAPER / "fit/definitions.md").exists()),
+    ("fidelity-table", (), lambda p, said: "run(s) of the ladder" in said),
+    ("data-card", (), lambda p, said: (p / "data/reference/README.md").read_text()
+     == (ROOT / "data/reference/README.md").read_text()),
+    ("clean", (), lambda p, said: not (p / PAPER / "fit").exists() and not (p / PAPER / "compare-seed2").exists()),
+]
+
+
+for table, test in ((DEM_TARGETS, "test_a_dem_or_engine_target_runs_at_the_tiny_size"),
+                    (DATA_TARGETS, "test_a_data_target_runs_on_the_committed_data")):
+    assert {t for t, *_ in table} == {t for t, name in RUN_HERE.items() if name == test}
+
+
+@pytest.mark.parametrize("target, variables, holds", DATA_TARGETS,
+                         ids=[f"{k}-{t[0]}" for k, t in enumerate(DATA_TARGETS)])
+def test_a_data_target_runs_on_the_committed_data(project, target, variables, holds):
+    said = make(project, target, "PRESET=paper", *variables)
+    assert holds(project, said), said[-2000:]
 
 
 @pytest.mark.last
