@@ -101,7 +101,7 @@ class Calibration:
     refined: global_fit.GlobalFit | None
     dilatancy: global_fit.GlobalFit | None
     noise: object | None
-    identifiability: dict | None
+    identifiability: schema.Identifiability | None
     next_runs: list
     bootstrap: schema.Bootstrap | None
     jackknife: schema.Jackknife | None
@@ -126,7 +126,8 @@ class Calibration:
                 "cross_check": self.cross_check,
                 "global": None if self.refined is None else self.refined.to_dict(),
                 "noise": None if self.noise is None else self.noise.to_dict(),
-                "identifiability": self.identifiability, "next_runs": self.next_runs,
+                "identifiability": self.identifiability and self.identifiability.to_dict(),
+                "next_runs": self.next_runs,
                 "dilatancy": None if self.dilatancy is None else self.dilatancy.to_dict(),
                 "bootstrap": self.bootstrap and self.bootstrap.to_dict(),
                 "jackknife": self.jackknife and self.jackknife.to_dict(), "global_runs": self.global_runs,
@@ -138,8 +139,8 @@ class Calibration:
             return None
         return {"fit": "global (pipeline.calibration.global_fit)", "made_from": self.made_from.digest(),
                 "definitions": dataclasses.asdict(self.settings.definitions), "held": self.settings.hold,
-                "intervals_68": self.identifiability["intervals_68"],
-                "not_determined": self.identifiability["not_determined"], "misfit": self.refined.misfit}
+                "intervals_68": self.identifiability.intervals_68,
+                "not_determined": self.identifiability.not_determined, "misfit": self.refined.misfit}
 
 
 def check_distinct(runs: list) -> None:
@@ -249,12 +250,13 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
             jack = resampling.jackknife(data, jackknife_groups(settings.jackknife, reversals, cross_runs), refined,
                                         noise, progress=_progress("jackknife"), weight=settings.weight,
                                         over=settings.jackknife)
-        angles = jackknife_groups("angles", reversals, cross_runs) if identifiable["misfit_noted"] else {}
+        angles = jackknife_groups("angles", reversals, cross_runs) if identifiable.misfit_noted else {}
         if len(angles) >= 3:  # the model misses the runs: the noise's ± would mislead
             spread = jack if settings.jackknife == "angles" else resampling.jackknife(
                 data, angles, refined, noise, progress=_progress("the model misses the runs: refit without angle"),
                 weight=settings.weight)
-            identifiable["spread_over_angles"] = identifiability.spread_over_angles(spread)
+            identifiable = dataclasses.replace(identifiable,
+                                               spread_over_angles=identifiability.spread_over_angles(spread))
     resampled = None
     if len(reversals) == 1 and reversals[0].spec.n_cycles > 1:  # one run: its error from its cycles
         resampled = boot.stepwise if boot else stepwise_bootstrap(reversals, STEPWISE_RESAMPLES, window)

@@ -58,8 +58,8 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
             "persistence_exponent": persistence_exponent, "dilatancy_note": note,
             "params": {n: getattr(params, n) for n in NAMES}, "model_params": params.to_dict(),
             "standard_errors": {n: se[n] for n in NAMES},
-            "status": {n: p["status"] for n, p in summary["parameters"].items()},
-            "misfit": refined.misfit, "chi2": refined.chi2, "table2": summary["table2"],
+            "status": {n: p.status for n, p in summary.parameters.items()},
+            "misfit": refined.misfit, "chi2": refined.chi2, "table2": summary.table2 and summary.table2.to_dict(),
             "chi2_share_after_changes": early_share(refined, data), "own_reversal": own_reversal(params),
             "mean_packing_fraction": float(np.mean(np.concatenate([d.phi for d in data])))}
 

@@ -16,7 +16,7 @@ from scipy.linalg import eigh
 
 import model
 
-from ..schema import Jackknife
+from ..schema import Combination, Identifiability, Jackknife, ParameterInterval, SpreadOverAngles, Table2Test
 from . import global_fit
 
 DETERMINED, LOOSE = 0.1, 0.5  # relative standard error limits
@@ -53,7 +53,7 @@ def chi2_rise_quantiles(fit: global_fit.GlobalFit, draws: int = 200_000, seed: i
     return {level: float(np.quantile(rise, q)) for level, q in LEVELS.items()}
 
 
-def table2_test(fit: global_fit.GlobalFit, data: list, paper: model.Params = model.PAPER) -> dict:
+def table2_test(fit: global_fit.GlobalFit, data: list, paper: model.Params = model.PAPER) -> Table2Test:
     """Table 2's flow rule and fabric law on our data (a law's own parameters at their neutral values: Eq. 13): its
     chi^2 rise above the best fit and whether it lies inside the joint 68 / 95 % confidence regions; both for the
     noise as measured and with the region widened by the misfit (as if the misfit were noise: the most lenient
@@ -64,17 +64,17 @@ def table2_test(fit: global_fit.GlobalFit, data: list, paper: model.Params = mod
     rise = chi2 - fit.chi2
     quantiles = chi2_rise_quantiles(fit)
     relative = rise / fit.chi2 if fit.chi2 > 0 else (np.inf if rise > 0 else 0.0)  # exact data: chi2 = 0
-    out = {"chi2_rise": rise, "relative_rise": float(relative), "misfit": fit.misfit, "quantiles": quantiles}
-    if quantiles is not None:
-        out["inside"] = {level: bool(rise <= q) for level, q in quantiles.items()}
-        out["inside_misfit_widened"] = {level: bool(rise <= q * max(fit.misfit, 1.0)) for level, q in quantiles.items()}
-    return out
+    if quantiles is None:
+        return Table2Test(rise, float(relative), fit.misfit, None)
+    return Table2Test(rise, float(relative), fit.misfit, quantiles,
+                      {level: bool(rise <= q) for level, q in quantiles.items()},
+                      {level: bool(rise <= q * max(fit.misfit, 1.0)) for level, q in quantiles.items()})
 
 
 UNMEASURED = "no interval: the noise is not measured (one cycle per run, no seeds)"
 
 
-def summary(fit: global_fit.GlobalFit, data: list, hold: dict | None = None, measured: bool = True) -> dict:
+def summary(fit: global_fit.GlobalFit, data: list, hold: dict | None = None, measured: bool = True) -> Identifiability:
     """Per parameter its interval and status, the best and worst determined combinations, Table 2's test.
     Each parameter's ``intervals_misfit_widened`` take the misfit as if it were noise (standard errors times
     sqrt(misfit), the most lenient reading): where the model misses the runs, the noise's own intervals describe
@@ -92,25 +92,20 @@ def summary(fit: global_fit.GlobalFit, data: list, hold: dict | None = None, mea
         ranges = {level: [value - z * se, value + z * se] if np.isfinite(se) else None for level, z in Z.items()}
         wide = {level: [value - z * se * widening, value + z * se * widening] if np.isfinite(se) else None
                 for level, z in Z.items()}
-        params[name] = {"value": float(value), "standard_error": float(se) if np.isfinite(se) else None,
-                        "status": state, "intervals": ranges, "intervals_misfit_widened": wide}
+        params[name] = ParameterInterval(float(value), float(se) if np.isfinite(se) else None, state, ranges, wide)
         intervals[name] = ranges["68"]
         if state == "not determined":
             loose.append(name)
-    directions = list(fit.directions)
-    described = [{**d, "combination": combination(d["direction"])} for d in directions]
-    return {"parameters": params, "intervals_68": intervals, "not_determined": loose, "held": dict(hold or {}),
-            "misfit": float(fit.misfit), "misfit_widening": widening,
-            "misfit_noted": bool(measured and fit.misfit >= MISFIT_NOTED),
-            "weakest": described[:3], "strongest": described[::-1][:3],
-            "noise_measured": measured, "table2": None if hold or not measured else table2_test(fit, data)}
+    described = [Combination(d["relative_step"], d["direction"], combination(d["direction"])) for d in fit.directions]
+    return Identifiability(params, intervals, loose, dict(hold or {}), float(fit.misfit), widening,
+                           bool(measured and fit.misfit >= MISFIT_NOTED), described[:3], described[::-1][:3], measured,
+                           None if hold or not measured else table2_test(fit, data))
 
 
-def spread_over_angles(jack: Jackknife) -> dict:
+def spread_over_angles(jack: Jackknife) -> SpreadOverAngles:
     """Each parameter's range over the refits without one angle (``resampling.jackknife`` over the angles). Where
     one parameter set does not fit every angle, this range, not an interval from the noise, is the scale of what
     the runs say about a parameter: which angles are in the data set moves it."""
     values = np.array(jack.values, dtype=float)
-    return {"left_out": list(jack.left_out),
-            "ranges": {name: [float(values[:, k].min()), float(values[:, k].max())]
-                       for k, name in enumerate(jack.free)}}
+    return SpreadOverAngles(list(jack.left_out), {name: [float(values[:, k].min()), float(values[:, k].max())]
+                                                  for k, name in enumerate(jack.free)})

@@ -11,13 +11,13 @@ from ..schema import FitSummary, Jackknife
 def print_global(report: FitSummary) -> None:
     """The global fit first: values with their 68 % intervals from the measured noise, what is determined."""
     g, ident, nm = report.global_fit, report.identifiability, report.noise
-    unit = ("the DEM's noise: 1 is a fit within the noise" if ident["noise_measured"] else
+    unit = ("the DEM's noise: 1 is a fit within the noise" if ident.noise_measured else
             "the scatter about a smoothed cycle, which is less than the noise")
     weighting = ("; each angle counts once, its seeds averaged" if report.weight == "angles"
                  else "")
     print(f"global fit on {len(report.global_runs)} run(s){weighting}; misfit {g['misfit']:.2f} (chi^2 per degree "
           f"of freedom in units of {unit})")
-    if not ident["noise_measured"]:
+    if not ident.noise_measured:
         print(f"intervals: none ({nm['source']}): run two cycles or more, or three seeds")
     else:
         print(f"intervals: 68 % from the DEM's noise ({nm['source']}; correlated over "
@@ -28,17 +28,17 @@ def print_global(report: FitSummary) -> None:
     if report.fit_from:
         print(f"fitted past the reversal jump: the model restarts from the DEM's state {report.fit_from:g} "
               "strain after each change of direction (make fit-from compares restarts)")
-    noted = ident["misfit_noted"]
-    spread = (ident.get("spread_over_angles") or {}).get("ranges", {})
+    noted = ident.misfit_noted
+    spread = ident.spread_over_angles.ranges if ident.spread_over_angles else {}
     if noted:
-        print(f"the model misses these runs by sqrt(misfit) = {ident['misfit_widening']:.2f} times their noise: the "
+        print(f"the model misses these runs by sqrt(misfit) = {ident.misfit_widening:.2f} times their noise: the "
               "68 % intervals describe the noise alone; 'widened' takes the misfit as noise (the most lenient "
               "reading), and both assume one parameter set fits every run; 'without one angle' is the range of "
               "the refits that leave out each angle in turn (make fit-jackknife OVER=angles: each one's shift)")
-    for name, p in ident["parameters"].items():
-        line = f"{name:>8s} = {p['value']:+.4g}  68 % {interval_text(p['intervals']['68']):>24s}  {p['status']}"
+    for name, p in ident.parameters.items():
+        line = f"{name:>8s} = {p.value:+.4g}  68 % {interval_text(p.intervals['68']):>24s}  {p.status}"
         if noted:
-            line += f";  widened {interval_text(p['intervals_misfit_widened']['68'])}"
+            line += f";  widened {interval_text(p.intervals_misfit_widened['68'])}"
         if name in spread:
             line += f";  without one angle {interval_text(spread[name])}"
         print(line)
@@ -48,19 +48,19 @@ def print_global(report: FitSummary) -> None:
               "params.json keeps Table 2's")
     for name, value, se in zip(*(() if d is None else (d["free"], d["values"], d["standard_errors"])), strict=True):
         print(f"{name:>8s} = {value:+.4g} ± {se:.2g} (Eq. 18 on Phi; its scatter taken as white)")
-    for label, items in (("fixed best", ident["strongest"]), ("fixed least", ident["weakest"])):
-        if ident["noise_measured"]:
-            print(f"the data {label}: " + "; ".join(f"{c['combination']} (±{c['relative_step']:.2g})"
+    for label, items in (("fixed best", ident.strongest), ("fixed least", ident.weakest)):
+        if ident.noise_measured:
+            print(f"the data {label}: " + "; ".join(f"{c.combination} (±{c.relative_step:.2g})"
                                                    for c in items))
-    if ident["not_determined"]:
-        print(f"not determined by these runs: {', '.join(ident['not_determined'])} (hold with --hold NAME=VALUE)")
-    t = ident["table2"]
+    if ident.not_determined:
+        print(f"not determined by these runs: {', '.join(ident.not_determined)} (hold with --hold NAME=VALUE)")
+    t = ident.table2
     if t:
-        where = ("inside" if t["inside"]["95"] else "outside") if t["quantiles"] else "undecided"
-        lenient = ("inside" if t["inside_misfit_widened"]["95"] else "outside") if t["quantiles"] else "undecided"
-        bound = f" against {t['quantiles']['95']:.0f}" if t["quantiles"] else ""
-        print(f"Table 2 on these data: chi^2 {t['relative_rise']:+.1%} above the best fit (a rise of "
-              f"{t['chi2_rise']:.0f}{bound}): {where} the 95 % region from the noise, {lenient} it when widened "
+        where = ("inside" if t.inside["95"] else "outside") if t.quantiles else "undecided"
+        lenient = ("inside" if t.inside_misfit_widened["95"] else "outside") if t.quantiles else "undecided"
+        bound = f" against {t.quantiles['95']:.0f}" if t.quantiles else ""
+        print(f"Table 2 on these data: chi^2 {t.relative_rise:+.1%} above the best fit (a rise of "
+              f"{t.chi2_rise:.0f}{bound}): {where} the 95 % region from the noise, {lenient} it when widened "
               "by the misfit (make fit-definitions: under each definition)")
 
 

@@ -13,7 +13,7 @@ import model
 
 from ..dataset import drift
 from ..io import write_text
-from ..schema import FitSummary, Metrics
+from ..schema import FitSummary, Identifiability, Metrics
 
 
 def _strain_text(value: float) -> str:
@@ -51,13 +51,13 @@ def band_text(band) -> str:
     return "open" if band is None else f"{band[0]:+.4g} to {band[1]:+.4g}"
 
 
-def misfit_sentence(ident: dict) -> str:
+def misfit_sentence(ident: Identifiability) -> str:
     """What the intervals mean where the model misses the runs (``identifiability.summary``'s ``misfit_noted``)."""
-    spread = ident.get("spread_over_angles")
-    angles = (f"The last column is the range of the refits that leave out each of the {len(spread['left_out'])} "
+    spread = ident.spread_over_angles
+    angles = (f"The last column is the range of the refits that leave out each of the {len(spread.left_out)} "
               "angles in turn: where it is wider than the intervals, which angles are in the data set moves the "
               "parameter more than the noise does" if spread else "Refits without one angle can move further")
-    return (f" **The model misses these runs by √misfit = {ident['misfit_widening']:.2f} times their noise**: the "
+    return (f" **The model misses these runs by √misfit = {ident.misfit_widening:.2f} times their noise**: the "
             "intervals from the noise alone describe the noise, not what other runs would give. The widened ones "
             "take the misfit as if it were noise (the most lenient reading). Both assume that one parameter set "
             f"fits every run. {angles} (`make fit-jackknife OVER=angles`: each refit's shift).")
@@ -67,34 +67,34 @@ def misfit_sentence(ident: dict) -> str:
 TABLE2_FITTED = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
 
 
-def fitted_names(fitted, ident: dict, se: dict) -> list[str]:
+def fitted_names(fitted, ident: Identifiability | None, se: dict) -> list[str]:
     """The parameters the fit set, in the law's order (``Params.own_names``): those with an interval or a standard
     error (Table 2's fitted ones where the summary has none), and every one the law adds to Eq. 13."""
-    known = (set(ident.get("parameters", {})) | set(se)) or set(TABLE2_FITTED)
+    known = (set(ident.parameters if ident else {}) | set(se)) or set(TABLE2_FITTED)
     return [n for n in fitted.own_names() if n in known or n not in model.Params.names()]
 
 
 def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
     """Our parameters (every one the fitted law owns and the fit set) with their 68 % intervals and status beside
     Table 2; what the data fix; Table 2's test."""
-    ident = (fit.identifiability if fit else None) or {}
-    params = ident.get("parameters", {})
+    ident = fit.identifiability if fit else None
+    params = ident.parameters if ident else {}
     dilatancy = (fit.dilatancy if fit else None) or {"free": [], "standard_errors": []}
     se = dict(zip(dilatancy["free"], dilatancy["standard_errors"], strict=True))
     ours = {n: getattr(fitted, n) for n in fitted.own_names()}
     table2 = {n: f"{getattr(paper, n):+.4g}" if n in paper.own_names() else "–" for n in fitted.own_names()}
-    noted = bool(ident.get("misfit_noted"))
-    spread = (ident.get("spread_over_angles") or {}).get("ranges", {})  # only where the misfit is noted
-    extra = ([f" 68 %, widened × {ident['misfit_widening']:.2f} (√misfit) |"] if noted else []) + (
+    noted = bool(ident and ident.misfit_noted)
+    spread = ident.spread_over_angles.ranges if ident and ident.spread_over_angles else {}  # where the misfit is noted
+    extra = ([f" 68 %, widened × {ident.misfit_widening:.2f} (√misfit) |"] if noted else []) + (
         [" refits without one angle |"] if spread else [])
     lines = [f"| parameter | our fit | 68 % interval | status |{''.join(extra)} Table 2 |",
              "|---|---|---|---|" + "---|" * len(extra) + "---|"]
     for name in fitted_names(fitted, ident, se):
         p = params.get(name)
         if p:
-            cells = ([f" {band_text(p['intervals_misfit_widened']['68'])} |"] if noted else []) + (
+            cells = ([f" {band_text(p.intervals_misfit_widened['68'])} |"] if noted else []) + (
                 [f" {band_text(spread.get(name))} |"] if spread else [])
-            lines.append(f"| {name} | {ours[name]:+.4g} | {band_text(p['intervals']['68'])} | {p['status']} |"
+            lines.append(f"| {name} | {ours[name]:+.4g} | {band_text(p.intervals['68'])} | {p.status} |"
                          f"{''.join(cells)} {table2[name]} |")
         else:
             scatter = f"± {se[name]:.2g} (Φ scatter taken as white)" if name in se else ""
@@ -102,7 +102,7 @@ def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
     if not ident:
         return lines
     g, noise = fit.global_fit, fit.noise
-    if not ident.get("noise_measured", True):
+    if not ident.noise_measured:
         return lines + ["", f"No intervals: {noise['source']}. Two cycles per run, or three seeds, let the noise be "
                         "measured."]
     lengths = [v for values in noise["correlation_strain"].values() for v in values]
@@ -117,17 +117,17 @@ def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
               "Eigen-directions of the covariance in relative parameters: a direction stands for the product of "
               "the powers shown, and its ± is one standard deviation of that product, relative.", "",
               "| | combination | ± (relative) |", "|---|---|---|"]
-    for label, items in (("best fixed", ident["strongest"]), ("least fixed", ident["weakest"])):
-        lines += [f"| {label} | {c['combination']} | {c['relative_step']:.2g} |" for c in items]
-    if ident["not_determined"]:
-        lines += ["", f"Not determined by these runs: {', '.join(ident['not_determined'])}."]
-    t = ident.get("table2")
-    if t and t["quantiles"]:
+    for label, items in (("best fixed", ident.strongest), ("least fixed", ident.weakest)):
+        lines += [f"| {label} | {c.combination} | {c.relative_step:.2g} |" for c in items]
+    if ident.not_determined:
+        lines += ["", f"Not determined by these runs: {', '.join(ident.not_determined)}."]
+    t = ident.table2
+    if t and t.quantiles:
         verdict = {True: "inside", False: "outside"}
-        lines += ["", f"Table 2 as a hypothesis (its C, n, m, a_i, b_i on these data): chi^2 {t['relative_rise']:+.1%} "
-                  f"above the best fit, a rise of {t['chi2_rise']:.0f} against {t['quantiles']['95']:.0f} for the "
-                  f"95 % region from the noise: {verdict[t['inside']['95']]} it; "
-                  f"{verdict[t['inside_misfit_widened']['95']]} it when the region is widened by the misfit."]
+        lines += ["", f"Table 2 as a hypothesis (its C, n, m, a_i, b_i on these data): chi^2 {t.relative_rise:+.1%} "
+                  f"above the best fit, a rise of {t.chi2_rise:.0f} against {t.quantiles['95']:.0f} for the "
+                  f"95 % region from the noise: {verdict[t.inside['95']]} it; "
+                  f"{verdict[t.inside_misfit_widened['95']]} it when the region is widened by the misfit."]
     return lines + next_runs_lines(fit)
 
 

@@ -8,7 +8,21 @@ A result nested in a file is a record of its own (``base.Record``).
 """
 
 from .base import MadeFrom, Record, read_json_object
-from .fit import FIT_VERSION, Bootstrap, FitSummary, Jackknife, StepwiseBootstrap, check_fitted, read_fit, write_fit
+from .fit import (
+    FIT_VERSION,
+    Bootstrap,
+    Combination,
+    FitSummary,
+    Identifiability,
+    Jackknife,
+    ParameterInterval,
+    SpreadOverAngles,
+    StepwiseBootstrap,
+    Table2Test,
+    check_fitted,
+    read_fit,
+    write_fit,
+)
 from .metrics import (
     COMPARE_SCHEMA,
     COMPARE_VERSION,
@@ -37,8 +51,9 @@ from .params import PARAMS_METADATA_VERSION, ParamsFile, read_params, write_para
 
 __all__ = [
     "COMPARE_SCHEMA", "COMPARE_VERSION", "FIT_VERSION", "METRICS_VERSION", "MODELS_SCHEMA", "MODELS_VERSION",
-    "PARAMS_METADATA_VERSION", "AcrossScore", "Bootstrap", "FitSummary", "HeldOut", "Jackknife", "Judgement",
-    "LawScore", "MadeFrom", "Metrics", "ModelsSummary", "ParamsFile", "Record", "SplitScore", "StepwiseBootstrap",
+    "PARAMS_METADATA_VERSION", "AcrossScore", "Bootstrap", "Combination", "FitSummary", "HeldOut", "Identifiability",
+    "Jackknife", "Judgement", "LawScore", "MadeFrom", "Metrics", "ModelsSummary", "ParameterInterval", "ParamsFile",
+    "Record", "SplitScore", "SpreadOverAngles", "StepwiseBootstrap", "Table2Test",
     "check_compare", "check_compared", "check_fitted", "models_json", "read_fit",
     "read_json_object", "read_metrics", "read_models", "read_models_h5", "read_params", "stamp_compare",
     "write_fit", "write_models_h5", "write_params",

@@ -74,6 +74,97 @@ class Jackknife(Record):
 
 
 @dataclasses.dataclass(frozen=True)
+class ParameterInterval(Record):
+    """One fitted parameter: its value, standard error from the noise (None where the data fix nothing along it),
+    status ("determined", "loosely determined", "not determined", or why there is none) and its intervals per level
+    ("68", "95": [low, high], None where open), from the noise and widened by sqrt(misfit)."""
+
+    WHAT = "parameter's interval"
+
+    value: float
+    standard_error: float | None
+    status: str
+    intervals: dict
+    intervals_misfit_widened: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class Combination(Record):
+    """An eigen-direction of the covariance in relative parameters (``direction``: name to component), one standard
+    deviation along it as a relative change (``relative_step``; inf where the data fix nothing), and its text."""
+
+    WHAT = "combination"
+
+    relative_step: float
+    direction: dict
+    combination: str
+
+
+@dataclasses.dataclass(frozen=True)
+class Table2Test(Record):
+    """Table 2 as a hypothesis on the data: its chi^2 rise above the best fit (absolute and relative), the fit's
+    misfit, the rise's quantiles from the noise per level (None where a direction is not determined) and whether
+    the rise lies inside each level's region, as measured and widened by the misfit."""
+
+    WHAT = "test of Table 2"
+
+    chi2_rise: float
+    relative_rise: float
+    misfit: float
+    quantiles: dict | None
+    inside: dict | None = None
+    inside_misfit_widened: dict | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class SpreadOverAngles(Record):
+    """Each parameter's range ([low, high]) over the refits that leave out one angle (``left_out``) in turn."""
+
+    WHAT = "spread over angles"
+
+    left_out: list
+    ranges: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class Identifiability(Record):
+    """What the data determine (``calibration.identifiability.summary``): per parameter its interval
+    (``parameters``), the 68 % bands alone, those not determined, the parameters held, the misfit and its widening
+    sqrt(misfit) (``misfit_noted`` where it is said beside the intervals), the three weakest and strongest
+    combinations, whether the noise was measured, Table 2's test and, where the misfit is noted, the spread over
+    the refits without one angle."""
+
+    WHAT = "identifiability summary"
+
+    parameters: dict
+    intervals_68: dict
+    not_determined: list
+    held: dict
+    misfit: float
+    misfit_widening: float
+    misfit_noted: bool
+    weakest: list
+    strongest: list
+    noise_measured: bool
+    table2: Table2Test | None
+    spread_over_angles: SpreadOverAngles | None = None
+
+    NESTED = {"weakest": Combination, "strongest": Combination, "table2": Table2Test,
+              "spread_over_angles": SpreadOverAngles}
+
+    @classmethod
+    def from_dict(cls, data: dict, path="fit.json") -> Identifiability:
+        record = super().from_dict(data, path)
+        if not isinstance(record.parameters, dict):
+            raise PipelineError(f"{path}: the identifiability summary's parameters are not a JSON object")
+        return dataclasses.replace(record, parameters={name: ParameterInterval.from_dict(p, path)
+                                                       for name, p in record.parameters.items()})
+
+    def to_dict(self) -> dict:
+        return {**super().to_dict(), "parameters": {name: p.to_dict() for name, p in self.parameters.items()}}
+
+
+@dataclasses.dataclass(frozen=True)
 class FitSummary:
     """``fit.json``: the calibration of one data set (``make fit``). ``params`` are the fit's; ``global_fit`` the
     global refinement's estimates, errors and misfit (the file's ``global``); ``identifiability`` what the data fix;
@@ -97,7 +188,7 @@ class FitSummary:
     cross_check: list
     global_fit: dict | None
     noise: dict | None
-    identifiability: dict | None
+    identifiability: Identifiability | None
     next_runs: list | None
     dilatancy: dict | None
     bootstrap: Bootstrap | None
@@ -110,7 +201,7 @@ class FitSummary:
     @classmethod
     def from_dict(cls, data: dict, path="fit.json") -> FitSummary:
         fields = _fields_of(cls, data, path, "fit summary", {"global": "global_fit"})
-        for name, record in (("bootstrap", Bootstrap), ("jackknife", Jackknife)):
+        for name, record in (("bootstrap", Bootstrap), ("jackknife", Jackknife), ("identifiability", Identifiability)):
             if fields.get(name) is not None:
                 fields[name] = record.from_dict(fields[name], path)
         return cls(**fields)
@@ -118,7 +209,7 @@ class FitSummary:
     def to_dict(self) -> dict:
         out = {"schema_version": self.VERSION, **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)}}
         out["global"] = out.pop("global_fit")
-        for name in ("bootstrap", "jackknife"):
+        for name in ("bootstrap", "jackknife", "identifiability"):
             out[name] = None if out[name] is None else out[name].to_dict()
         return out
 

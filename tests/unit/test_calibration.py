@@ -574,14 +574,14 @@ def test_where_the_model_misses_the_runs_the_fit_gives_each_parameters_range_ove
     cross = (synthetic_run(tmp_path, 30.0, name="c30", seed=5, **noise),
              synthetic_run(tmp_path, 90.0, name="c90", seed=6, params=TRUE.replace(b2=-25.0, a2=0.4), **noise))
     ident = calibrate(reversals, cross).identifiability
-    assert ident["misfit_noted"] and ident["misfit"] >= 2
-    assert "spread_over_angles" in ident, (ident["noise_measured"], ident["misfit"])
-    spread = ident["spread_over_angles"]
-    assert spread["left_out"] == ["theta = 180", "theta = 30", "theta = 90"]
-    assert set(spread["ranges"]) == set(ident["parameters"])
-    low, high = spread["ranges"]["b2"]
-    wide_low, wide_high = ident["parameters"]["b2"]["intervals_misfit_widened"]["68"]
-    assert low < high and (low < wide_low or high > wide_high), (spread["ranges"]["b2"], (wide_low, wide_high))
+    assert ident.misfit_noted and ident.misfit >= 2
+    assert ident.spread_over_angles is not None, (ident.noise_measured, ident.misfit)
+    spread = ident.spread_over_angles
+    assert spread.left_out == ["theta = 180", "theta = 30", "theta = 90"]
+    assert set(spread.ranges) == set(ident.parameters)
+    low, high = spread.ranges["b2"]
+    wide_low, wide_high = ident.parameters["b2"].intervals_misfit_widened["68"]
+    assert low < high and (low < wide_low or high > wide_high), (spread.ranges["b2"], (wide_low, wide_high))
 
 
 def test_the_printout_says_why_no_new_run_is_ranked_when_none_can_be_weighed(capsys):

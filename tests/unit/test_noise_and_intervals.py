@@ -104,7 +104,7 @@ def test_a_parameter_the_data_cannot_fix_has_a_flat_profile_and_is_reported_not_
     best = global_fit.refine(data, TRUE, names=("C", "n", "m"), noise=nm)
     assert np.isinf(best.standard_errors[2]) and np.isfinite(best.standard_errors[0])
     summary = identifiability.summary(best, data, hold={"a1": TRUE.a1})
-    assert summary["not_determined"] == ["n", "m"] and summary["parameters"]["C"]["status"] == "determined"
+    assert summary.not_determined == ["n", "m"] and summary.parameters["C"].status == "determined"
     result = profiles(data, best, points=5)["parameters"]
     assert max(result["m"]["chi2_rise"]) < 1e-3 and result["m"]["intervals"]["68"] == [None, None]
     assert max(result["C"]["chi2_rise"]) > 10 and None not in result["C"]["intervals"]["68"]
@@ -123,13 +123,13 @@ def test_a_model_that_misses_the_runs_says_so_beside_intervals_widened_by_the_ro
     assert fit.misfit < identifiability.MISFIT_NOTED
     near = identifiability.summary(fit, data)
     far = identifiability.summary(dataclasses.replace(fit, misfit=9.0), data)
-    assert not near["misfit_noted"] and far["misfit_noted"] and far["misfit_widening"] == pytest.approx(3.0)
-    assert near["misfit_widening"] == pytest.approx(np.sqrt(max(fit.misfit, 1.0)))
-    for name, p in far["parameters"].items():
-        (low, high), (wide_low, wide_high) = p["intervals"]["68"], p["intervals_misfit_widened"]["68"]
-        assert p["intervals"] == near["parameters"][name]["intervals"], name
+    assert not near.misfit_noted and far.misfit_noted and far.misfit_widening == pytest.approx(3.0)
+    assert near.misfit_widening == pytest.approx(np.sqrt(max(fit.misfit, 1.0)))
+    for name, p in far.parameters.items():
+        (low, high), (wide_low, wide_high) = p.intervals["68"], p.intervals_misfit_widened["68"]
+        assert p.intervals == near.parameters[name].intervals, name
         assert wide_high - wide_low == pytest.approx(3 * (high - low)), name
-        assert (wide_low + wide_high) / 2 == pytest.approx(p["value"]), name
+        assert (wide_low + wide_high) / 2 == pytest.approx(p.value), name
     said = {}
     for label, ident, misfit in (("near", near, fit.misfit), ("far", far, 9.0)):
         blank = {f.name: None for f in dataclasses.fields(FitSummary)}
@@ -149,12 +149,12 @@ def test_table_2_is_inside_the_region_on_its_own_data_and_outside_on_other_physi
     runs = [synthetic_run(tmp_path, name=f"t{s}", seed=s, **NOISE) for s in range(3)]
     data, nm = global_fit.prepare(runs)
     test = identifiability.table2_test(global_fit.refine(data, TRUE, noise=nm), data)
-    assert test["inside"]["95"] and 0 <= test["chi2_rise"] <= test["quantiles"]["95"]
+    assert test.inside["95"] and 0 <= test.chi2_rise <= test.quantiles["95"]
     other = TRUE.replace(b2=-30.0, b1=-2.2)
     runs = [synthetic_run(tmp_path, name=f"o{s}", seed=s, params=other, **NOISE) for s in range(3)]
     data, nm = global_fit.prepare(runs)
     test = identifiability.table2_test(global_fit.refine(data, other, noise=nm), data)
-    assert not test["inside"]["95"] and not test["inside_misfit_widened"]["95"]
+    assert not test.inside["95"] and not test.inside_misfit_widened["95"]
 
 
 @pytest.mark.slow
@@ -239,9 +239,8 @@ def test_without_a_measured_noise_there_are_no_intervals_and_no_verdict_on_table
             for t in (180.0, 90.0)]
     report = calibrate(runs[:1], tmp_path / "fit", cross_runs=runs[1:])
     ident = report.identifiability
-    assert not report.noise["measured"] and not ident["noise_measured"] and ident["table2"] is None
-    assert all(p["intervals"]["68"] is None and p["status"].startswith("no interval") for p in
-               ident["parameters"].values())
+    assert not report.noise["measured"] and not ident.noise_measured and ident.table2 is None
+    assert all(p.intervals["68"] is None and p.status.startswith("no interval") for p in ident.parameters.values())
     assert report.next_runs == []
 
 
