@@ -124,11 +124,11 @@ class Calibration:
                 "sensitivity": self.sensitivity,
                 "params_stepwise": self.stepwise and self.stepwise.to_dict(), "params": self.params.to_dict(),
                 "cross_check": self.cross_check,
-                "global": None if self.refined is None else self.refined.to_dict(),
+                "global": None if self.refined is None else self.refined.estimates().to_dict(),
                 "noise": None if self.noise is None else self.noise.to_dict(),
                 "identifiability": self.identifiability and self.identifiability.to_dict(),
                 "next_runs": self.next_runs,
-                "dilatancy": None if self.dilatancy is None else self.dilatancy.to_dict(),
+                "dilatancy": None if self.dilatancy is None else self.dilatancy.estimates().to_dict(),
                 "bootstrap": self.bootstrap and self.bootstrap.to_dict(),
                 "jackknife": self.jackknife and self.jackknife.to_dict(), "global_runs": self.global_runs,
                 "residual_map": self.residual_map, "notes": self.notes, "made_from": self.made_from.to_dict()})

@@ -26,6 +26,7 @@ import model
 from .. import choices
 from ..dataset.derived import states_after_changes
 from ..errors import CalibrationError
+from ..schema import Estimates
 from . import noise as noise_model
 from .covariance import covariances, directions
 from .fit_cycle import FitCycle
@@ -156,14 +157,13 @@ class GlobalFit:
     white_covariance: np.ndarray | None = None
     jacobian: np.ndarray | None = None  # of the scaled residuals at the fit, for shift_covariance
 
-    def to_dict(self) -> dict:
+    def estimates(self) -> Estimates:
+        """The record ``fit.json`` keeps (infinite or undefined entries as None)."""
         cov = lambda m: None if m is None else np.where(np.isfinite(m), m, None).tolist()  # noqa: E731
-        return {"params": self.params.to_dict(), "free": list(self.names), "values": self.values.tolist(),
-                "standard_errors": [v if np.isfinite(v) else None for v in self.standard_errors.tolist()],
-                "correlation": cov(self.correlation), "covariance": cov(self.covariance),
-                "white_covariance": cov(self.white_covariance), "misfit": self.misfit, "chi2": self.chi2,
-                "nfev": self.nfev, "success": self.success, "message": self.message,
-                "directions": list(self.directions)}
+        return Estimates(self.params.to_dict(), list(self.names), self.values.tolist(),
+                         [v if np.isfinite(v) else None for v in self.standard_errors.tolist()],
+                         cov(self.correlation), cov(self.covariance), cov(self.white_covariance), self.misfit,
+                         self.chi2, self.nfev, self.success, self.message, list(self.directions))
 
 
 def scaled_residuals(d: FitCycle, pred, pick=slice(None)) -> tuple[np.ndarray, np.ndarray]:

@@ -15,7 +15,7 @@ def print_global(report: FitSummary) -> None:
             "the scatter about a smoothed cycle, which is less than the noise")
     weighting = ("; each angle counts once, its seeds averaged" if report.weight == "angles"
                  else "")
-    print(f"global fit on {len(report.global_runs)} run(s){weighting}; misfit {g['misfit']:.2f} (chi^2 per degree "
+    print(f"global fit on {len(report.global_runs)} run(s){weighting}; misfit {g.misfit:.2f} (chi^2 per degree "
           f"of freedom in units of {unit})")
     if not ident.noise_measured:
         print(f"intervals: none ({nm['source']}): run two cycles or more, or three seeds")
@@ -46,7 +46,7 @@ def print_global(report: FitSummary) -> None:
     if d is None:
         print("c2_coef, phi_c: not determined by these runs (Eq. 18's fit does not converge or sits at a bound); "
               "params.json keeps Table 2's")
-    for name, value, se in zip(*(() if d is None else (d["free"], d["values"], d["standard_errors"])), strict=True):
+    for name, value, se in zip(*(() if d is None else (d.free, d.values, d.standard_errors)), strict=True):
         print(f"{name:>8s} = {value:+.4g} ± {se:.2g} (Eq. 18 on Phi; its scatter taken as white)")
     for label, items in (("fixed best", ident.strongest), ("fixed least", ident.weakest)):
         if ident.noise_measured:

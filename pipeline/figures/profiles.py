@@ -15,8 +15,8 @@ from .output import save
 def belongs_to(result: dict, fit) -> bool:
     """Whether ``profiles.json`` profiles the fit in ``fit.json`` (a ``schema.FitSummary``, or None): the same
     parameters at the same best values."""
-    g = (fit.global_fit if fit else None) or {}
-    best = dict(zip(g.get("free", []), g.get("values", []), strict=True))
+    g = fit.global_fit if fit else None
+    best = dict(zip(g.free, g.values, strict=True)) if g else {}
     parameters = result.get("parameters", {})
     return bool(parameters) and set(parameters) == set(best) and all(
         "noise_factor" in p and np.isclose(p["best"], best[n], rtol=1e-6) for n, p in parameters.items())

@@ -79,8 +79,8 @@ def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
     Table 2; what the data fix; Table 2's test."""
     ident = fit.identifiability if fit else None
     params = ident.parameters if ident else {}
-    dilatancy = (fit.dilatancy if fit else None) or {"free": [], "standard_errors": []}
-    se = dict(zip(dilatancy["free"], dilatancy["standard_errors"], strict=True))
+    dilatancy = fit.dilatancy if fit else None
+    se = dict(zip(dilatancy.free, dilatancy.standard_errors, strict=True)) if dilatancy else {}
     ours = {n: getattr(fitted, n) for n in fitted.own_names()}
     table2 = {n: f"{getattr(paper, n):+.4g}" if n in paper.own_names() else "–" for n in fitted.own_names()}
     noted = bool(ident and ident.misfit_noted)
@@ -109,7 +109,7 @@ def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
     lines += ["", f"Intervals from the DEM's own noise ({noise['source']}; correlated over "
               f"{min(lengths):.2f}-{max(lengths):.2f} strain, A and tau/p noise correlated at "
               f"{min(noise['A_tau_correlation']):+.2f} to {max(noise['A_tau_correlation']):+.2f}), "
-              f"not scaled by the misfit. Misfit: {g['misfit']:.2f} (chi^2 per degree of freedom in noise units; "
+              f"not scaled by the misfit. Misfit: {g.misfit:.2f} (chi^2 per degree of freedom in noise units; "
               "1 = the model fits within the noise). `make fit-profile` gives the profile intervals, "
               "`make fit-bootstrap` a bootstrap of the noise."
               + (misfit_sentence(ident) if noted else ""), "",

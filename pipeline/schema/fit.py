@@ -74,6 +74,31 @@ class Jackknife(Record):
 
 
 @dataclasses.dataclass(frozen=True)
+class Estimates(Record):
+    """A least-squares fit (``calibration.global_fit``: the global refinement, and Eq. 18's dilatancy): the law's
+    parameters it ends at, the names fitted and their values, standard errors (None where the data fix nothing),
+    correlation and covariances (the sandwich from the noise and the white one; None where not computed), the
+    misfit (chi^2 per degree of freedom in noise units) and chi^2, the solver's work and word, and the covariance's
+    eigen-directions."""
+
+    WHAT = "fit's estimates"
+
+    params: dict
+    free: list
+    values: list
+    standard_errors: list
+    correlation: list | None
+    covariance: list | None
+    white_covariance: list | None
+    misfit: float
+    chi2: float
+    nfev: int
+    success: bool
+    message: str
+    directions: list
+
+
+@dataclasses.dataclass(frozen=True)
 class ParameterInterval(Record):
     """One fitted parameter: its value, standard error from the noise (None where the data fix nothing along it),
     status ("determined", "loosely determined", "not determined", or why there is none) and its intervals per level
@@ -186,11 +211,11 @@ class FitSummary:
     params_stepwise: dict | None
     params: dict
     cross_check: list
-    global_fit: dict | None
+    global_fit: Estimates | None
     noise: dict | None
     identifiability: Identifiability | None
     next_runs: list | None
-    dilatancy: dict | None
+    dilatancy: Estimates | None
     bootstrap: Bootstrap | None
     jackknife: Jackknife | None
     global_runs: list | None
@@ -201,16 +226,17 @@ class FitSummary:
     @classmethod
     def from_dict(cls, data: dict, path="fit.json") -> FitSummary:
         fields = _fields_of(cls, data, path, "fit summary", {"global": "global_fit"})
-        for name, record in (("bootstrap", Bootstrap), ("jackknife", Jackknife), ("identifiability", Identifiability)):
+        for name, record in (("bootstrap", Bootstrap), ("jackknife", Jackknife), ("identifiability", Identifiability),
+                             ("global_fit", Estimates), ("dilatancy", Estimates)):
             if fields.get(name) is not None:
                 fields[name] = record.from_dict(fields[name], path)
         return cls(**fields)
 
     def to_dict(self) -> dict:
         out = {"schema_version": self.VERSION, **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)}}
-        out["global"] = out.pop("global_fit")
-        for name in ("bootstrap", "jackknife", "identifiability"):
+        for name in ("bootstrap", "jackknife", "identifiability", "global_fit", "dilatancy"):
             out[name] = None if out[name] is None else out[name].to_dict()
+        out["global"] = out.pop("global_fit")
         return out
 
 

@@ -89,15 +89,15 @@ def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(
             for t in (180.0, 30.0, 90.0, 150.0)]
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:])
     g = report.global_fit
-    assert g["success"] and 0.5 < g["misfit"] < 3  # white noise, measured from the cycles: misfit ~ 1
-    for name, value, se in zip(g["free"], g["values"], g["standard_errors"], strict=True):
+    assert g.success and 0.5 < g.misfit < 3  # white noise, measured from the cycles: misfit ~ 1
+    for name, value, se in zip(g.free, g.values, g.standard_errors, strict=True):
         assert abs(value - getattr(TRUE, name)) < 3.5 * se, name
     d = report.dilatancy  # Eq. 18 on Phi with c1 = -C, noise 0.001 on Phi
-    values = dict(zip(d["free"], d["values"], strict=True))
+    values = dict(zip(d.free, d.values, strict=True))
     assert values["phi_c"] == pytest.approx(TRUE.phi_c, abs=0.005)
     assert values["c2_coef"] == pytest.approx(TRUE.c2_coef, rel=0.15)
     assert read_params(tmp_path / "fit" / "params.json").phi_c == pytest.approx(values["phi_c"])
-    corr = np.array(g["correlation"])
+    corr = np.array(g.correlation)
     np.testing.assert_allclose(np.diag(corr), 1.0) and np.testing.assert_allclose(corr, corr.T)
 
 
@@ -218,8 +218,8 @@ def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path, cap
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], bootstrap=12)
     boot, g = report.bootstrap, report.global_fit
     assert len(boot.replicates) == 12
-    ratio = np.array(boot.standard_deviation) / np.array(g["standard_errors"])
-    assert np.all((ratio > 0.3) & (ratio < 3)), dict(zip(g["free"], ratio, strict=True))
+    ratio = np.array(boot.standard_deviation) / np.array(g.standard_errors)
+    assert np.all((ratio > 0.3) & (ratio < 3)), dict(zip(g.free, ratio, strict=True))
     # the stepwise calibration, bootstrapped over cycles: a spread, and an interval around its value
     step = boot.stepwise
     for key in ("C_eq15", "n", "m", "b1", "b2", "c2_coef", "phi_c"):
@@ -288,10 +288,10 @@ def test_held_parameters_stay_and_the_fisher_directions_name_the_weakest_combina
             for t in (180.0, 90.0)]
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], hold={"a2": TRUE.a2})
     g = report.global_fit
-    assert "a2" not in g["free"] and g["params"]["a2"] == TRUE.a2 and report.held == {"a2": TRUE.a2}
-    steps = [d["relative_step"] for d in g["directions"]]
-    assert len(steps) == len(g["free"]) == 6 and steps == sorted(steps, reverse=True)
-    for d in g["directions"]:
+    assert "a2" not in g.free and g.params["a2"] == TRUE.a2 and report.held == {"a2": TRUE.a2}
+    steps = [d["relative_step"] for d in g.directions]
+    assert len(steps) == len(g.free) == 6 and steps == sorted(steps, reverse=True)
+    for d in g.directions:
         assert np.linalg.norm(list(d["direction"].values())) == pytest.approx(1.0)
     with pytest.raises(CalibrationError, match="cannot hold phi_c: only C, n, m"):
         fit(runs[:1], tmp_path / "fit2", hold={"phi_c": 0.6})

@@ -133,7 +133,8 @@ def test_a_model_that_misses_the_runs_says_so_beside_intervals_widened_by_the_ro
     said = {}
     for label, ident, misfit in (("near", near, fit.misfit), ("far", far, 9.0)):
         blank = {f.name: None for f in dataclasses.fields(FitSummary)}
-        report = FitSummary(**{**blank, "global_fit": {"misfit": misfit}, "identifiability": ident,
+        estimates = dataclasses.replace(fit, misfit=misfit).estimates()
+        report = FitSummary(**{**blank, "global_fit": estimates, "identifiability": ident,
                                "noise": nm.to_dict(), "global_runs": runs, "weight": "runs",
                                "persistence_exponent": 0.75})
         print_global(report)

@@ -26,10 +26,11 @@ def test_each_file_reads_back_as_written_and_names_its_version(tmp_path):
     assert back == metrics(reversal={"backstress_share": 0.8}) and back.param_sets["our fit"].C == -5.0
     assert json.loads(path.read_text())["schema_version"] == schema.METRICS_VERSION
     assert "relaxation" not in json.loads(path.read_text())  # none: not written, as before versions
-    fit = fit_summary(notes=["a note"], global_fit={"misfit": 1.2})
+    estimates = schema.Estimates({"C": -5.0}, ["C"], [-5.0], [None], None, None, None, 1.2, 30.0, 9, True, "ok", [])
+    fit = fit_summary(notes=["a note"], global_fit=estimates)
     schema.write_fit(tmp_path / "fit.json", fit)
     assert schema.read_fit(tmp_path / "fit.json") == fit and json.loads((tmp_path / "fit.json").read_text())[
-        "global"] == {"misfit": 1.2}
+        "global"]["misfit"] == 1.2
     schema.write_params(tmp_path / "params.json", model.Params(), {"definitions": {"strain": "bulk"}})
     found = schema.read_params(tmp_path / "params.json")
     assert found.params == model.Params() and found.definitions == {"strain": "bulk"}
