@@ -14,13 +14,14 @@ parameter array ``p`` (``Params.as_array``: Eq. 13's parameters, the law's code,
   rates per unit |D'| t times ``scale`` (given Eq. 18's g and c2), ``state_fabric(y)`` the part of the fabric it
   holds beyond A (packed), ``set_packing(y, u)`` sets what it holds of the packing fraction 1/u where a history or
   step starts, ``start(Dh, phi, values)`` that part (3x3) and the state where a history starts, and optionally
-  ``STATE_TOLERANCE``, the material-point update's tolerance on each, in units of A's;
+  ``STATE_TOLERANCE``, the material-point update's tolerance on each, in units of A's, and ``relaxing_part(v, Dh)``,
+  K:Dh over its relaxation rate for a part K of the fabric that relaxes fast (``model.stepper``);
 
 and for the independent reference (``model.reference``, plain numpy on 3x3 tensors) the same as
 ``reference_removal`` (given the law's own state and Phi where it reads them), ``reference_extra``,
 ``reference_offset``, and for a state ``reference_start``, ``reference_state_rate`` and ``reference_fabric``. A part
 a law leaves out is Eq. 13's (A, zero, zero, no state). The kernels call ``removal``, ``extra_rate``, ``offset``,
-``state_rates``, ``set_packing`` and ``state_fabric`` below, which branch on the law's code: nothing outside this
+``state_rates``, ``set_packing``, ``state_fabric`` and ``relaxing_part`` below, which branch on the law's code: nothing outside this
 module asks which law it is. Adding a law is its module, its entry in ``LAWS`` and a branch in each part it defines
 (``docs/extending.md``).
 """
