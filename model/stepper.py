@@ -13,6 +13,10 @@ velocity gradient to a given time. A continuum code's step spans a small strain,
    the interpolant's residual in the ODE there must pass the error norm (the defect check of
    ``model.integrator``), otherwise the step is retaken shorter.
 
+For a law whose state holds a part K of the fabric that relaxes over a small strain (``laws.relaxing_part``),
+Eq. 18's integral of g is carried as H = G + c1 K:Dh / c, whose rate has no part of that relaxation (``_rhs``), and
+each state variable's tolerance is scaled by the law's ``STATE_TOLERANCE``.
+
 Nothing is allocated: the caller passes the scratch. Coefficients: Cash & Karp (1990); scipy's
 RK45 (Dormand & Prince 1980, dense output of Shampine 1986).
 """
