@@ -21,9 +21,9 @@ and for the independent reference (``model.reference``, plain numpy on 3x3 tenso
 ``reference_removal`` (given the law's own state and Phi where it reads them), ``reference_extra``,
 ``reference_offset``, and for a state ``reference_start``, ``reference_state_rate`` and ``reference_fabric``. A part
 a law leaves out is Eq. 13's (A, zero, zero, no state). The kernels call ``removal``, ``extra_rate``, ``offset``,
-``state_rates``, ``set_packing``, ``state_fabric`` and ``relaxing_part`` below, which branch on the law's code: nothing outside this
-module asks which law it is. Adding a law is its module, its entry in ``LAWS`` and a branch in each part it defines
-(``docs/extending.md``).
+``state_rates``, ``set_packing``, ``state_fabric`` and ``relaxing_part`` below, which branch on the law's code:
+nothing outside this module asks which law it is. Adding a law is its module, its entry in ``LAWS`` and a branch in
+each part it defines (``docs/extending.md``).
 """
 
 from __future__ import annotations

@@ -369,7 +369,7 @@ def eq13_params(chosen, path: Path | None) -> tuple[model.Params, str]:
         if params.variant != model.params.DEFAULT_VARIANT:
             raise PipelineError(f"--params {path}: law {params.variant}, not Eq. 13's ({model.params.DEFAULT_VARIANT})")
         return params, f"the parameters of {path}"
-    from ..calibration.model_selection.__main__ import read
+    from ..calibration.model_selection.inputs import read
     from ..calibration.model_selection.judge import fit
 
     fitted, _ = fit(read(chosen), model.params.DEFAULT_VARIANT, "all", "runs")

@@ -9,8 +9,7 @@ import pytest
 import model
 from pipeline import schema
 from pipeline.calibration import global_fit
-from pipeline.calibration.model_selection import __main__ as cli
-from pipeline.calibration.model_selection import curves, judge, scores, splits, text
+from pipeline.calibration.model_selection import curves, inputs, judge, scores, splits, text
 from pipeline.dataset.derived import PAPER_DEFINITIONS
 from pipeline.errors import CalibrationError, PipelineError
 from tests.helpers import synthetic_run
@@ -45,9 +44,9 @@ def test_a_split_with_nothing_to_predict_or_nothing_to_fit_is_not_made():
     demo = [SimpleNamespace(theta_deg=t, default_rotation=True) for t in (180.0, 90.0)]
     assert [s.name for s in splits.splits(demo)] == ["without 180", "without 90"]
     assert splits.splits(demo[:1]) == []
-    assert cli.other_data_sets(None, ["none"]) == {}
+    assert inputs.other_data_sets(None, ["none"]) == {}
     with pytest.raises(CalibrationError, match="none stands alone"):
-        cli.other_data_sets(None, ["none", "reduced"])
+        inputs.other_data_sets(None, ["none", "reduced"])
 
 
 def test_a_law_that_cannot_run_the_held_out_cycle_fails_the_test(tmp_path):
@@ -159,11 +158,11 @@ def test_the_comparisons_z_is_a_unit_normal_about_its_noise_free_value(tmp_path)
 
 
 def test_the_laws_asked_for_are_judged_in_the_registrys_order_with_eq13s_first_and_an_unknown_one_is_refused():
-    assert cli.law_list("elastic") == [model.params.DEFAULT_VARIANT, "elastic"]
-    assert cli.law_list(" jump,loading ") == [model.params.DEFAULT_VARIANT, "loading", "jump"]
+    assert inputs.law_list("elastic") == [model.params.DEFAULT_VARIANT, "elastic"]
+    assert inputs.law_list(" jump,loading ") == [model.params.DEFAULT_VARIANT, "loading", "jump"]
     for bad in ("", "elastic,nope"):
-        with pytest.raises(cli.argparse.ArgumentTypeError, match="is not a comma-separated list of rk2025"):
-            cli.law_list(bad)
+        with pytest.raises(inputs.argparse.ArgumentTypeError, match="is not a comma-separated list of rk2025"):
+            inputs.law_list(bad)
 
 
 def test_the_models_figure_refuses_curves_whose_runs_changed_since(tmp_path):

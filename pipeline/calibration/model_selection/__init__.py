@@ -16,5 +16,5 @@ A held-out run is never in the fit nor in the noise model that weighs it: the no
 runs and scales the held-out residuals. Per held-out run and component: the RMS error over the cycle in units of the
 run's noise and per the DEM's steady value. Writes ``models.json``, ``models.md``, ``models.h5`` (the curves
 ``figures.models`` draws) and ``params-<variant>.json`` in ``results/<data set>/models/``. Modules: ``splits``,
-``judge`` (the fits), ``scores`` (held-out errors, the z-test), ``curves`` (the figure's data), ``text``.
+``judge`` (the fits), ``scores`` (held-out errors, the z-test), ``curves`` (the figure's data), ``text``, ``inputs``.
 """
