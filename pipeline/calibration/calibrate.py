@@ -125,7 +125,7 @@ class Calibration:
                 "params_stepwise": self.stepwise and self.stepwise.to_dict(), "params": self.params.to_dict(),
                 "cross_check": self.cross_check,
                 "global": None if self.refined is None else self.refined.estimates().to_dict(),
-                "noise": None if self.noise is None else self.noise.to_dict(),
+                "noise": None if self.noise is None else self.noise.summary().to_dict(),
                 "identifiability": self.identifiability and self.identifiability.to_dict(),
                 "next_runs": self.next_runs,
                 "dilatancy": None if self.dilatancy is None else self.dilatancy.estimates().to_dict(),

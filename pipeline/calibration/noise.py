@@ -29,6 +29,7 @@ import numpy as np
 from ..dataset.derived import cycle_D_dev, cycle_indices
 from ..dataset.smoothing import smooth_segments
 from ..errors import CalibrationError
+from ..schema import NoiseSummary
 
 #: the tensor components the global fit compares (12, 32, 11, 22, 13)
 COMPONENTS = ((0, 1), (2, 1), (0, 0), (1, 1), (0, 2))
@@ -121,17 +122,15 @@ class NoiseModel:
                     [behind[:0:-1], ahead])[by_lag]
         return out
 
-    def to_dict(self) -> dict:
-        names = [f"{i + 1}{j + 1}" for i, j in COMPONENTS]
+    def summary(self) -> NoiseSummary:
+        """The record ``fit.json`` keeps."""
         g = self.autocovariance
-        return {"source": self.source, "measured": self.measured, "components": names,
-                "sigma_cycle": {q: self.sigma_cycle[q].tolist() for q in QUANTITIES},
-                "sigma_seed": {q: self.sigma_seed[q].tolist() for q in QUANTITIES},
-                "correlation_strain": self.correlation_strain(),
-                "A_tau_correlation": [float(g[k, 0, 0, 1]) for k in range(len(COMPONENTS))],
-                "correlation_at_0.05_strain": {
-                    q: [float(g[k, min(round(0.05 / self.sample_strain), len(g[k]) - 1), x, x]) for k in range(len(g))]
-                    for x, q in enumerate(QUANTITIES)}}
+        lag = lambda k: min(round(0.05 / self.sample_strain), len(g[k]) - 1)  # noqa: E731
+        return NoiseSummary(self.source, self.measured, [f"{i + 1}{j + 1}" for i, j in COMPONENTS],
+                            {q: self.sigma_cycle[q].tolist() for q in QUANTITIES},
+                            {q: self.sigma_seed[q].tolist() for q in QUANTITIES}, self.correlation_strain(),
+                            [float(g[k, 0, 0, 1]) for k in range(len(COMPONENTS))],
+                            {q: [float(g[k, lag(k), x, x]) for k in range(len(g))] for x, q in enumerate(QUANTITIES)})
 
 
 def _deviation_series(blocks: list[dict], sigma: dict) -> list[list[np.ndarray]]:

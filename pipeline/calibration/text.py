@@ -18,11 +18,11 @@ def print_global(report: FitSummary) -> None:
     print(f"global fit on {len(report.global_runs)} run(s){weighting}; misfit {g.misfit:.2f} (chi^2 per degree "
           f"of freedom in units of {unit})")
     if not ident.noise_measured:
-        print(f"intervals: none ({nm['source']}): run two cycles or more, or three seeds")
+        print(f"intervals: none ({nm.source}): run two cycles or more, or three seeds")
     else:
-        print(f"intervals: 68 % from the DEM's noise ({nm['source']}; correlated over "
-              f"{min(min(v) for v in nm['correlation_strain'].values()):.2f}-"
-              f"{max(max(v) for v in nm['correlation_strain'].values()):.2f} strain), not scaled by the misfit; "
+        print(f"intervals: 68 % from the DEM's noise ({nm.source}; correlated over "
+              f"{min(min(v) for v in nm.correlation_strain.values()):.2f}-"
+              f"{max(max(v) for v in nm.correlation_strain.values()):.2f} strain), not scaled by the misfit; "
               f"they and 'determined' hold at the persistence exponent k = {report.persistence_exponent:g}, "
               "held (make fit-from profiles it)")
     if report.fit_from:

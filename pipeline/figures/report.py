@@ -103,12 +103,12 @@ def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
         return lines
     g, noise = fit.global_fit, fit.noise
     if not ident.noise_measured:
-        return lines + ["", f"No intervals: {noise['source']}. Two cycles per run, or three seeds, let the noise be "
+        return lines + ["", f"No intervals: {noise.source}. Two cycles per run, or three seeds, let the noise be "
                         "measured."]
-    lengths = [v for values in noise["correlation_strain"].values() for v in values]
-    lines += ["", f"Intervals from the DEM's own noise ({noise['source']}; correlated over "
+    lengths = [v for values in noise.correlation_strain.values() for v in values]
+    lines += ["", f"Intervals from the DEM's own noise ({noise.source}; correlated over "
               f"{min(lengths):.2f}-{max(lengths):.2f} strain, A and tau/p noise correlated at "
-              f"{min(noise['A_tau_correlation']):+.2f} to {max(noise['A_tau_correlation']):+.2f}), "
+              f"{min(noise.A_tau_correlation):+.2f} to {max(noise.A_tau_correlation):+.2f}), "
               f"not scaled by the misfit. Misfit: {g.misfit:.2f} (chi^2 per degree of freedom in noise units; "
               "1 = the model fits within the noise). `make fit-profile` gives the profile intervals, "
               "`make fit-bootstrap` a bootstrap of the noise."

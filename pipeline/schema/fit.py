@@ -99,6 +99,26 @@ class Estimates(Record):
 
 
 @dataclasses.dataclass(frozen=True)
+class NoiseSummary(Record):
+    """The DEM's noise as a fit measured it (``calibration.noise.NoiseModel``): where from, whether measured (two
+    cycles or three seeds), per fitted component (``components``) the noise per sample of a cycle and between seeds
+    for A and tau/p, its correlation strain (A's, tau/p's), A against tau/p's correlation, and the correlation at 0.05
+    strain."""
+
+    WHAT = "noise summary"
+    RENAMED = {"correlation_at_0.05_strain": "correlation_at_005_strain"}
+
+    source: str
+    measured: bool
+    components: list
+    sigma_cycle: dict
+    sigma_seed: dict
+    correlation_strain: dict
+    A_tau_correlation: list
+    correlation_at_005_strain: dict
+
+
+@dataclasses.dataclass(frozen=True)
 class ParameterInterval(Record):
     """One fitted parameter: its value, standard error from the noise (None where the data fix nothing along it),
     status ("determined", "loosely determined", "not determined", or why there is none) and its intervals per level
@@ -212,7 +232,7 @@ class FitSummary:
     params: dict
     cross_check: list
     global_fit: Estimates | None
-    noise: dict | None
+    noise: NoiseSummary | None
     identifiability: Identifiability | None
     next_runs: list | None
     dilatancy: Estimates | None
@@ -227,14 +247,14 @@ class FitSummary:
     def from_dict(cls, data: dict, path="fit.json") -> FitSummary:
         fields = _fields_of(cls, data, path, "fit summary", {"global": "global_fit"})
         for name, record in (("bootstrap", Bootstrap), ("jackknife", Jackknife), ("identifiability", Identifiability),
-                             ("global_fit", Estimates), ("dilatancy", Estimates)):
+                             ("global_fit", Estimates), ("dilatancy", Estimates), ("noise", NoiseSummary)):
             if fields.get(name) is not None:
                 fields[name] = record.from_dict(fields[name], path)
         return cls(**fields)
 
     def to_dict(self) -> dict:
         out = {"schema_version": self.VERSION, **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)}}
-        for name in ("bootstrap", "jackknife", "identifiability", "global_fit", "dilatancy"):
+        for name in ("bootstrap", "jackknife", "identifiability", "global_fit", "dilatancy", "noise"):
             out[name] = None if out[name] is None else out[name].to_dict()
         out["global"] = out.pop("global_fit")
         return out

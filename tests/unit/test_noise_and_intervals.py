@@ -24,7 +24,7 @@ def test_the_noise_model_measures_the_scatter_its_correlation_and_the_a_tau_coup
     assert nm.sigma_cycle["tau_over_p"][1] == pytest.approx(0.01, rel=0.25)
     # AR(1) with correlation exp(-lag/0.03): integrated length 0.005 (1 + rho)/(1 - rho) = 0.060, less the taper's bias
     assert 0.03 < nm.correlation_strain()["A"][0] < 0.08
-    assert nm.to_dict()["A_tau_correlation"][0] == pytest.approx(-0.5, abs=0.15)
+    assert nm.summary().A_tau_correlation[0] == pytest.approx(-0.5, abs=0.15)
     white = noise.estimate([synthetic_run(tmp_path, name=f"w{s}", n_cycles=4, seed=s, noise=0.01) for s in range(2)])
     assert white.correlation_strain()["A"][0] < 0.012
 
@@ -135,7 +135,7 @@ def test_a_model_that_misses_the_runs_says_so_beside_intervals_widened_by_the_ro
         blank = {f.name: None for f in dataclasses.fields(FitSummary)}
         estimates = dataclasses.replace(fit, misfit=misfit).estimates()
         report = FitSummary(**{**blank, "global_fit": estimates, "identifiability": ident,
-                               "noise": nm.to_dict(), "global_runs": runs, "weight": "runs",
+                               "noise": nm.summary(), "global_runs": runs, "weight": "runs",
                                "persistence_exponent": 0.75})
         print_global(report)
         said[label] = (capsys.readouterr().out, "\n".join(parameter_lines(TRUE, TRUE, report)))
@@ -240,7 +240,7 @@ def test_without_a_measured_noise_there_are_no_intervals_and_no_verdict_on_table
             for t in (180.0, 90.0)]
     report = calibrate(runs[:1], tmp_path / "fit", cross_runs=runs[1:])
     ident = report.identifiability
-    assert not report.noise["measured"] and not ident.noise_measured and ident.table2 is None
+    assert not report.noise.measured and not ident.noise_measured and ident.table2 is None
     assert all(p.intervals["68"] is None and p.status.startswith("no interval") for p in ident.parameters.values())
     assert report.next_runs == []
 
