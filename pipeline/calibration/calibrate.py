@@ -127,7 +127,7 @@ class Calibration:
                 "global": None if self.refined is None else self.refined.estimates().to_dict(),
                 "noise": None if self.noise is None else self.noise.summary().to_dict(),
                 "identifiability": self.identifiability and self.identifiability.to_dict(),
-                "next_runs": self.next_runs,
+                "next_runs": [r.to_dict() for r in self.next_runs],
                 "dilatancy": None if self.dilatancy is None else self.dilatancy.estimates().to_dict(),
                 "bootstrap": self.bootstrap and self.bootstrap.to_dict(),
                 "jackknife": self.jackknife and self.jackknife.to_dict(), "global_runs": self.global_runs,

@@ -24,6 +24,7 @@ import model
 
 from ..dataset.derived import bulk_over_nominal
 from ..errors import CalibrationError
+from ..schema import CandidateRun
 from . import covariance, global_fit
 from .fit_cycle import FitCycle
 from .noise import NoiseModel
@@ -145,18 +146,16 @@ def rank(fit: global_fit.GlobalFit, noise: NoiseModel, runs: list, left_out: lis
         try:
             probe, part = parts_of(c)
         except (model.SolverError, model.ParameterError, ValueError, CalibrationError) as exc:
-            failed.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "error": str(exc)})
+            failed.append(CandidateRun(c.label, c.theta_deg, c.rotate_at, str(exc)))
             continue
         weights = [d.weight for d in global_fit.weighed([*data, probe], weight)]
         after = measures(covariance.sandwich([*present, part], weights)[0])
         hours = c.cost_factor * c.strain_run(spec.period_strain, spec.pre_strain) * seconds_per_strain / 3600
         gain = 1 - after[0] / before[0]
-        out.append({"run": c.label, "theta_deg": c.theta_deg, "rotate_at": c.rotate_at, "n_cycles": c.n_cycles,
-                    "sample_strain": c.sample_strain, "cpu_hours": hours,
-                    "weakest_before": before[0], "weakest_after": after[0],
-                    "worst_relative_se_before": before[1], "worst_relative_se_after": after[1],
-                    "gain_per_cpu_hour": gain / hours if hours > 0 else float("inf") if gain > 0 else float("-inf")})
-    return sorted(out, key=lambda r: -r["gain_per_cpu_hour"]) + failed
+        out.append(CandidateRun(c.label, c.theta_deg, c.rotate_at, None, c.n_cycles, c.sample_strain, hours,
+                                before[0], after[0], before[1], after[1],
+                                gain / hours if hours > 0 else float("inf") if gain > 0 else float("-inf")))
+    return sorted(out, key=lambda r: -r.gain_per_cpu_hour) + failed
 
 
 def _protocol(theta_deg: float, rotate_at: float, n_cycles: int, sample_strain: float) -> tuple:

@@ -69,19 +69,19 @@ def interval_text(band) -> str:
 
 
 def print_next_runs(report: FitSummary, count: int = 5) -> None:
-    ranked = [r for r in report.next_runs if "error" not in r]
+    ranked = [r for r in report.next_runs if r.error is None]
     if not ranked:
         if report.next_runs:
             first = report.next_runs[0]
             print(f"runs that would fix the weakest combination: none can be told, no candidate can be weighed at the "
-                  f"best fit (the first, {first['run']}: {first['error']}; fit.json: next_runs)")
+                  f"best fit (the first, {first.run}: {first.error}; fit.json: next_runs)")
         return
     first = ranked[0]
-    print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first['weakest_before']:.3g}; "
+    print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first.weakest_before:.3g}; "
           "fit.json: next_runs" + ("; another seed of an angle shares that angle's weight"
                                    if report.weight == "angles" else "") + "):")
     for r in ranked[:count]:
-        print(f"  {r['run']}: ±{r['weakest_after']:.3g}, {r['cpu_hours']:.2f} CPU-hours")
+        print(f"  {r.run}: ±{r.weakest_after:.3g}, {r.cpu_hours:.2f} CPU-hours")
 
 
 def print_residual_map(report: FitSummary, top: int = 4) -> None:

@@ -150,20 +150,20 @@ def fit_runs_sentence(fit: FitSummary | None) -> str:
 def next_runs_lines(fit: FitSummary) -> list[str]:
     """The best new runs per CPU-hour (``fit.json`` → ``next_runs``), each joined to the fit's runs with its
     weighting."""
-    runs = [r for r in fit.next_runs or [] if "error" not in r]  # last: those that cannot be weighed
+    runs = [r for r in fit.next_runs or [] if r.error is None]  # last: those that cannot be weighed
     if not runs:
         failed = fit.next_runs or []
         return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
                 f"None can be told: no candidate can be weighed at the best fit (the first, "
-                f"{failed[0]['run']}: {failed[0]['error']}; fit.json: next_runs)."] if failed else []
+                f"{failed[0].run}: {failed[0].error}; fit.json: next_runs)."] if failed else []
     return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
-            f"Its relative ± is {runs[0]['weakest_before']:.3g} now (fit.json: next_runs, every candidate); each "
+            f"Its relative ± is {runs[0].weakest_before:.3g} now (fit.json: next_runs, every candidate); each "
             "run is joined to the fit's runs"
             + (" with each angle counted once, so another seed of an angle shares that angle's weight."
                if fit.weight == "angles" else ", each counting once."), "",
             "| run | weakest ± after | largest relative ± after | CPU-hours |", "|---|---|---|---|",
-            *(f"| {r['run']} | {r['weakest_after']:.3g} | {r['worst_relative_se_after']:.3g} | "
-              f"{r['cpu_hours']:.2f} |" for r in runs[:6])]
+            *(f"| {r.run} | {r.weakest_after:.3g} | {r.worst_relative_se_after:.3g} | "
+              f"{r.cpu_hours:.2f} |" for r in runs[:6])]
 
 
 def jump_lines(rows: list[dict], paper: dict) -> list[str]:

@@ -11,6 +11,7 @@ from .base import MadeFrom, Record, read_json_object
 from .fit import (
     FIT_VERSION,
     Bootstrap,
+    CandidateRun,
     Combination,
     Estimates,
     FitSummary,
@@ -53,11 +54,10 @@ from .params import PARAMS_METADATA_VERSION, ParamsFile, read_params, write_para
 
 __all__ = [
     "COMPARE_SCHEMA", "COMPARE_VERSION", "FIT_VERSION", "METRICS_VERSION", "MODELS_SCHEMA", "MODELS_VERSION",
-    "PARAMS_METADATA_VERSION", "AcrossScore", "Bootstrap", "Combination", "Estimates", "FitSummary", "HeldOut",
-    "Identifiability", "Jackknife", "Judgement", "LawScore", "MadeFrom", "Metrics", "ModelsSummary",
-    "NoiseSummary", "ParameterInterval", "ParamsFile", "Record", "SplitScore", "SpreadOverAngles", "StepwiseBootstrap",
-    "Table2Test",
-    "check_compare", "check_compared", "check_fitted", "models_json", "read_fit",
+    "PARAMS_METADATA_VERSION", "AcrossScore", "Bootstrap", "CandidateRun", "Combination", "Estimates", "FitSummary",
+    "HeldOut", "Identifiability", "Jackknife", "Judgement", "LawScore", "MadeFrom", "Metrics", "ModelsSummary",
+    "NoiseSummary", "ParameterInterval", "ParamsFile", "Record", "SplitScore", "SpreadOverAngles",
+    "StepwiseBootstrap", "Table2Test", "check_compare", "check_compared", "check_fitted", "models_json", "read_fit",
     "read_json_object", "read_metrics", "read_models", "read_models_h5", "read_params", "stamp_compare",
     "write_fit", "write_models_h5", "write_params",
 ]

@@ -119,6 +119,28 @@ class NoiseSummary(Record):
 
 
 @dataclasses.dataclass(frozen=True)
+class CandidateRun(Record):
+    """A run the fit could add (``calibration.design.rank``): its protocol, cycles and sampling, its cost in
+    CPU-hours, the weakest combination's ± and the largest relative ± before and after joining it, and the gain per
+    CPU-hour; or, for one that cannot be weighed at the best fit, ``error`` (its other numbers None)."""
+
+    WHAT = "candidate run"
+
+    run: str
+    theta_deg: float
+    rotate_at: float
+    error: str | None = None
+    n_cycles: int | None = None
+    sample_strain: float | None = None
+    cpu_hours: float | None = None
+    weakest_before: float | None = None
+    weakest_after: float | None = None
+    worst_relative_se_before: float | None = None
+    worst_relative_se_after: float | None = None
+    gain_per_cpu_hour: float | None = None
+
+
+@dataclasses.dataclass(frozen=True)
 class ParameterInterval(Record):
     """One fitted parameter: its value, standard error from the noise (None where the data fix nothing along it),
     status ("determined", "loosely determined", "not determined", or why there is none) and its intervals per level
@@ -234,7 +256,7 @@ class FitSummary:
     global_fit: Estimates | None
     noise: NoiseSummary | None
     identifiability: Identifiability | None
-    next_runs: list | None
+    next_runs: list | None  # of CandidateRun
     dilatancy: Estimates | None
     bootstrap: Bootstrap | None
     jackknife: Jackknife | None
@@ -250,10 +272,13 @@ class FitSummary:
                              ("global_fit", Estimates), ("dilatancy", Estimates), ("noise", NoiseSummary)):
             if fields.get(name) is not None:
                 fields[name] = record.from_dict(fields[name], path)
+        if fields.get("next_runs") is not None:
+            fields["next_runs"] = [CandidateRun.from_dict(r, path) for r in fields["next_runs"]]
         return cls(**fields)
 
     def to_dict(self) -> dict:
         out = {"schema_version": self.VERSION, **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)}}
+        out["next_runs"] = None if self.next_runs is None else [r.to_dict() for r in self.next_runs]
         for name in ("bootstrap", "jackknife", "identifiability", "global_fit", "dilatancy", "noise"):
             out[name] = None if out[name] is None else out[name].to_dict()
         out["global"] = out.pop("global_fit")

@@ -589,10 +589,11 @@ def test_the_printout_says_why_no_new_run_is_ranked_when_none_can_be_weighed(cap
     segments are too short to restart in), the printout says so with the first reason instead of leaving the
     ranking out without a word."""
     from pipeline.calibration.text import print_next_runs
+    from pipeline.schema import CandidateRun
 
     print_next_runs(fit_summary(next_runs=[
-        {"run": "another reversal seed (theta = 180)", "error": "dop853: too many steps"},
-        {"run": "another seed at theta = 30", "error": "dop853: too many steps"}]))
+        CandidateRun("another reversal seed (theta = 180)", 180.0, 0.7, "dop853: too many steps"),
+        CandidateRun("another seed at theta = 30", 30.0, 0.7, "dop853: too many steps")]))
     out = capsys.readouterr().out
     assert out.startswith("runs that would fix the weakest combination: none can be told")
     assert "another reversal seed (theta = 180): dop853: too many steps" in out

@@ -291,17 +291,18 @@ def test_the_report_shows_the_fit_against_the_restart_in_standard_errors_from_ta
 
 def test_the_report_says_how_new_runs_join_the_fit():
     from pipeline.figures.report import next_runs_lines
+    from pipeline.schema import CandidateRun
 
-    ranked = {"run": "another seed at theta = 120", "weakest_before": 0.14, "weakest_after": 0.11,
-              "worst_relative_se_after": 0.11, "cpu_hours": 5.6}
-    per_run = next_runs_lines(fit_summary(next_runs=[ranked, {"run": "x", "error": "fails"}]))
+    ranked = CandidateRun("another seed at theta = 120", 120.0, 0.7, cpu_hours=5.6, weakest_before=0.14,
+                          weakest_after=0.11, worst_relative_se_after=0.11)
+    per_run = next_runs_lines(fit_summary(next_runs=[ranked, CandidateRun("x", 30.0, 0.7, "fails")]))
     assert per_run[-1] == "| another seed at theta = 120 | 0.11 | 0.11 | 5.60 |" and len(per_run) == 8
     assert per_run[3].endswith("each counting once.")
     per_angle = next_runs_lines(fit_summary(weight="angles", next_runs=[ranked]))
     assert per_angle[3].endswith("another seed of an angle shares that angle's weight.")
     assert next_runs_lines(fit_summary(next_runs=[])) == []
-    failed = next_runs_lines(fit_summary(next_runs=[{"run": "another seed at theta = 30",
-                                                     "error": "dop853: too many steps"}]))
+    failed = next_runs_lines(fit_summary(next_runs=[CandidateRun("another seed at theta = 30", 30.0, 0.7,
+                                                                 "dop853: too many steps")]))
     assert failed[-1].startswith("None can be told: no candidate can be weighed at the best fit")
     assert "another seed at theta = 30: dop853: too many steps" in failed[-1]
 

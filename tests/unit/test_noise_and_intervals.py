@@ -9,7 +9,7 @@ import model
 from pipeline.calibration import covariance, global_fit, identifiability, noise, resampling
 from pipeline.calibration.fit_cycle import FitCycle
 from pipeline.calibration.profile import profiles
-from pipeline.schema import FitSummary
+from pipeline.schema import CandidateRun, FitSummary
 from tests.helpers import synthetic_run
 
 TRUE = model.Params()
@@ -270,17 +270,16 @@ def test_the_next_runs_are_as_long_as_the_data_sets_and_priced_by_its_cpu_time(t
     for run in runs:
         run.parameters["cpu_seconds"] = 3600.0 * (PRE + 3 * PERIOD)
     ranked = calibrate(runs[:1], tuple(runs[1:])).next_runs
-    assert ranked[-1] == {"run": "another seed at theta = 150", "theta_deg": 150.0, "rotate_at": 0.7,
-                          "error": "dop853: too many steps"}
-    rows = {r["run"]: r for r in ranked[:-1]}
+    assert ranked[-1] == CandidateRun("another seed at theta = 150", 150.0, 0.7, "dop853: too many steps")
+    rows = {r.run: r for r in ranked[:-1]}
     seed = rows["another reversal seed (theta = 180)"]
-    assert seed["n_cycles"] == 3 and seed["cpu_hours"] == pytest.approx(PRE + 3 * PERIOD)
-    assert rows["a reversal run for 6 cycles instead of 3"]["cpu_hours"] == pytest.approx(PRE + 6 * PERIOD)
+    assert seed.n_cycles == 3 and seed.cpu_hours == pytest.approx(PRE + 3 * PERIOD)
+    assert rows["a reversal run for 6 cycles instead of 3"].cpu_hours == pytest.approx(PRE + 6 * PERIOD)
     dense = rows.pop("a reversal sampled every 0.001 strain")
-    assert all(r["weakest_after"] <= r["weakest_before"] * (1 + 1e-9) for r in rows.values())
+    assert all(r.weakest_after <= r.weakest_before * (1 + 1e-9) for r in rows.values())
     # five times the samples, correlated over the noise's length, weighed by the least squares as if independent
-    assert dense["weakest_after"] > dense["weakest_before"] and dense is ranked[-2]
-    assert seed["weakest_after"] < seed["weakest_before"]
+    assert dense.weakest_after > dense.weakest_before and dense is ranked[-2]
+    assert seed.weakest_after < seed.weakest_before
 
 
 @pytest.mark.slow
@@ -298,7 +297,7 @@ def test_the_ranking_predicts_the_errors_of_the_refit_with_the_new_run(tmp_path,
         run.parameters["cpu_seconds"] = 3600.0
     data, nm = global_fit.prepare(runs, fit_from, weight=weight)
     fit = global_fit.refine(data, TRUE, noise=nm)
-    ranked = {r["run"]: r for r in design.rank(fit, nm, runs, [], data, weight=weight)}
+    ranked = {r.run: r for r in design.rank(fit, nm, runs, [], data, weight=weight)}
     weakest = np.array([fit.directions[0]["direction"][n] for n in fit.names]) / np.abs(fit.values)
     for label, theta in (("another seed at theta = 90", 90.0), ("another seed at theta = 60", 60.0),
                          ("another reversal seed (theta = 180)", 180.0)):
@@ -306,8 +305,8 @@ def test_the_ranking_predicts_the_errors_of_the_refit_with_the_new_run(tmp_path,
         refit = global_fit.refine(global_fit.weighed([*data, global_fit.scaled_cycle(new, nm, fit_from)], weight),
                                   fit.params, noise=nm)
         after = float(np.sqrt(weakest @ refit.covariance @ weakest))
-        assert ranked[label]["weakest_after"] == pytest.approx(after, rel=0.1), label
-        assert ranked[label]["weakest_after"] < ranked[label]["weakest_before"]
+        assert ranked[label].weakest_after == pytest.approx(after, rel=0.1), label
+        assert ranked[label].weakest_after < ranked[label].weakest_before
 
 
 def test_a_candidate_of_a_fit_past_the_jump_is_restarted_from_the_models_state_or_says_why_it_cannot_be():
@@ -350,18 +349,18 @@ def test_runs_of_the_data_set_are_weighed_from_their_own_data_even_where_the_mod
         raise model.SolverError("dop853: too many steps")
 
     monkeypatch.setattr(design, "candidate_data", failing)
-    ranked = {r["run"]: r for r in design.rank(fit, nm, runs, [kept], data)}
+    ranked = {r.run: r for r in design.rank(fit, nm, runs, [kept], data)}
     weakest = np.array([fit.directions[0]["direction"][n] for n in fit.names]) / np.abs(fit.values)
     refit = global_fit.refine([*data, global_fit.scaled_cycle(kept, nm)], fit.params, noise=nm)
     committed = ranked["fit the committed theta = 60, rotated at 0.7 (no new run)"]
-    assert committed["weakest_after"] == pytest.approx(float(np.sqrt(weakest @ refit.covariance @ weakest)), rel=0.1)
-    assert ranked["another seed at theta = 60"]["weakest_after"] == committed["weakest_after"]
+    assert committed.weakest_after == pytest.approx(float(np.sqrt(weakest @ refit.covariance @ weakest)), rel=0.1)
+    assert ranked["another seed at theta = 60"].weakest_after == committed.weakest_after
     present = covariance.run_parts(fit.jacobian, data, nm)
     at_90 = covariance.sandwich([*present, present[2]], [1.0] * 4)[0]
-    assert ranked["another seed at theta = 90"]["weakest_after"] == pytest.approx(
+    assert ranked["another seed at theta = 90"].weakest_after == pytest.approx(
         float(np.sqrt(weakest @ at_90 @ weakest)), rel=1e-12)
-    assert ranked["another reversal seed (theta = 180)"]["weakest_after"] < committed["weakest_before"]
-    assert ranked["another seed at theta = 30"]["error"] == "dop853: too many steps"
+    assert ranked["another reversal seed (theta = 180)"].weakest_after < committed.weakest_before
+    assert ranked["another seed at theta = 30"].error == "dop853: too many steps"
 
 
 def test_a_committed_turn_of_fig_7_is_offered_as_fitted_or_as_another_seed_not_as_new():
