@@ -9,7 +9,7 @@ import model
 
 from .. import io
 from ..errors import PipelineError
-from .base import MadeFrom, Record, _fields_of, read_json_object
+from .base import MadeFrom, Record, read_json_object
 from .params import read_params
 
 FIT_VERSION = 2  # 2: made_from
@@ -232,12 +232,16 @@ class Identifiability(Record):
 
 
 @dataclasses.dataclass(frozen=True)
-class FitSummary:
+class FitSummary(Record):
     """``fit.json``: the calibration of one data set (``make fit``). ``params`` are the fit's; ``global_fit`` the
     global refinement's estimates, errors and misfit (the file's ``global``); ``identifiability`` what the data fix;
     ``noise`` the noise model; the rest, the tables ``report.md`` and ``make fit`` print."""
 
     VERSION = FIT_VERSION
+    WHAT = "fit summary"
+    RENAMED = {"global": "global_fit"}
+    NESTED = {"bootstrap": Bootstrap, "jackknife": Jackknife, "identifiability": Identifiability,
+              "global_fit": Estimates, "dilatancy": Estimates, "noise": NoiseSummary, "next_runs": CandidateRun}
 
     method: str
     definitions: dict
@@ -265,24 +269,8 @@ class FitSummary:
     notes: list
     made_from: dict
 
-    @classmethod
-    def from_dict(cls, data: dict, path="fit.json") -> FitSummary:
-        fields = _fields_of(cls, data, path, "fit summary", {"global": "global_fit"})
-        for name, record in (("bootstrap", Bootstrap), ("jackknife", Jackknife), ("identifiability", Identifiability),
-                             ("global_fit", Estimates), ("dilatancy", Estimates), ("noise", NoiseSummary)):
-            if fields.get(name) is not None:
-                fields[name] = record.from_dict(fields[name], path)
-        if fields.get("next_runs") is not None:
-            fields["next_runs"] = [CandidateRun.from_dict(r, path) for r in fields["next_runs"]]
-        return cls(**fields)
-
     def to_dict(self) -> dict:
-        out = {"schema_version": self.VERSION, **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)}}
-        out["next_runs"] = None if self.next_runs is None else [r.to_dict() for r in self.next_runs]
-        for name in ("bootstrap", "jackknife", "identifiability", "global_fit", "dilatancy", "noise"):
-            out[name] = None if out[name] is None else out[name].to_dict()
-        out["global"] = out.pop("global_fit")
-        return out
+        return {"schema_version": self.VERSION, **super().to_dict()}
 
 
 def write_fit(path: Path, summary: FitSummary) -> None:
