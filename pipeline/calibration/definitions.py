@@ -26,6 +26,7 @@ from ..dataset.derived import Definitions
 from ..dataset.lookup import fit_runs
 from ..errors import CalibrationError, PipelineError
 from ..paths import preset_output
+from ..schema import FitRow, OwnReversal
 from . import global_fit, identifiability
 from .options import add_weight_argument, weighted_label
 from .residual_map import residual_map
@@ -35,7 +36,7 @@ NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
 
 def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
             persistence_exponent: float = 0.75, stress: str = global_fit.STRESS_DEFAULT,
-            weight: str = global_fit.WEIGHT_DEFAULT) -> dict:
+            weight: str = global_fit.WEIGHT_DEFAULT) -> FitRow:
     """The global fit of ``runs`` read with ``definitions`` (restarted ``fit_from`` past each change of direction,
     with the persistence exponent held at ``persistence_exponent``, the runs weighted by ``weight``): parameters,
     standard errors from the noise, status, misfit, chi^2, Table 2 as a hypothesis, and the share of chi^2 within
@@ -53,18 +54,16 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
         note = f"Eq. 18's c2_coef and Phi_c not determined ({exc}): Table 2's shown"
         se.update({n: float("nan") for n in ("c2_coef", "phi_c")})
     summary = identifiability.summary(refined, data)
-    return {"definitions": dataclasses.asdict(definitions), "stress_fitted": stress, "weight": weight,
-            "fit_from": fit_from,
-            "persistence_exponent": persistence_exponent, "dilatancy_note": note,
-            "params": {n: getattr(params, n) for n in NAMES}, "model_params": params.to_dict(),
-            "standard_errors": {n: se[n] for n in NAMES},
-            "status": {n: p.status for n, p in summary.parameters.items()},
-            "misfit": refined.misfit, "chi2": refined.chi2, "table2": summary.table2 and summary.table2.to_dict(),
-            "chi2_share_after_changes": early_share(refined, data), "own_reversal": own_reversal(params),
-            "mean_packing_fraction": float(np.mean(np.concatenate([d.phi for d in data])))}
+    return FitRow(dataclasses.asdict(definitions), stress, weight, fit_from, persistence_exponent, note,
+                  params={n: getattr(params, n) for n in NAMES}, model_params=params,
+                  standard_errors={n: se[n] for n in NAMES},
+                  status={n: p.status for n, p in summary.parameters.items()}, misfit=refined.misfit,
+                  chi2=refined.chi2, table2=summary.table2, chi2_share_after_changes=early_share(refined, data),
+                  own_reversal=own_reversal(params),
+                  mean_packing_fraction=float(np.mean(np.concatenate([d.phi for d in data]))))
 
 
-def own_reversal(params: model.Params) -> dict:
+def own_reversal(params: model.Params) -> OwnReversal:
     """The model's own reversal cycle (theta = 180) with ``params``: the rate a1 + a2 |A| at which the fabric
     leaves the reversal (``model.reversal_start_rate``; positive, it grows along its old direction) and the peak
     |A| over the cycle per the steady |A|, or the solver's reason where the cycle cannot be computed (the rate too,
@@ -73,14 +72,13 @@ def own_reversal(params: model.Params) -> dict:
     try:
         rate = model.reversal_start_rate(params)
     except model.SolverError as exc:  # no steady state to reverse from
-        return {"start_rate": None, "peak_over_steady": None,
-                "error": "no steady state: " + str(exc).split(" (parameters off")[0]}
+        return OwnReversal(None, None, "no steady state: " + str(exc).split(" (parameters off")[0])
     try:
         cycle = model.predict(180, params=params)
     except model.SolverError as exc:
-        return {"start_rate": rate, "peak_over_steady": None, "error": str(exc).split(" (parameters off")[0]}
+        return OwnReversal(rate, None, str(exc).split(" (parameters off")[0])
     steady = model.modulus(model.steady_state(model.shear_velocity_gradient(0.0), params)[0])
-    return {"start_rate": rate, "peak_over_steady": float(model.modulus(cycle.A).max() / steady), "error": None}
+    return OwnReversal(rate, float(model.modulus(cycle.A).max() / steady), None)
 
 
 #: the strain after a change of direction over which ``early_share`` sums the residuals
@@ -102,19 +100,18 @@ def preset_fit_runs(chosen: selection.DataSet) -> list:
     return runs
 
 
-def compare_definitions(runs: list, weight: str = global_fit.WEIGHT_DEFAULT) -> list[dict]:
+def compare_definitions(runs: list, weight: str = global_fit.WEIGHT_DEFAULT) -> list[FitRow]:
     rows = []
     for stress, (strain, phi, pressure) in itertools.product(global_fit.STRESS_FITS,
                                                              itertools.product(*Definitions.CHOICES.values())):
         definitions = Definitions(strain, phi, pressure)
         rows.append(fit_row(runs, definitions, stress=stress, weight=weight))
-        t = rows[-1]["table2"]
-        print(f"{definitions.label()}, tau {stress}: misfit {rows[-1]['misfit']:.2f}, "
-              f"Table 2 chi^2 {t['relative_rise']:+.1%}", flush=True)
+        print(f"{definitions.label()}, tau {stress}: misfit {rows[-1].misfit:.2f}, "
+              f"Table 2 chi^2 {rows[-1].table2.relative_rise:+.1%}", flush=True)
     return rows
 
 
-def markdown(rows: list[dict], label: str) -> str:
+def markdown(rows: list[FitRow], label: str) -> str:
     head = ("| τ fitted | strain | Φ | p | " + " | ".join(NAMES)
             + " | misfit | Table 2: χ² rise | in 95 % region (noise / widened) | mean Φ |")
     lines = [f"# The global fit under each definition: `{label}`", "",
@@ -128,13 +125,12 @@ def markdown(rows: list[dict], label: str) -> str:
              head, "|" + "---|" * (len(NAMES) + 8)]
     yes = {True: "yes", False: "no", None: "n/a"}
     for r in rows:
-        d, p, se, t = r["definitions"], r["params"], r["standard_errors"], r["table2"]
+        d, p, se, t = Definitions(**r.definitions), r.params, r.standard_errors, r.table2
         cells = " | ".join(f"{p[n]:+.4g} ± {se[n]:.2g}" if se[n] is not None and np.isfinite(se[n])
                            else f"{p[n]:+.4g} (open)" for n in NAMES)
-        inside = (f"{yes[t['inside']['95']]} / {yes[t['inside_misfit_widened']['95']]}" if t["quantiles"]
-                  else "n/a")
-        lines.append(f"| {r['stress_fitted']} | {d['strain']} | {d['phi']} | {d['pressure']} | {cells} | "
-                     f"{r['misfit']:.2f} | {t['relative_rise']:+.1%} | {inside} | {r['mean_packing_fraction']:.3f} |")
+        inside = f"{yes[t.inside_95]} / {yes[t.inside_95_widened]}" if t.quantiles else "n/a"
+        lines.append(f"| {r.stress_fitted} | {d.strain} | {d.phi} | {d.pressure} | {cells} | "
+                     f"{r.misfit:.2f} | {t.relative_rise:+.1%} | {inside} | {r.mean_packing_fraction:.3f} |")
     paper = model.Params()
     lines.append("| Table 2 | | | | " + " | ".join(f"{getattr(paper, n):+.4g}" for n in NAMES) + " | | | | |")
     return "\n".join(lines) + "\n"
@@ -151,7 +147,8 @@ def main(argv=None) -> int:
     out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
     rows = compare_definitions(preset_fit_runs(chosen), args.weight)
     label = weighted_label(chosen.label, args.weight)
-    print(f"wrote {io.write_table(out, 'definitions', rows, markdown(rows, label))} and definitions.json")
+    print(f"wrote {io.write_table(out, 'definitions', [r.to_dict() for r in rows], markdown(rows, label))} and "
+          "definitions.json")
     return 0
 
 

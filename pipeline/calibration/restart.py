@@ -14,6 +14,7 @@ and each row's parameters in ``fit_from/from<gamma0>-k<k>-runs<n>.json``, which
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 
@@ -27,6 +28,7 @@ from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS, states_after_changes
 from ..errors import PipelineError
 from ..paths import preset_output
+from ..schema import FitRow, OwnReversal
 from . import global_fit
 from .definitions import NAMES, fit_row, own_reversal, preset_fit_runs
 from .options import add_weight_argument, weighted_label
@@ -65,21 +67,21 @@ def settings(runs: list, fit_from=FIT_FROM, exponents=EXPONENTS) -> list[tuple]:
 
 
 def table(runs: list, fit_from=FIT_FROM, exponents=EXPONENTS, definitions=PAPER_DEFINITIONS,
-          weight: str = global_fit.WEIGHT_DEFAULT) -> list[dict]:
+          weight: str = global_fit.WEIGHT_DEFAULT) -> list[FitRow]:
     """One fit per ``settings`` row, with the number of runs it used (weighted by ``weight`` among them)."""
     todo = settings(runs, fit_from, exponents)
     rows, tic = [], time.time()
     for done, (g, k, used) in enumerate(todo, start=1):
-        rows.append({**fit_row(used, definitions, g, k, weight=weight), "runs": len(used)})
-        t = rows[-1]["table2"]
+        rows.append(dataclasses.replace(fit_row(used, definitions, g, k, weight=weight), runs=len(used)))
+        r = rows[-1]
         eta = (time.time() - tic) / done * (len(todo) - done)
         print(f"[{done}/{len(todo)}, {done / len(todo):.0%}] fit from {g:g}, k = {k:g}, {len(used)} runs: misfit "
-              f"{rows[-1]['misfit']:.3f}, chi^2 {rows[-1]['chi2']:.0f}, Table 2 chi^2 {t['relative_rise']:+.1%}; "
+              f"{r.misfit:.3f}, chi^2 {r.chi2:.0f}, Table 2 chi^2 {r.table2.relative_rise:+.1%}; "
               f"ETA {eta:.0f} s", flush=True)
     return rows
 
 
-def markdown(rows: list[dict], label: str) -> str:
+def markdown(rows: list[FitRow], label: str) -> str:
     shown = NAMES[:7]
     lines = [f"# The global fit past the reversal jump: `{label}`", "",
              "Paper's definitions (nominal strain, Φ of the gap, τ over the controlled p). *γ0*: the model restarts "
@@ -100,25 +102,25 @@ def markdown(rows: list[dict], label: str) -> str:
              "|" + "---|" * (len(shown) + 9)]
     yes = {True: "yes", False: "no", None: "n/a"}
     for r in rows:
-        p, se, t = r["params"], r["standard_errors"], r["table2"]
+        p, se, t = r.params, r.standard_errors, r.table2
         cells = " | ".join(f"{p[n]:+.4g} ± {se[n]:.2g}" if se[n] is not None and np.isfinite(se[n])
-                           and r["status"].get(n) != "not determined" else f"{p[n]:+.4g} (open)" for n in shown)
-        inside = yes[t["inside"]["95"]] if t["quantiles"] else "n/a"
-        lines.append(f"| {r['fit_from']:g} | {r['persistence_exponent']:g} | {r['runs']} | {cells} | "
-                     f"{r['misfit']:.3f} | {r['chi2']:.0f} | {r['chi2_share_after_changes']:.0%} | "
-                     f"{t['relative_rise']:+.1%} | {inside} | {own_reversal_cell(r['own_reversal'])} |")
+                           and r.status.get(n) != "not determined" else f"{p[n]:+.4g} (open)" for n in shown)
+        inside = yes[t.inside_95] if t.quantiles else "n/a"
+        lines.append(f"| {r.fit_from:g} | {r.persistence_exponent:g} | {r.runs} | {cells} | "
+                     f"{r.misfit:.3f} | {r.chi2:.0f} | {r.chi2_share_after_changes:.0%} | "
+                     f"{t.relative_rise:+.1%} | {inside} | {own_reversal_cell(r.own_reversal)} |")
     paper = model.Params()
     lines.append("| Table 2 | 0.75 | | " + " | ".join(f"{getattr(paper, n):+.4g}" for n in shown) + " | | | | | | "
                  + own_reversal_cell(own_reversal(paper)) + " |")
     return "\n".join(lines) + "\n"
 
 
-def own_reversal_cell(own: dict) -> str:
+def own_reversal_cell(own: OwnReversal) -> str:
     """``definitions.own_reversal`` in a table cell."""
-    if own["start_rate"] is None:
+    if own.start_rate is None:
         return "no steady state"
-    peak = "fails" if own["peak_over_steady"] is None else f"peak {own['peak_over_steady']:.2f}"
-    return f"{own['start_rate']:+.2g}, {peak}"
+    peak = "fails" if own.peak_over_steady is None else f"peak {own.peak_over_steady:.2f}"
+    return f"{own.start_rate:+.2g}, {peak}"
 
 
 def _numbers(name: str, text: str) -> tuple[float, ...]:
@@ -132,20 +134,19 @@ def _numbers(name: str, text: str) -> tuple[float, ...]:
     return values
 
 
-def row_params_name(row: dict) -> str:
+def row_params_name(row: FitRow) -> str:
     """``from<gamma0>-k<k>-runs<n>.json``: the row's gamma0, persistence exponent and number of runs."""
-    return f"from{row['fit_from']:g}-k{row['persistence_exponent']:g}-runs{row['runs']}.json"
+    return f"from{row.fit_from:g}-k{row.persistence_exponent:g}-runs{row.runs}.json"
 
 
-def write_row_params(out, row: dict):
+def write_row_params(out, row: FitRow):
     """The row's parameters (every model parameter, its k included) in ``out/fit_from/``, so that a row past the
     jump can be compared with the DEM and run in a continuum code; its metadata say how it was fitted and whether
     the model's own reversal runs with it."""
-    metadata = {"fit": "global past the jump (pipeline.calibration.restart)", "fit_from": row["fit_from"],
-                "runs": row["runs"], "weight": row["weight"], "definitions": row["definitions"],
-                "own_reversal": row["own_reversal"]}
-    return io.write_params(out / PARAMS_FOLDER / row_params_name(row), model.Params.from_dict(row["model_params"]),
-                           metadata)
+    metadata = {"fit": "global past the jump (pipeline.calibration.restart)", "fit_from": row.fit_from,
+                "runs": row.runs, "weight": row.weight, "definitions": row.definitions,
+                "own_reversal": row.own_reversal.to_dict()}
+    return io.write_params(out / PARAMS_FOLDER / row_params_name(row), row.model_params, metadata)
 
 
 @one_line_errors
@@ -164,7 +165,8 @@ def main(argv=None) -> int:
     for row in rows:
         write_row_params(out, row)
     label = weighted_label(chosen.label, args.weight)
-    print(f"wrote {io.write_table(out, 'fit_from', rows, markdown(rows, label))}, fit_from.json and each "
+    print(f"wrote {io.write_table(out, 'fit_from', [r.to_dict() for r in rows], markdown(rows, label))}, "
+          "fit_from.json and each "
           f"row's parameters in {out / PARAMS_FOLDER}/")
     return 0
 

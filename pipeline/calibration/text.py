@@ -36,9 +36,9 @@ def print_global(report: FitSummary) -> None:
               "reading), and both assume one parameter set fits every run; 'without one angle' is the range of "
               "the refits that leave out each angle in turn (make fit-jackknife OVER=angles: each one's shift)")
     for name, p in ident.parameters.items():
-        line = f"{name:>8s} = {p.value:+.4g}  68 % {interval_text(p.intervals['68']):>24s}  {p.status}"
+        line = f"{name:>8s} = {p.value:+.4g}  68 % {interval_text(p.interval_68):>24s}  {p.status}"
         if noted:
-            line += f";  widened {interval_text(p.intervals_misfit_widened['68'])}"
+            line += f";  widened {interval_text(p.widened_68)}"
         if name in spread:
             line += f";  without one angle {interval_text(spread[name])}"
         print(line)
@@ -56,9 +56,9 @@ def print_global(report: FitSummary) -> None:
         print(f"not determined by these runs: {', '.join(ident.not_determined)} (hold with --hold NAME=VALUE)")
     t = ident.table2
     if t:
-        where = ("inside" if t.inside["95"] else "outside") if t.quantiles else "undecided"
-        lenient = ("inside" if t.inside_misfit_widened["95"] else "outside") if t.quantiles else "undecided"
-        bound = f" against {t.quantiles['95']:.0f}" if t.quantiles else ""
+        where = ("inside" if t.inside_95 else "outside") if t.quantiles else "undecided"
+        lenient = ("inside" if t.inside_95_widened else "outside") if t.quantiles else "undecided"
+        bound = f" against {t.quantile_95:.0f}" if t.quantiles else ""
         print(f"Table 2 on these data: chi^2 {t.relative_rise:+.1%} above the best fit (a rise of "
               f"{t.chi2_rise:.0f}{bound}): {where} the 95 % region from the noise, {lenient} it when widened "
               "by the misfit (make fit-definitions: under each definition)")
@@ -92,10 +92,10 @@ def print_residual_map(report: FitSummary, top: int = 4) -> None:
     print("where the global fit's residuals are largest (share of chi^2; chi^2 per sample over the mean; "
           "fit.json: residual_map):")
     for r in rows[:top]:
-        lo, hi = r["window"]
+        lo, hi = r.window
         span = f"{lo:g}-{hi:g}" if hi != float("inf") else f"past {lo:g}"
-        print(f"  theta = {r['theta_deg']:g} (turn at {r['rotate_at']:g}), {r['quantity']}, {span} strain after a "
-              f"change: {r['share']:.0%} of chi^2, {r['per_sample_over_mean']:.1f}x the mean per sample")
+        print(f"  theta = {r.theta_deg:g} (turn at {r.rotate_at:g}), {r.quantity}, {span} strain after a "
+              f"change: {r.share:.0%} of chi^2, {r.per_sample_over_mean:.1f}x the mean per sample")
 
 
 def print_report(report: FitSummary, out: Path) -> None:
@@ -114,27 +114,27 @@ def print_report(report: FitSummary, out: Path) -> None:
                           if not n.startswith("persistence_exponent")))
     if report.jackknife:
         print_jackknife(report.jackknife)
-    one_run = len(next(iter(report.estimates.values()))["per_run"]) == 1
+    one_run = len(report.runs) == 1
     print("the paper's stepwise route (Sec. 4), "
           + ("one run ± its error from resamplings of its cycles (docs/calibration.md)" if one_run else
              "mean ± standard error over the reversal runs")
           + ", and its range over smoothing windows 0.03-0.08 and 1-4 relaxation strains of transient "
             "(fit.json: sensitivity):")
-    settings = [v for part in ("smoothing_window", "transient_efolds") for v in report.sensitivity[part].values()]
+    sens = report.sensitivity
+    settings = [*sens.smoothing_window.values(), *sens.transient_efolds.values()]
     for key, e in report.estimates.items():
         if key.startswith("persistence_exponent"):
             continue  # biased at the DEM's 0.005 sampling (0.50 / 1.04 on model data made with 0.75): fit.json only
         values = [v[key] for v in settings if key in v and math.isfinite(v[key])]
         spread = f"   ({min(values):+.4g} to {max(values):+.4g} over its settings)" if values else ""
-        se = e["standard_error"]
-        error = f"± {se:.2g}" if math.isfinite(se) else "(one run of one cycle: no error)"
-        print(f"{key:>30s} = {e['value']:+.4g} {error}{spread}")
+        error = f"± {e.standard_error:.2g}" if math.isfinite(e.standard_error) else "(one run of one cycle: no error)"
+        print(f"{key:>30s} = {e.value:+.4g} {error}{spread}")
     for c in report.cross_check:
-        if "C_median" in c:
-            q = c["C_quartiles"]
-            se = f" ± {c['C_se']:.2f}" if math.isfinite(c.get("C_se", math.nan)) else ""
-            print(f"  Sec. 3.3, theta = {c['theta_deg']:g}: C = {c['C_median']:+.2f}{se} (quartiles {q[0]:+.2f} "
-                  f"{q[1]:+.2f}), Y = {c['n']:+.3f} {c['m']:+.3f} S")
+        if c.C_median is not None:
+            q = c.C_quartiles
+            se = f" ± {c.C_se:.2f}" if c.C_se is not None and math.isfinite(c.C_se) else ""
+            print(f"  Sec. 3.3, theta = {c.theta_deg:g}: C = {c.C_median:+.2f}{se} (quartiles {q[0]:+.2f} "
+                  f"{q[1]:+.2f}), Y = {c.n:+.3f} {c.m:+.3f} S")
     for note in report.notes[2:]:
         print(f"note: {note}")
     print(f"wrote {out / 'params.json'} (global fit), fit.json and fit.h5"

@@ -52,7 +52,7 @@ def main(argv=None) -> int:
     label = chosen.label if args.seed is None else f"{chosen.label}, seed {args.seed}"
     made_from = schema.MadeFrom.of([params_file, *(r.path for r in (*runs, *others))],
                                    {"definitions": definitions.label(), "seed": args.seed, "data_set": chosen.label})
-    compare(runs, {"Table 2": model.Params(), "our fit": fitted}, fit_h5, out, chosen.preset, label, others,
+    compare(runs, {schema.TABLE2: model.Params(), schema.OUR_FIT: fitted}, fit_h5, out, chosen.preset, label, others,
             made_from)
     print(f"wrote {out / 'compare.h5'} and metrics.json")
     return 0

@@ -87,7 +87,7 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
     seed) and, as DEM cycles, the figures; ``made_from`` (the files read, the options) goes into ``metrics.json``."""
     io.check_writable_dir(out_dir)
     predictions = [metrics.model_for(run, sets) for run in runs]
-    ours = sets["our fit"]
+    ours = sets[schema.OUR_FIT]
     others = [metrics.model_for(run, sets) for run in other_seeds]
     rows = metrics.error_rows(runs, predictions)
     result = {"preset": preset, "data_set": label or preset, "definitions": dataclasses.asdict(runs[0].definitions),
@@ -104,15 +104,14 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
     reversals = [r for r in runs if r.is_reversal]
     if reversals:
         paper_phi = model.predict(180, params=model.Params()).packing_fraction
-        result["reversal"] = {
-            "backstress_share": float(np.mean([metrics.backstress_share(r, ours.C) for r in reversals])),
-            "backstress_share_by_C": {label: float(np.mean([metrics.backstress_share(r, p.C) for r in reversals]))
-                                      for label, p in sets.items()},
-            "model_backstress_share": {label: metrics.model_backstress_share(p, reversals[0].spec.rotate_at_strain)
-                                       for label, p in sets.items()},
-            "mean_packing_fraction": float(np.mean([r.cycle["packing_fraction"].mean() for r in reversals])),
-            "table2_packing_fraction_range": [float(paper_phi.min()), float(paper_phi.max())],
-        }
+        result["reversal"] = schema.Reversal(
+            backstress_share=float(np.mean([metrics.backstress_share(r, ours.C) for r in reversals])),
+            mean_packing_fraction=float(np.mean([r.cycle["packing_fraction"].mean() for r in reversals])),
+            table2_packing_fraction_range=[float(paper_phi.min()), float(paper_phi.max())],
+            backstress_share_by_C={label: float(np.mean([metrics.backstress_share(r, p.C) for r in reversals]))
+                                   for label, p in sets.items()},
+            model_backstress_share={label: metrics.model_backstress_share(p, reversals[0].spec.rotate_at_strain)
+                                    for label, p in sets.items()})
         result["second_law"] = metrics.second_law(runs, ours)
     parts = []
     if fit_h5 is not None:
@@ -121,30 +120,31 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
             rotate_at = reversals[0].spec.rotate_at_strain if reversals else model.ROTATE_AT_STRAIN
             parts = [metrics.reversal_parts(g["strain"][()], g["tau12"][()], g["A12"][()], ours.C, rotate_at)
                      for g in groups]
-        iso, back = metrics.relaxation_strains(parts)
-        pair = ("isotropic", "backstress")
         cycles = {label: [metrics.model_cycle_parts(p, rotate_at)] for label, p in sets.items()}
-        by_cut = {f"{cut:g}": {
-            "dem": {label: dict(zip(pair, metrics.relaxation_strains(
-                [metrics.reversal_parts(d["strain"], d["tau12"], d["A12"], p.C, rotate_at) for d in parts], cut),
-                strict=True)) for label, p in sets.items()},
-            "model": {label: dict(zip(pair, metrics.relaxation_strains(cycle, cut), strict=True))
-                      for label, cycle in cycles.items()}} for cut in metrics.RELAXATION_CUTS}
-        result["relaxation"] = {"reversal_runs": len(parts), "dem": {"isotropic": iso, "backstress": back},
-                                "model": by_cut[f"{metrics.RELAXATION_CUTS[0]:g}"]["model"], "by_cut": by_cut}
+        by_cut = {f"{cut:g}": schema.CutRelaxation(
+            dem={label: schema.Strains(*metrics.relaxation_strains(
+                [metrics.reversal_parts(d["strain"], d["tau12"], d["A12"], p.C, rotate_at) for d in parts], cut))
+                for label, p in sets.items()},
+            model={label: schema.Strains(*metrics.relaxation_strains(cycle, cut)) for label, cycle in cycles.items()})
+            for cut in metrics.RELAXATION_CUTS}
+        result["relaxation"] = schema.Relaxation(len(parts), schema.Strains(*metrics.relaxation_strains(parts)),
+                                                 by_cut[f"{metrics.RELAXATION_CUTS[0]:g}"].model, by_cut)
     with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
         write_compare_h5(h5, runs, predictions, sets, preset, parts, curves + more, other_seeds, others)
-        found = schema.Metrics(**result, made_from=made_from.to_dict())
+        found = schema.Metrics(**result, made_from=made_from)
         io.write_bytes(js, io.json_text(found.to_dict()).encode())
     return found
 
 
-def drift_row(run) -> dict:
-    """The run's protocol, seed and cycles compared, and each quantity's trend over them (``drift.drift``)."""
-    return {"theta_deg": run.theta_deg, "rotate_at": run.spec.rotate_at_strain, "seed": run.spec.seed,
-            "cycles": run.spec.n_cycles, "trends": {name: {k: None if isinstance(v, float) and math.isnan(v) else v
-                                                           for k, v in dataclasses.asdict(t).items()}
-                                                    for name, t in drift.drift(run).items()}}
+def drift_row(run) -> schema.DriftRow:
+    """The run's protocol, seed and cycles compared, and each quantity's trend over them (``drift.drift``; NaN,
+    where there is no degree of freedom, as None)."""
+    def trend(t: drift.Trend) -> schema.Trend:
+        return schema.Trend(list(t.per_cycle), *(None if math.isnan(v) else v
+                                                 for v in (t.slope, t.standard_error, t.t, t.p)))
+
+    return schema.DriftRow(run.theta_deg, run.spec.rotate_at_strain, run.spec.seed, run.spec.n_cycles,
+                           {name: trend(t) for name, t in drift.drift(run).items()})
 
 
 def fitted_in(params_file: Path) -> Definitions:

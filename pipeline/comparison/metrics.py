@@ -18,6 +18,7 @@ import model
 from ..calibration.fit_cycle import FitCycle
 from ..dataset.derived import cycle_indices
 from ..dataset.smoothing import relaxation_strain
+from ..schema.metrics import ErrorRange, ErrorRow, MemoryRow, Overshoot, OvershootRow, SecondLaw, SeedSpread
 
 COMPONENTS = {"A12": ("A", 0, 1), "A32": ("A", 2, 1), "tau12": ("tau", 0, 1), "tau32": ("tau", 2, 1)}
 #: strain after a change of direction where the DEM's component along the new direction peaks (θ = 120°, 150°)
@@ -52,23 +53,23 @@ def errors(data: FitCycle, pred: model.Result) -> dict[str, float]:
     return out
 
 
-def error_rows(runs: list, predictions: list) -> list[dict]:
+def error_rows(runs: list, predictions: list) -> list[ErrorRow]:
     """``errors`` of every run (named by its file, with its seed) against each parameter set's prediction
     (``model_for``'s, one per run)."""
-    return [{"run": Path(run.path).stem, "seed": run.spec.seed, "parameters": label, **errors(data, pred)}
+    return [ErrorRow(Path(run.path).stem, run.spec.seed, label, errors(data, pred))
             for run, preds in zip(runs, predictions, strict=True) for label, (data, pred) in preds.items()]
 
 
-def seed_spread(rows: list[dict]) -> list[dict]:
+def seed_spread(rows: list[ErrorRow]) -> list[SeedSpread]:
     """Per run and parameter set measured at several seeds (``error_rows``' rows): the seeds, and each component's
     mean, least and largest error over them. With two or three seeds the range is what they show; no spread is
     drawn from so few."""
-    groups: dict[tuple, list[dict]] = {}
+    groups: dict[tuple, list[ErrorRow]] = {}
     for row in rows:
-        groups.setdefault((row["run"], row["parameters"]), []).append(row)
-    return [{"run": run, "parameters": label, "seeds": sorted(r["seed"] for r in group),
-             **{k: {"mean": float(np.mean([r[k] for r in group])), "least": min(r[k] for r in group),
-                    "largest": max(r[k] for r in group)} for k in COMPONENTS}}
+        groups.setdefault((row.run, row.parameters), []).append(row)
+    return [SeedSpread(run, label, sorted(r.seed for r in group),
+                       {k: ErrorRange(float(np.mean([r.errors[k] for r in group])), min(r.errors[k] for r in group),
+                                      max(r.errors[k] for r in group)) for k in COMPONENTS})
             for (run, label), group in groups.items() if len(group) > 1]
 
 
@@ -77,11 +78,10 @@ def per_run(measure, runs: list, predictions: list) -> list[dict]:
     return [row for run, preds in zip(runs, predictions, strict=True) for row in measure(run, preds)]
 
 
-def beside_first(first: list[dict], more: list[dict]) -> list[dict]:
+def beside_first(first: list, more: list) -> list:
     """``first``'s rows (one seed's, per run and change of direction), each followed by ``more``'s rows of the same
     run and change (other seeds')."""
-    return [row for r in first
-            for row in (r, *(m for m in more if (m["run"], m["segment"]) == (r["run"], r["segment"])))]
+    return [row for r in first for row in (r, *(m for m in more if (m.run, m.segment) == (r.run, r.segment)))]
 
 
 def backstress_share(run, C: float) -> float:
@@ -136,15 +136,15 @@ def model_backstress_share(params: model.Params, rotate_at: float) -> float:
     return float(np.mean(params.C * cycle.A[steady, 0, 1]) / np.mean(cycle.tau[steady, 0, 1]))
 
 
-def second_law(runs: list, params: model.Params) -> dict:
+def second_law(runs: list, params: model.Params) -> SecondLaw:
     """Eq. 19 for ``params``: c1 = -C, Phi <= Phi_c + c3 over every DEM cycle, and the smallest total
     work rate of the model's cycles (Eq. 17, per unit p gamma_dot) for the runs' protocols."""
     phi_max = max(float(np.nanmax(r.cycle["packing_fraction"])) for r in runs)
     bound = params.phi_c + params.c3
     w_min = min(float(model.predict(r.spec.theta_deg, rotate_at=r.spec.rotate_at_strain,
                                     params=params).w_total.min()) for r in runs)
-    return {"c1": params.c1, "C": params.C, "phi_max_dem": phi_max, "phi_c_plus_c3": bound,
-            "min_total_work_rate": w_min, "holds": bool(params.c1 == -params.C and phi_max <= bound and w_min >= 0)}
+    return SecondLaw(params.c1, params.C, phi_max, bound, w_min,
+                     bool(params.c1 == -params.C and phi_max <= bound and w_min >= 0))
 
 
 def along(X: np.ndarray, phi_deg: float) -> np.ndarray:
@@ -225,7 +225,7 @@ def memory_curves(run, preds: dict[str, tuple[FitCycle, model.Result]]) -> list[
     return out
 
 
-def memories(curves: list[dict]) -> list[dict]:
+def memories(curves: list[dict]) -> list[MemoryRow]:
     """The ``memory_curves``' means over each of MEMORY_WINDOWS: the DEM's as the mean over cycles with its
     standard error (None with one cycle), each parameter set's on the model's cycle."""
     def means(strain, fraction):
@@ -235,15 +235,13 @@ def memories(curves: list[dict]) -> list[dict]:
     for c in curves:
         per_cycle = means(c["strain_after"], c["dem"])
         mean, se = cycle_mean_and_error(per_cycle)
-        out.append({"run": c["run"], "seed": c["seed"], "segment": c["segment"], "from_deg": c["from_deg"],
-                    "direction_deg": c["direction_deg"], "cycles": len(per_cycle),
-                    "windows": [list(w) for w in MEMORY_WINDOWS], "dem": mean.tolist(),
-                    "dem_se": None if se is None else se.tolist(),
-                    "model": {name: means(*curve).tolist() for name, curve in c["model"].items()}})
+        out.append(MemoryRow(c["run"], c["seed"], c["segment"], c["from_deg"], c["direction_deg"], len(per_cycle),
+                             [list(w) for w in MEMORY_WINDOWS], mean.tolist(), None if se is None else se.tolist(),
+                             {name: means(*curve).tolist() for name, curve in c["model"].items()}))
     return out
 
 
-def overshoots(run, preds: dict[str, tuple[FitCycle, model.Result]]) -> list[dict]:
+def overshoots(run, preds: dict[str, tuple[FitCycle, model.Result]]) -> list[OvershootRow]:
     """After each change of direction whose segment is long enough (the turn to theta at ``rotate_at`` and the
     turn back to e1 at the period's start), the component of A and tau/p along the new shear direction, signed
     so that its steady value (the segment's last OVERSHOOT_LATE) is positive: its mean OVERSHOOT_EARLY after the
@@ -256,19 +254,17 @@ def overshoots(run, preds: dict[str, tuple[FitCycle, model.Result]]) -> list[dic
     for label, start, end, phi, *_ in changes(spec):
         if end - start < OVERSHOOT_EARLY[1] + OVERSHOOT_LATE or spec.theta_deg == 0:
             continue
-        row = {"run": run.path.stem, "seed": spec.seed, "segment": label, "direction_deg": phi,
-               "cycles": len(idx)}
         early, late = segment_windows(grid, start, end)
         model_windows = {name: segment_windows(data.strain, start, end) for name, (data, _) in preds.items()}
+        found = {}
         for field, key in (("A", "A"), ("tau", "tau_over_p")):
             per_cycle, steady = early_minus_steady(along(run.series[key][idx], phi), early, late)
             mean, se = cycle_mean_and_error(per_cycle)
-            row[field] = {"dem": float(mean), "steady": float(steady.mean()),
-                          "dem_se": None if se is None else float(se),
-                          "model": {name: float(early_minus_steady(along(getattr(pred, field), phi),
-                                                                   *model_windows[name])[0])
-                                    for name, (_, pred) in preds.items()}}
-        out.append(row)
+            found[field] = Overshoot(float(mean), float(steady.mean()), None if se is None else float(se),
+                                     {name: float(early_minus_steady(along(getattr(pred, field), phi),
+                                                                     *model_windows[name])[0])
+                                      for name, (_, pred) in preds.items()})
+        out.append(OvershootRow(run.path.stem, spec.seed, label, phi, len(idx), **found))
     return out
 
 

@@ -19,7 +19,7 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     io.check_writable_dir(out)
     fit = schema.read_fit(fit_dir / "fit.json") if (fit_dir / "fit.json").exists() else None
     sets = metrics.param_sets
-    fitted, paper = sets["our fit"], sets["Table 2"]
+    fitted, paper = metrics.our_fit, metrics.table2
     preset = metrics.preset
     figures = out / "figures"
     made = []
@@ -43,7 +43,7 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
             made.append(reversal.backstress_figure(parts, fitted.C, figures / "fig8_backstress.png"))
         reversal_runs = [g for g in runs if g.attrs["is_reversal"]]
         if reversal_runs:
-            made.append(reversal.work_figure(reversal_runs, "our fit", figures / "fig9_work_rates.png"))
+            made.append(reversal.work_figure(reversal_runs, schema.OUR_FIT, figures / "fig9_work_rates.png"))
         n_runs = len(runs)
     if (fit_dir / "profiles.json").exists():
         result = schema.read_json_object(fit_dir / "profiles.json", "profile", "fit-profile")
@@ -55,7 +55,7 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     if fit_h5.exists():
         made.append(laws.fabric_law(fit_h5, fitted, paper, figures / "fig3_fabric_law.png"))
         made.append(laws.flow_rule(fit_h5, fitted, paper, figures / "fig4_flow_rule.png"))
-    fit_from = (schema.read_json_object(fit_dir / "fit_from.json", "fit-from table", "fit-from", list)
+    fit_from = (schema.read_fit_rows(fit_dir / "fit_from.json", "fit-from")
                 if (fit_dir / "fit_from.json").exists() else None)
     if fit_from and not report.same_weighting(fit_from, fit):
         print(f"{fit_dir / 'fit_from.json'} weighs the runs otherwise than fit.json: left out of the report "

@@ -13,38 +13,50 @@ import model
 
 from ..dataset import drift
 from ..io import write_text
-from ..schema import FitSummary, Identifiability, Metrics
+from ..schema import (
+    CutRelaxation,
+    DriftRow,
+    FitRow,
+    FitSummary,
+    Identifiability,
+    MemoryRow,
+    Metrics,
+    OvershootRow,
+    Reversal,
+    SecondLaw,
+    SeedSpread,
+    Sensitivity,
+    Strains,
+)
 
 
 def _strain_text(value: float) -> str:
     return f"{value:.2f}" if value is not None and np.isfinite(value) else "not resolved"
 
 
-def sensitivity_lines(sens: dict) -> list[str]:
+def sensitivity_lines(sens: Sensitivity) -> list[str]:
     """The stepwise estimates against the smoothing window, and Eq. 15's C against its strain window."""
     keys = ("C_eq15", "n", "m", "a1", "b1", "a2", "b2", "persistence_exponent_alpha1", "persistence_exponent_alpha2")
     heads = ("C (Eq. 15)", "n", "m", "a1", "b1", "a2", "b2", "k from alpha1", "k from alpha2")
     lines = ["## Stepwise calibration (paper Sec. 4) against its choices", "",
              "Mean over the reversal runs, per Savitzky-Golay window (strain) used for the smoothing and the "
              "Jaumann rate:", "", "| window | " + " | ".join(heads) + " |", "|---|" + "---|" * len(heads)]
-    for window, values in sens["smoothing_window"].items():
+    for window, values in sens.smoothing_window.items():
         lines.append(f"| {window} | " + " | ".join(f"{values[k]:+.3g}" for k in keys) + " |")
-    if "transient_efolds" in sens:
-        lines += ["", "The fabric law per strain after each change of direction used by the beta_i fits (in 1/e "
-                  "relaxation strains of A12 after the reversal; default 2):", "",
-                  "| e-folds | a1 | b1 | a2 | b2 |", "|---|---|---|---|---|"]
-        for efolds, values in sens["transient_efolds"].items():
-            lines.append(f"| {efolds} | " + " | ".join(f"{values[k]:+.3g}" for k in ("a1", "b1", "a2", "b2")) + " |")
+    lines += ["", "The fabric law per strain after each change of direction used by the beta_i fits (in 1/e "
+              "relaxation strains of A12 after the reversal; default 2):", "",
+              "| e-folds | a1 | b1 | a2 | b2 |", "|---|---|---|---|---|"]
+    for efolds, values in sens.transient_efolds.items():
+        lines.append(f"| {efolds} | " + " | ".join(f"{values[k]:+.3g}" for k in ("a1", "b1", "a2", "b2")) + " |")
     lines += ["", "C from Eq. 15 per strain window after the reversal: " + ", ".join(
-        f"{w}: {c:+.2f}" for w, c in sens["eq15_window"].items()) + " (on model data Eq. 15 gives C - 2m)."]
+        f"{w}: {c:+.2f}" for w, c in sens.eq15_window.items()) + " (on model data Eq. 15 gives C - 2m)."]
     return lines
 
 
-def second_law_line(law: dict) -> str:
-    return (f"- second law (Eq. 19) with our fit: c1 = {law['c1']:.3f} = -C; max Phi of the DEM cycles "
-            f"{law['phi_max_dem']:.3f} against Phi_c + c3 = {law['phi_c_plus_c3']:.3f}; smallest total work rate of "
-            f"the model's cycles {law['min_total_work_rate']:+.3f} p gamma_dot "
-            f"({'holds' if law['holds'] else 'VIOLATED'})")
+def second_law_line(law: SecondLaw) -> str:
+    return (f"- second law (Eq. 19) with our fit: c1 = {law.c1:.3f} = -C; max Phi of the DEM cycles "
+            f"{law.phi_max_dem:.3f} against Phi_c + c3 = {law.phi_c_plus_c3:.3f}; smallest total work rate of "
+            f"the model's cycles {law.min_total_work_rate:+.3f} p gamma_dot ({'holds' if law.holds else 'VIOLATED'})")
 
 
 def band_text(band) -> str:
@@ -92,9 +104,9 @@ def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
     for name in fitted_names(fitted, ident, se):
         p = params.get(name)
         if p:
-            cells = ([f" {band_text(p.intervals_misfit_widened['68'])} |"] if noted else []) + (
+            cells = ([f" {band_text(p.widened_68)} |"] if noted else []) + (
                 [f" {band_text(spread.get(name))} |"] if spread else [])
-            lines.append(f"| {name} | {ours[name]:+.4g} | {band_text(p.intervals['68'])} | {p.status} |"
+            lines.append(f"| {name} | {ours[name]:+.4g} | {band_text(p.interval_68)} | {p.status} |"
                          f"{''.join(cells)} {table2[name]} |")
         else:
             scatter = f"± {se[name]:.2g} (Φ scatter taken as white)" if name in se else ""
@@ -125,16 +137,15 @@ def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
     if t and t.quantiles:
         verdict = {True: "inside", False: "outside"}
         lines += ["", f"Table 2 as a hypothesis (its C, n, m, a_i, b_i on these data): chi^2 {t.relative_rise:+.1%} "
-                  f"above the best fit, a rise of {t.chi2_rise:.0f} against {t.quantiles['95']:.0f} for the "
-                  f"95 % region from the noise: {verdict[t.inside['95']]} it; "
-                  f"{verdict[t.inside_misfit_widened['95']]} it when the region is widened by the misfit."]
+                  f"above the best fit, a rise of {t.chi2_rise:.0f} against {t.quantile_95:.0f} for the "
+                  f"95 % region from the noise: {verdict[t.inside_95]} it; "
+                  f"{verdict[t.inside_95_widened]} it when the region is widened by the misfit."]
     return lines + next_runs_lines(fit)
 
 
-def same_weighting(rows: list[dict], fit: FitSummary | None) -> bool:
-    """Whether the rows of ``make fit-from`` (``fit_from.json``) weighed the runs as the fit in ``fit.json`` did
-    (files from before the weighting was recorded counted each run once)."""
-    return all(r.get("weight", "runs") == (fit.weight if fit else "runs") for r in rows)
+def same_weighting(rows: list[FitRow], fit: FitSummary | None) -> bool:
+    """Whether the rows of ``make fit-from`` (``fit_from.json``) weighed the runs as the fit in ``fit.json`` did."""
+    return all(r.weight == (fit.weight if fit else "runs") for r in rows)
 
 
 def fit_runs_sentence(fit: FitSummary | None) -> str:
@@ -166,11 +177,11 @@ def next_runs_lines(fit: FitSummary) -> list[str]:
               f"{r.cpu_hours:.2f} |" for r in runs[:6])]
 
 
-def jump_lines(rows: list[dict], paper: dict) -> list[str]:
+def jump_lines(rows: list[FitRow], paper: model.Params) -> list[str]:
     """``make fit-from``'s fits against the restart strain gamma0 (at k = 3/4): how much of the distance to Table 2
     the reversal jump is."""
     shown = ("C", "n", "m", "a1", "b1", "a2", "b2")
-    rows = [r for r in rows if r["persistence_exponent"] == 0.75]
+    rows = [r for r in rows if r.persistence_exponent == 0.75]
     lines = ["## The distance to Table 2, and the reversal jump", "",
              "The global fit restarted from the DEM's state gamma0 past each change of direction (make fit-from; "
              "the paper's definitions, k = 3/4): gamma0 = 0 is the whole cycle, where the fabric's fast initial drop "
@@ -181,22 +192,21 @@ def jump_lines(rows: list[dict], paper: dict) -> list[str]:
     for r in rows:
         cells = []
         for n in shown:
-            value, se = r["params"][n], r["standard_errors"][n]
-            z = (value - paper[n]) / se if se and np.isfinite(se) and se > 0 else np.nan
+            value, se = r.params[n], r.standard_errors[n]
+            z = (value - getattr(paper, n)) / se if se and np.isfinite(se) and se > 0 else np.nan
             cells.append(f"{value:+.4g} ({z:+.1f})" if np.isfinite(z) else f"{value:+.4g} (open)")
-        lines.append(f"| {r['fit_from']:g} | {r.get('runs', '')} | " + " | ".join(cells)
-                     + f" | {r['table2']['relative_rise']:+.1%} | "
-                     f"{r['misfit']:.2f} |")
+        lines.append(f"| {r.fit_from:g} | {r.runs} | " + " | ".join(cells) + f" | {r.table2.relative_rise:+.1%} | "
+                     f"{r.misfit:.2f} |")
     return lines
 
 
-def run_label(row: dict, rows: list[dict]) -> str:
+def run_label(row: OvershootRow | MemoryRow, rows: list) -> str:
     """A table row's run, with its seed where the table has the run at several seeds, and its cycles."""
-    seeds = {r.get("seed") for r in rows if r["run"] == row["run"]}
-    return row["run"] + (f", seed {row['seed']}" if len(seeds) > 1 else "") + f" ({row['cycles']} cycles)"
+    seeds = {r.seed for r in rows if r.run == row.run}
+    return row.run + (f", seed {row.seed}" if len(seeds) > 1 else "") + f" ({row.cycles} cycles)"
 
 
-def overshoot_lines(rows: list[dict], labels: list[str]) -> list[str]:
+def overshoot_lines(rows: list[OvershootRow], labels: list[str]) -> list[str]:
     """The overshoot table: DEM (± its standard error over cycles) and each parameter set, per change."""
     head = " | ".join(f"{field} {who}" for field in ("A", "tau/p") for who in ("DEM", *labels))
     lines = ["## Overshoot after a change of direction", "",
@@ -207,18 +217,17 @@ def overshoot_lines(rows: list[dict], labels: list[str]) -> list[str]:
              f"| run | change | {head} |", "|---|---|" + "---|" * (2 + 2 * len(labels))]
     for r in rows:
         cells = []
-        for field in ("A", "tau"):
-            v = r[field]
-            cells.append(f"{v['dem']:+.4f}" + ("" if v["dem_se"] is None else f" ± {v['dem_se']:.4f}"))
-            cells += [f"{v['model'][label]:+.4f}" for label in labels]
-        lines.append(f"| {run_label(r, rows)} | {r['segment']} | " + " | ".join(cells) + " |")
+        for v in (r.A, r.tau):
+            cells.append(f"{v.dem:+.4f}" + ("" if v.dem_se is None else f" ± {v.dem_se:.4f}"))
+            cells += [f"{v.model[label]:+.4f}" for label in labels]
+        lines.append(f"| {run_label(r, rows)} | {r.segment} | " + " | ".join(cells) + " |")
     return lines
 
 
-def memory_lines(rows: list[dict], labels: list[str]) -> list[str]:
+def memory_lines(rows: list[MemoryRow], labels: list[str]) -> list[str]:
     """The memory table: per window after the change, the DEM (± its standard error over cycles) and each
     parameter set."""
-    windows = [f"{a:g}-{b:g}" for a, b in rows[0]["windows"]]
+    windows = [f"{a:g}-{b:g}" for a, b in rows[0].windows]
     head = " | ".join(f"{w}: {who}" for w in windows for who in ("DEM", *labels))
     lines = ["## Memory of the old direction after a change", "",
              "The fabric's shear component along the wall-plane direction normal to the new shear direction "
@@ -230,24 +239,26 @@ def memory_lines(rows: list[dict], labels: list[str]) -> list[str]:
     for r in rows:
         cells = []
         for k in range(len(windows)):
-            cells.append(f"{r['dem'][k]:+.2f}" + ("" if r["dem_se"] is None else f" ± {r['dem_se'][k]:.2f}"))
-            cells += [f"{r['model'][label][k]:+.2f}" for label in labels]
-        lines.append(f"| {run_label(r, rows)} | {r['segment']} | " + " | ".join(cells) + " |")
+            cells.append(f"{r.dem[k]:+.2f}" + ("" if r.dem_se is None else f" ± {r.dem_se[k]:.2f}"))
+            cells += [f"{r.model[label][k]:+.2f}" for label in labels]
+        lines.append(f"| {run_label(r, rows)} | {r.segment} | " + " | ".join(cells) + " |")
     return lines
 
 
-def share_text(r: dict) -> str:
+def share_text(r: Reversal) -> str:
     """The backstress share with each parameter set's C, and in each set's own model cycle."""
-    if "backstress_share_by_C" not in r:
-        return ""
-    by_c = ", ".join(f"{v:.0%} with {label}'s C" for label, v in r["backstress_share_by_C"].items())
-    own = ", ".join(f"{label} {v:.0%}" for label, v in r["model_backstress_share"].items())
+    by_c = ", ".join(f"{v:.0%} with {label}'s C" for label, v in r.backstress_share_by_C.items())
+    own = ", ".join(f"{label} {v:.0%}" for label, v in r.model_backstress_share.items())
     return f"; {by_c}; in the model's own cycle: {own}"
 
 
-def relaxation_cut_lines(by_cut: dict) -> list[str]:
+def strains_text(s: Strains, joint: str) -> str:
+    return f"{_strain_text(s.isotropic)}{joint}{_strain_text(s.backstress)}"
+
+
+def relaxation_cut_lines(by_cut: dict[str, CutRelaxation]) -> list[str]:
     """The relaxation strains after the reversal at each cut (strain left out after it) and each set's C."""
-    labels = list(next(iter(by_cut.values()))["dem"])
+    labels = list(next(iter(by_cut.values())).dem)
     lines = ["### Relaxation strains after the reversal, by the cut and by C", "",
              "Isotropic part / backstress, to within 5 % of the final value from an exponential fit past the cut; "
              "the DEM's parts split with each set's C, and each set's own model cycle by the same measure (paper, "
@@ -255,17 +266,16 @@ def relaxation_cut_lines(by_cut: dict) -> list[str]:
              "| cut | " + " | ".join(f"DEM, {label}'s C" for label in labels) + " | "
              + " | ".join(f"model, {label}" for label in labels) + " |", "|---" * (1 + 2 * len(labels)) + "|"]
     for cut, row in by_cut.items():
-        cells = [f"{_strain_text(row[k][label]['isotropic'])} / {_strain_text(row[k][label]['backstress'])}"
-                 for k in ("dem", "model") for label in labels]
+        cells = [strains_text(part[label], " / ") for part in (row.dem, row.model) for label in labels]
         lines.append(f"| {cut} | " + " | ".join(cells) + " |")
     return lines
 
 
-def drift_lines(rows: list[dict] | None) -> list[str]:
+def drift_lines(rows: list[DriftRow] | None) -> list[str]:
     """The runs' cycles one by one (``pipeline.dataset.drift``): the gap per cycle and each quantity's trend."""
     if not rows:
         return []
-    names = [name for name in drift.QUANTITIES if name in rows[0]["trends"]]
+    names = [name for name in drift.QUANTITIES if name in rows[0].trends]
     lines = ["## Drift over the cycles", "",
              "Per run, the gap between the walls' inner planes per cycle (d, over the 0.3 strain before each change) "
              "and each quantity's trend per cycle ± its standard error; **bold** where the drift test finds it at "
@@ -275,16 +285,15 @@ def drift_lines(rows: list[dict] | None) -> list[str]:
     for row in rows:
         cells = []
         for name in names:
-            t = row["trends"][name]
-            text = "" if t["slope"] is None else f"{t['slope']:+.2g} ± {t['standard_error']:.1g}"
-            cells.append(f"**{text}**" if t["p"] is not None and t["p"] < drift.LEVEL else text)
-        gaps = " ".join(f"{g:.2f}" for g in row["trends"]["gap"]["per_cycle"])
-        lines.append(f"| {row['theta_deg']:g} | {row['rotate_at']:g} | {row['seed']} | {gaps} | " + " | ".join(cells)
-                     + " |")
+            t = row.trends[name]
+            text = "" if t.slope is None else f"{t.slope:+.2g} ± {t.standard_error:.1g}"
+            cells.append(f"**{text}**" if t.p is not None and t.p < drift.LEVEL else text)
+        gaps = " ".join(f"{g:.2f}" for g in row.trends[drift.QUANTITIES[0]].per_cycle)
+        lines.append(f"| {row.theta_deg:g} | {row.rotate_at:g} | {row.seed} | {gaps} | " + " | ".join(cells) + " |")
     return lines
 
 
-def seed_spread_lines(spread: list[dict], components: list[str]) -> list[str]:
+def seed_spread_lines(spread: list[SeedSpread], components: list[str]) -> list[str]:
     """The errors of the runs measured at several seeds: their mean over the seeds and their range."""
     lines = ["### Over seeds", "",
              "Runs measured at several seeds: each error's mean over the seeds, and in brackets the least and the "
@@ -292,9 +301,8 @@ def seed_spread_lines(spread: list[dict], components: list[str]) -> list[str]:
              "| run | seeds | parameters | " + " | ".join(components) + " |",
              "|---|---|---|" + "---|" * len(components)]
     for r in spread:
-        cells = [f"{r[k]['mean']:.2f} ({r[k]['least']:.2f}-{r[k]['largest']:.2f})" for k in components]
-        lines.append(f"| {r['run']} | {', '.join(map(str, r['seeds']))} | {r['parameters']} | " + " | ".join(cells)
-                     + " |")
+        cells = [f"{r.errors[k].mean:.2f} ({r.errors[k].least:.2f}-{r.errors[k].largest:.2f})" for k in components]
+        lines.append(f"| {r.run} | {', '.join(map(str, r.seeds))} | {r.parameters} | " + " | ".join(cells) + " |")
     return lines
 
 
@@ -306,24 +314,25 @@ def law_sentence(fitted) -> str:
     return f"Fabric law: `{fitted.variant}`, Eq. 13 with {added} beyond it (docs/model.md)."
 
 
-def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int, fit_from: list | None = None) -> Path:
+def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int,
+          fit_from: list[FitRow] | None = None) -> Path:
     """Write report.md from the comparison's ``metrics``, the calibration's summary ``fit`` and, where ``make
     fit-from`` has run, its rows."""
-    sets = {label: p.to_dict() for label, p in metrics.param_sets.items()}
-    paper = sets["Table 2"]
+    sets = metrics.param_sets
+    paper, ours = metrics.table2, metrics.our_fit
     components = metrics.components
     lines = [f"# Model against our DEM: `{metrics.data_set}`", "",
              f"{n_runs} DEM run(s) compared, one per protocol"
              + (" (their other seeds: \"Over seeds\")" if metrics.seed_spread else "")
              + f"; the model runs in the fit's strain measure for each run's protocol.{fit_runs_sentence(fit)}",
              "",
-             "## Parameters", "", law_sentence(metrics.param_sets["our fit"]), "",
-             *parameter_lines(metrics.param_sets["our fit"], metrics.param_sets["Table 2"], fit)]
+             "## Parameters", "", law_sentence(ours), "",
+             *parameter_lines(ours, paper, fit)]
     lines += ["", "## Model against DEM", "",
               "RMSE over the cycle divided by the steady |A12| or |tau12/p|.", "",
               "| run | parameters | " + " | ".join(components) + " |", "|---|---|" + "---|" * len(components)]
     for e in metrics.errors:
-        lines.append(f"| {e['run']} | {e['parameters']} | " + " | ".join(f"{e[k]:.2f}" for k in components) + " |")
+        lines.append(f"| {e.run} | {e.parameters} | " + " | ".join(f"{e.errors[k]:.2f}" for k in components) + " |")
     if metrics.seed_spread:
         lines += ["", *seed_spread_lines(metrics.seed_spread, components)]
     if metrics.overshoot:
@@ -334,25 +343,21 @@ def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int, fit_
         lines += ["", *drift_lines(metrics.drift)]
     if metrics.reversal is not None:
         r = metrics.reversal
-        lo, hi = r["table2_packing_fraction_range"]
+        lo, hi = r.table2_packing_fraction_range
         lines += ["", "## Reversal", "",
-                  f"- share of the backstress C A12 in the steady shear stress: {r['backstress_share']:.0%} with our C "
+                  f"- share of the backstress C A12 in the steady shear stress: {r.backstress_share:.0%} with our C "
                   "(paper: 88 %)" + share_text(r),
-                  f"- mean packing fraction over the cycle: {r['mean_packing_fraction']:.3f} (the model with Table 2: "
-                  f"{lo:.3f} to {hi:.3f}; Phi_c = {paper['phi_c']} is not the steady value)",
+                  f"- mean packing fraction over the cycle: {r.mean_packing_fraction:.3f} (the model with Table 2: "
+                  f"{lo:.3f} to {hi:.3f}; Phi_c = {paper.phi_c} is not the steady value)",
                   second_law_line(metrics.second_law)]
     if metrics.relaxation is not None:
         rel = metrics.relaxation
         lines.append(f"- relaxation strain after the reversal (to within 5 % of the final value, from an exponential "
                      f"fit; 'not resolved' where the fit does not fix it to +-50 %): isotropic part "
-                     f"{_strain_text(rel['dem']['isotropic'])}, backstress {_strain_text(rel['dem']['backstress'])} "
-                     f"in our DEM, mean of {rel['reversal_runs']} reversal run(s) "
-                     "(paper, read off Fig. 8: 0.25 and 0.6); "
-                     "the model by the same measure: " + "; ".join(
-                         f"{label}: {_strain_text(v['isotropic'])} and {_strain_text(v['backstress'])}"
-                         for label, v in rel["model"].items()))
-    if metrics.relaxation is not None and "by_cut" in metrics.relaxation:
-        lines += ["", *relaxation_cut_lines(metrics.relaxation["by_cut"])]
+                     f"{strains_text(rel.dem, ', backstress ')} in our DEM, mean of {rel.reversal_runs} reversal "
+                     "run(s) (paper, read off Fig. 8: 0.25 and 0.6); the model by the same measure: "
+                     + "; ".join(f"{label}: {strains_text(v, ' and ')}" for label, v in rel.model.items()))
+        lines += ["", *relaxation_cut_lines(rel.by_cut)]
     if fit_from:
         lines += ["", *jump_lines(fit_from, paper)]
     if fit and fit.sensitivity:

@@ -44,40 +44,82 @@ def _fields_of(cls, data: dict, path, what: str, renamed: dict | None = None) ->
     return given
 
 
+@dataclasses.dataclass(frozen=True)
+class Each:
+    """In a record's ``NESTED``: the field is a mapping of names to records of ``kind`` (or ``model.Params``)."""
+
+    kind: type
+
+
+def _read(kind, value, path):
+    """``value`` from a file as ``kind`` (a class with ``from_dict``; ``Each``: a mapping of them), each of a
+    list in turn; None stays None."""
+    if value is None:
+        return None
+    if isinstance(value, list):
+        return [_read(kind, v, path) for v in value]
+    if isinstance(kind, Each):
+        if not isinstance(value, dict):
+            raise PipelineError(f"{path}: a mapping of {getattr(kind.kind, 'WHAT', kind.kind.__name__)}s is not a "
+                                "JSON object")
+        return {name: _read(kind.kind, v, f"{path}[{name!r}]") for name, v in value.items()}
+    try:
+        return kind.from_dict(value, path)
+    except PipelineError:
+        raise
+    except ValueError as exc:  # model.ParameterError: its message names the file
+        raise PipelineError(str(exc)) from None
+
+
+def _written(value):
+    """``value`` as a file holds it: a record (or parameters) as its JSON object, in lists and mappings too."""
+    if hasattr(value, "to_dict"):
+        return value.to_dict()
+    if isinstance(value, (list, tuple)):
+        return [_written(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _written(v) for k, v in value.items()}
+    return value
+
+
 class Record:
-    """A record nested in a file: read from and written to its JSON object with the keys ``RENAMED`` maps to its
-    fields (a key that is no identifier), a missing or unknown key refused in one line (``_fields_of``); ``NESTED``
-    names the fields that hold a record (or, in a list, records) of a class of their own; a field whose metadata
-    says ``written=False`` is kept in memory only."""
+    """A record in a file: read from and written to its JSON object with the keys ``RENAMED`` maps to its fields
+    (a key that is no identifier), a missing or unknown key refused in one line (``_fields_of``); ``NESTED``
+    names the fields that hold a record, a list of records or a mapping of them (``Each``);
+    ``REST`` names a mapping field whose entries the file holds flat beside the others (a table's columns); a
+    field whose metadata says ``written=False`` is kept in memory only; with ``OMIT_NONE`` an optional field that
+    is None is not written."""
 
     VERSION = 1
     WHAT = "record"
     RENAMED: dict = {}
     NESTED: dict = {}
+    REST = ""
+    OMIT_NONE = False
 
     @classmethod
     def from_dict(cls, data: dict, path="fit.json"):
         if not isinstance(data, dict):
             raise PipelineError(f"{path}: the {cls.WHAT} is not a JSON object")
+        if cls.REST:
+            names = {f.name for f in dataclasses.fields(cls)} | {"schema_version"}
+            data = {**{k: v for k, v in data.items() if cls.RENAMED.get(k, k) in names},
+                    cls.REST: {k: v for k, v in data.items() if cls.RENAMED.get(k, k) not in names}}
         fields = _fields_of(cls, data, path, cls.WHAT, cls.RENAMED)
         for name, kind in cls.NESTED.items():
-            value = fields.get(name)
-            if isinstance(value, list):
-                fields[name] = [kind.from_dict(v, path) for v in value]
-            elif value is not None:
-                fields[name] = kind.from_dict(value, path)
+            fields[name] = _read(kind, fields.get(name), f"{path}: {name}" if isinstance(kind, Each) else path)
         return cls(**fields)
 
     def to_dict(self) -> dict:
         key = {field: name for name, field in self.RENAMED.items()}
         out = {}
         for f in dataclasses.fields(self):
-            if not f.metadata.get("written", True):
-                continue
             value = getattr(self, f.name)
-            if f.name in self.NESTED and value is not None:
-                value = [v.to_dict() for v in value] if isinstance(value, list) else value.to_dict()
-            out[key.get(f.name, f.name)] = value
+            omitted = self.OMIT_NONE and value is None and f.default is not dataclasses.MISSING
+            if f.metadata.get("written", True) and not omitted:
+                out[key.get(f.name, f.name)] = _written(value)
+        if self.REST:
+            out.update(out.pop(self.REST))
         return out
 
 

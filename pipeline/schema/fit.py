@@ -9,7 +9,7 @@ import model
 
 from .. import io
 from ..errors import PipelineError
-from .base import MadeFrom, Record, read_json_object
+from .base import Each, MadeFrom, Record, read_json_object
 from .params import read_params
 
 FIT_VERSION = 2  # 2: made_from
@@ -154,6 +154,14 @@ class ParameterInterval(Record):
     intervals: dict
     intervals_misfit_widened: dict
 
+    @property
+    def interval_68(self) -> list | None:
+        return self.intervals["68"]
+
+    @property
+    def widened_68(self) -> list | None:
+        return self.intervals_misfit_widened["68"]
+
 
 @dataclasses.dataclass(frozen=True)
 class Combination(Record):
@@ -181,6 +189,18 @@ class Table2Test(Record):
     quantiles: dict | None
     inside: dict | None = None
     inside_misfit_widened: dict | None = None
+
+    @property
+    def quantile_95(self) -> float:
+        return self.quantiles["95"]
+
+    @property
+    def inside_95(self) -> bool:
+        return self.inside["95"]
+
+    @property
+    def inside_95_widened(self) -> bool:
+        return self.inside_misfit_widened["95"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -216,19 +236,136 @@ class Identifiability(Record):
     table2: Table2Test | None
     spread_over_angles: SpreadOverAngles | None = None
 
-    NESTED = {"weakest": Combination, "strongest": Combination, "table2": Table2Test,
-              "spread_over_angles": SpreadOverAngles}
+    NESTED = {"parameters": Each(ParameterInterval), "weakest": Combination, "strongest": Combination,
+              "table2": Table2Test, "spread_over_angles": SpreadOverAngles}
 
-    @classmethod
-    def from_dict(cls, data: dict, path="fit.json") -> Identifiability:
-        record = super().from_dict(data, path)
-        if not isinstance(record.parameters, dict):
-            raise PipelineError(f"{path}: the identifiability summary's parameters are not a JSON object")
-        return dataclasses.replace(record, parameters={name: ParameterInterval.from_dict(p, path)
-                                                       for name, p in record.parameters.items()})
 
-    def to_dict(self) -> dict:
-        return {**super().to_dict(), "parameters": {name: p.to_dict() for name, p in self.parameters.items()}}
+@dataclasses.dataclass(frozen=True)
+class StepwiseRun(Record):
+    """The paper's stepwise route (Sec. 4) on one reversal run: its file, seed, the fit's strain per nominal
+    strain, the transient strain after the reversal, the steady packing fraction, and each estimate with its
+    standard error (``estimates``: name and ``name_se``, held flat in the file)."""
+
+    WHAT = "stepwise run"
+    REST = "estimates"
+
+    path: str
+    seed: int
+    bulk_over_nominal: float
+    transient_strain: float
+    steady_packing_fraction: float
+    C_eq15_by_reversal: list
+    estimates: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class StepwiseEstimate(Record):
+    """A stepwise estimate over the reversal runs: its value (their mean), standard error (NaN, from nowhere: None,
+    for one run of one cycle), where the error comes from, and each run's value."""
+
+    WHAT = "stepwise estimate"
+
+    value: float
+    standard_error: float
+    error_from: str | None
+    per_run: list
+
+
+@dataclasses.dataclass(frozen=True)
+class Sensitivity(Record):
+    """The stepwise estimates' means against the route's choices: per smoothing window (strain) and per number of
+    relaxation strains of transient (each a mapping of estimate to value), and Eq. 15's C per strain window."""
+
+    WHAT = "sensitivity"
+
+    smoothing_window: dict
+    transient_efolds: dict
+    eq15_window: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class CrossCheck(Record):
+    """Sec. 3.3 on one run: C and Y = n + m S from Eq. 14's 12 and 32 components at the ``samples`` instants where
+    they can be told; C's median, quartiles and standard error (NaN for one cycle), n and m with their errors
+    (None where fewer than three instants can be told)."""
+
+    WHAT = "cross-check"
+
+    path: str
+    theta_deg: float
+    samples: int
+    C_median: float | None = None
+    C_quartiles: list | None = None
+    C_se: float | None = None
+    n: float | None = None
+    n_se: float | None = None
+    m: float | None = None
+    m_se: float | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class ResidualCell(Record):
+    """A cell of the global fit's residual map: a protocol, a quantity, a window of strain since a change of
+    direction; its samples, chi^2, share of the whole chi^2 and chi^2 per sample over the mean."""
+
+    WHAT = "residual cell"
+
+    theta_deg: float
+    rotate_at: float
+    quantity: str
+    window: list
+    samples: int
+    chi2: float
+    share: float
+    per_sample_over_mean: float
+
+
+@dataclasses.dataclass(frozen=True)
+class OwnReversal(Record):
+    """The model's own reversal cycle (theta = 180) with a fit's parameters: the rate a1 + a2 |A| at which the
+    fabric leaves the reversal, the peak |A| over the cycle per the steady |A|, or why they cannot be computed."""
+
+    WHAT = "own reversal"
+
+    start_rate: float | None
+    peak_over_steady: float | None
+    error: str | None
+
+
+@dataclasses.dataclass(frozen=True)
+class FitRow(Record):
+    """One global fit of a table (``make fit-definitions``, ``make fit-from``): its definitions, the stress fitted,
+    the weighting, the restart strain and persistence exponent; Table 2's parameters' values (``params``), standard
+    errors and status; the whole parameter set (``model_params``), misfit, chi^2, Table 2's test, the share of chi^2
+    within 0.05 strain after a change, the model's own reversal, the mean packing fraction; ``runs``: how many runs
+    it fitted (the restart table's)."""
+
+    WHAT = "fit row"
+    OMIT_NONE = True
+    NESTED = {"table2": Table2Test, "own_reversal": OwnReversal, "model_params": model.Params}
+
+    definitions: dict
+    stress_fitted: str
+    weight: str
+    fit_from: float
+    persistence_exponent: float
+    dilatancy_note: str
+    params: dict
+    model_params: model.Params
+    standard_errors: dict
+    status: dict
+    misfit: float
+    chi2: float
+    table2: Table2Test | None
+    chi2_share_after_changes: float
+    own_reversal: OwnReversal
+    mean_packing_fraction: float
+    runs: int | None = None
+
+
+def read_fit_rows(path: Path, make: str) -> list[FitRow]:
+    """A table of fits (``definitions.json``, ``fit_from.json``) as its rows."""
+    return [FitRow.from_dict(row, path) for row in read_json_object(path, "table of fits", make, list)]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -241,7 +378,10 @@ class FitSummary(Record):
     WHAT = "fit summary"
     RENAMED = {"global": "global_fit"}
     NESTED = {"bootstrap": Bootstrap, "jackknife": Jackknife, "identifiability": Identifiability,
-              "global_fit": Estimates, "dilatancy": Estimates, "noise": NoiseSummary, "next_runs": CandidateRun}
+              "global_fit": Estimates, "dilatancy": Estimates, "noise": NoiseSummary, "next_runs": CandidateRun,
+              "runs": StepwiseRun, "estimates": Each(StepwiseEstimate), "sensitivity": Sensitivity,
+              "cross_check": CrossCheck, "residual_map": ResidualCell, "params": model.Params,
+              "params_stepwise": model.Params, "made_from": MadeFrom}
 
     method: str
     definitions: dict
@@ -251,12 +391,12 @@ class FitSummary(Record):
     fit_from: float
     persistence_exponent: float
     jaumann_window_strain: float
-    runs: list
-    estimates: dict
-    sensitivity: dict | None
-    params_stepwise: dict | None
-    params: dict
-    cross_check: list
+    runs: list  # of StepwiseRun
+    estimates: dict  # of StepwiseEstimate
+    sensitivity: Sensitivity | None
+    params_stepwise: model.Params | None
+    params: model.Params
+    cross_check: list  # of CrossCheck
     global_fit: Estimates | None
     noise: NoiseSummary | None
     identifiability: Identifiability | None
@@ -265,9 +405,9 @@ class FitSummary(Record):
     bootstrap: Bootstrap | None
     jackknife: Jackknife | None
     global_runs: list | None
-    residual_map: list | None
+    residual_map: list | None  # of ResidualCell
     notes: list
-    made_from: dict
+    made_from: MadeFrom
 
     def to_dict(self) -> dict:
         return {"schema_version": self.VERSION, **super().to_dict()}
@@ -290,9 +430,9 @@ def check_fitted(params_path: Path) -> None:
     if not fit_path.exists():
         return
     fit = read_fit(fit_path)
-    made_from = MadeFrom.from_dict(fit.made_from, fit_path)
+    made_from = fit.made_from
     given = read_params(params_path)
-    if given.params.to_dict() != model.Params.from_dict(fit.params, str(fit_path)).to_dict():
+    if given.params.to_dict() != fit.params.to_dict():
         raise PipelineError(f"{params_path} does not hold the parameters {fit_path.name} beside it fitted (edited by "
                             "hand, or another fit's): make fit again, or give your own set from another folder")
     recorded = (given.metadata or {}).get("made_from")

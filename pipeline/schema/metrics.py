@@ -8,20 +8,208 @@ from pathlib import Path
 import model
 
 from ..errors import PipelineError
-from .base import MadeFrom, _fields_of, read_json_object
+from .base import Each, MadeFrom, Record, read_json_object
 
 METRICS_VERSION = 1
 COMPARE_SCHEMA, COMPARE_VERSION = "granular-backstress/compare", 1
+#: the labels of the two parameter sets every comparison holds: the paper's and the data set's own fit
+TABLE2, OUR_FIT = "Table 2", "our fit"
 
 
 @dataclasses.dataclass(frozen=True)
-class Metrics:
+class ErrorRow(Record):
+    """A run's errors against one parameter set's prediction: per component (``errors``; the file holds them beside
+    the run's name), the RMSE over the cycle divided by the steady |A12| or |tau12/p|."""
+
+    WHAT = "error row"
+    REST = "errors"
+
+    run: str
+    seed: int
+    parameters: str
+    errors: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class ErrorRange(Record):
+    """One component's error over a run's seeds: the mean, the least and the largest."""
+
+    WHAT = "error range"
+
+    mean: float
+    least: float
+    largest: float
+
+
+@dataclasses.dataclass(frozen=True)
+class SeedSpread(Record):
+    """A run measured at several seeds, against one parameter set: its seeds and each component's ``ErrorRange``."""
+
+    WHAT = "spread over seeds"
+    REST = "errors"
+    NESTED = {"errors": Each(ErrorRange)}
+
+    run: str
+    parameters: str
+    seeds: list
+    errors: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class Overshoot(Record):
+    """A component along the new shear direction after a change: its mean over OVERSHOOT_EARLY minus its steady
+    value, the DEM's (mean over cycles, ``dem_se`` its standard error, None with one cycle) and each parameter
+    set's (``model``: label to value); ``steady`` the DEM's steady value."""
+
+    WHAT = "overshoot"
+
+    dem: float
+    steady: float
+    dem_se: float | None
+    model: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class OvershootRow(Record):
+    """A run's overshoot of A and tau/p after one change of direction (``segment``), at one seed."""
+
+    WHAT = "overshoot row"
+    NESTED = {"A": Overshoot, "tau": Overshoot}
+
+    run: str
+    seed: int
+    segment: str
+    direction_deg: float
+    cycles: int
+    A: Overshoot
+    tau: Overshoot
+
+
+@dataclasses.dataclass(frozen=True)
+class MemoryRow(Record):
+    """A run's memory of the old direction after one change (``segment``, from ``from_deg`` to
+    ``direction_deg``), at one seed: its mean over each strain window after the change, the DEM's over cycles
+    (``dem_se``: standard errors, None with one cycle) and each parameter set's (``model``: label to means)."""
+
+    WHAT = "memory row"
+
+    run: str
+    seed: int
+    segment: str
+    from_deg: float
+    direction_deg: float
+    cycles: int
+    windows: list
+    dem: list
+    dem_se: list | None
+    model: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class Trend(Record):
+    """One quantity of one run over its cycles (``dataset.drift``): its mean per cycle, slope per cycle with its
+    standard error, t and p (None where there is no degree of freedom)."""
+
+    WHAT = "trend"
+
+    per_cycle: list
+    slope: float | None
+    standard_error: float | None
+    t: float | None
+    p: float | None
+
+
+@dataclasses.dataclass(frozen=True)
+class DriftRow(Record):
+    """A run's protocol, seed and cycles compared, and each quantity's ``Trend`` over them."""
+
+    WHAT = "drift row"
+    NESTED = {"trends": Each(Trend)}
+
+    theta_deg: float
+    rotate_at: float
+    seed: int
+    cycles: int
+    trends: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class Reversal(Record):
+    """The reversal runs' share of the backstress C A12 in the steady shear stress (with our C; with each set's C;
+    in each set's own model cycle), their mean packing fraction and the range of Table 2's model cycle."""
+
+    WHAT = "reversal summary"
+
+    backstress_share: float
+    mean_packing_fraction: float
+    table2_packing_fraction_range: list
+    backstress_share_by_C: dict
+    model_backstress_share: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class SecondLaw(Record):
+    """Eq. 19 with our fit: c1 = -C, the DEM's largest Phi against Phi_c + c3, the smallest total work rate of the
+    model's cycles (Eq. 17, per p gamma_dot), and whether all hold."""
+
+    WHAT = "second law"
+
+    c1: float
+    C: float
+    phi_max_dem: float
+    phi_c_plus_c3: float
+    min_total_work_rate: float
+    holds: bool
+
+
+@dataclasses.dataclass(frozen=True)
+class Strains(Record):
+    """Relaxation strains after the reversal of the isotropic part and of the backstress (None: not resolved)."""
+
+    WHAT = "relaxation strains"
+
+    isotropic: float | None
+    backstress: float | None
+
+
+@dataclasses.dataclass(frozen=True)
+class CutRelaxation(Record):
+    """Relaxation strains at one cut: the DEM's parts split with each set's C, and each set's own model cycle."""
+
+    WHAT = "relaxation at a cut"
+    NESTED = {"dem": Each(Strains), "model": Each(Strains)}
+
+    dem: dict
+    model: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class Relaxation(Record):
+    """The relaxation strains after the reversal: the DEM's (mean of ``reversal_runs`` runs, split with our C),
+    each set's model cycle, and both at each cut (``by_cut``: the strain left out after the reversal)."""
+
+    WHAT = "relaxation summary"
+    NESTED = {"dem": Strains, "model": Each(Strains), "by_cut": Each(CutRelaxation)}
+
+    reversal_runs: int
+    dem: Strains
+    model: dict
+    by_cut: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class Metrics(Record):
     """``metrics.json``: the model against a data set's runs (``make compare``). ``param_sets`` maps a label
-    ("Table 2", "our fit") to its parameters; ``errors`` has a row per run and set, ``components`` names the
-    columns; the rest are the tables of ``report.md`` (None where the data set has no reversal; ``drift``: a row
-    per run, ``pipeline.dataset.drift``)."""
+    ("Table 2", "our fit") to its parameters; ``errors`` has a row per run and set, ``components`` names their
+    columns; the rest are the tables of ``report.md`` (None where the data set has no reversal, or no fit file
+    with reversal curves: ``relaxation``)."""
 
     VERSION = METRICS_VERSION
+    WHAT = "comparison"
+    OMIT_NONE = True
+    NESTED = {"param_sets": Each(model.Params), "errors": ErrorRow, "seed_spread": SeedSpread,
+              "overshoot": OvershootRow, "memory": MemoryRow, "drift": DriftRow, "reversal": Reversal,
+              "second_law": SecondLaw, "relaxation": Relaxation, "made_from": MadeFrom}
 
     preset: str
     data_set: str
@@ -32,31 +220,22 @@ class Metrics:
     seed_spread: list
     overshoot: list
     memory: list
-    reversal: dict | None = None
-    second_law: dict | None = None
-    relaxation: dict | None = None
+    reversal: Reversal | None = None
+    second_law: SecondLaw | None = None
+    relaxation: Relaxation | None = None
     drift: list | None = None
-    made_from: dict | None = None
+    made_from: MadeFrom | None = None
 
-    @classmethod
-    def from_dict(cls, data: dict, path="metrics.json") -> Metrics:
-        given = _fields_of(cls, data, path, "comparison")
-        try:
-            sets = {label: model.Params.from_dict(values, f"{path}: param_sets[{label!r}]")
-                    for label, values in given["param_sets"].items()}
-        except (AttributeError, model.ParameterError) as exc:
-            raise PipelineError(str(exc)) from None
-        return cls(**{**given, "param_sets": sets})
+    @property
+    def table2(self) -> model.Params:
+        return self.param_sets[TABLE2]
+
+    @property
+    def our_fit(self) -> model.Params:
+        return self.param_sets[OUR_FIT]
 
     def to_dict(self) -> dict:
-        out = {"schema_version": self.VERSION}
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            if f.name == "param_sets":
-                value = {label: p.to_dict() for label, p in value.items()}
-            if value is not None or f.default is dataclasses.MISSING:
-                out[f.name] = value
-        return out
+        return {"schema_version": self.VERSION, **super().to_dict()}
 
 
 def read_metrics(path: Path) -> Metrics:
@@ -67,7 +246,7 @@ def check_compared(metrics: Metrics, path: Path) -> None:
     """Believe a comparison only if what made it (the parameters file and the run files) is unchanged since."""
     if metrics.made_from is None:
         raise PipelineError(f"{path} does not record what made it (an older comparison): make compare again")
-    MadeFrom.from_dict(metrics.made_from, path).require_unchanged(f"{path} compared files", "compare")
+    metrics.made_from.require_unchanged(f"{path} compared files", "compare")
 
 
 # ---------------------------------------------------------------- compare.h5

@@ -60,6 +60,22 @@ def fit_summary(**fields):
     return FitSummary(**{**{f.name: None for f in dataclasses.fields(FitSummary)}, "weight": "runs", **fields})
 
 
+def fit_row(**fields):
+    """A row of ``make fit-from`` or ``make fit-definitions`` (``pipeline.schema.FitRow``) at Table 2's values, each
+    standard error 0.1, misfit 1.2, Table 2's chi^2 4.5 % above it, the paper's definitions; ``fields`` replace."""
+    import model
+    from pipeline.schema import FitRow, OwnReversal, Table2Test
+
+    names = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
+    return FitRow(**{"definitions": {"strain": "nominal", "phi": "gap", "pressure": "target"}, "stress_fitted": "shear",
+                     "weight": "runs", "fit_from": 0.0, "persistence_exponent": 0.75, "dilatancy_note": "",
+                     "params": {n: getattr(model.PAPER, n) for n in names}, "model_params": model.PAPER,
+                     "standard_errors": dict.fromkeys(names, 0.1), "status": {}, "misfit": 1.2, "chi2": 100.0,
+                     "table2": Table2Test(4.5, 0.045, 1.2, None), "chi2_share_after_changes": 0.05,
+                     "own_reversal": OwnReversal(None, None, "no steady state"), "mean_packing_fraction": 0.6,
+                     **fields})
+
+
 def module_main(module: str):
     """The command line ``python -m <module>`` as a function of its arguments, run in this process (a fresh run of
     the module's ``__main__`` each time): its exit status."""

@@ -17,9 +17,9 @@ from pipeline.dataset.derived import Definitions, cycle_D_dev
 from pipeline.dataset.selection import DataSet
 from pipeline.errors import CalibrationError, PipelineError
 from pipeline.io import read_params
-from pipeline.schema import read_fit
+from pipeline.schema import OwnReversal, read_fit
 from pipeline.spec import resolve, run_folder
-from tests.helpers import RUNS_AWAY, fit_summary, module_main, synthetic_file, synthetic_run
+from tests.helpers import RUNS_AWAY, fit_row, fit_summary, module_main, synthetic_file, synthetic_run
 
 fit_main = module_main("pipeline.calibration")
 
@@ -31,7 +31,7 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
     path = synthetic_file(tmp_path, n_cycles=2)
     assert fit_main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 0
     report = read_fit(tmp_path / "fit" / "fit.json")
-    est = {k: v["value"] for k, v in report.estimates.items()}
+    est = {k: v.value for k, v in report.estimates.items()}
     # the fabric law (Eqs. 9, 12, 13) from the smoothed Jaumann rate
     assert est["b1"] == pytest.approx(TRUE.b1, rel=0.02) and est["b2"] == pytest.approx(TRUE.b2, rel=0.02)
     assert est["a1"] == pytest.approx(TRUE.a1, rel=0.05) and est["a2"] == pytest.approx(TRUE.a2, rel=0.15)
@@ -45,7 +45,7 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
         assert getattr(refined, name) == pytest.approx(getattr(TRUE, name), rel=0.02), name
     assert refined.c1 == -refined.C
     # on noise-free data the fabric law does not hinge on the smoothing window
-    for window, values in report.sensitivity["smoothing_window"].items():
+    for window, values in report.sensitivity.smoothing_window.items():
         assert values["b2"] == pytest.approx(TRUE.b2, rel=0.02), window
 
 
@@ -54,8 +54,8 @@ def test_several_seeds_give_a_mean_and_its_standard_error(tmp_path):
     runs = [synthetic_run(tmp_path, name=f"s{seed}", n_cycles=2, noise=0.002, seed=seed) for seed in range(3)]
     report = fit(runs, tmp_path / "fit")
     b2 = report.estimates["b2"]
-    assert len(b2["per_run"]) == 3
-    assert b2["standard_error"] == pytest.approx(np.std(b2["per_run"], ddof=1) / np.sqrt(3))
+    assert len(b2.per_run) == 3 and len(report.runs) == 3
+    assert b2.standard_error == pytest.approx(np.std(b2.per_run, ddof=1) / np.sqrt(3))
 
 
 def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
@@ -77,10 +77,10 @@ def test_sec33_cross_check_on_other_angles_finds_constant_C(tmp_path):
     angles = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=1) for t in (60.0, 120.0)]
     report = fit([reversal], tmp_path / "fit", cross_runs=angles)
     for check in report.cross_check:
-        assert check["C_median"] == pytest.approx(TRUE.C, rel=0.02)
-        assert check["m"] == pytest.approx(TRUE.m, abs=0.1) and check["n"] == pytest.approx(TRUE.n, abs=0.02)
+        assert check.C_median == pytest.approx(TRUE.C, rel=0.02)
+        assert check.m == pytest.approx(TRUE.m, abs=0.1) and check.n == pytest.approx(TRUE.n, abs=0.02)
     # one reversal of one cycle: nothing to take a stepwise error from, and none is claimed
-    assert all(np.isnan(e["standard_error"]) and e["error_from"] is None for e in report.estimates.values())
+    assert all(np.isnan(e.standard_error) and e.error_from is None for e in report.estimates.values())
 
 
 @pytest.mark.slow
@@ -142,11 +142,11 @@ def test_own_reversal_runs_table_2_and_names_why_a_law_that_runs_away_fails():
     from pipeline.calibration.definitions import own_reversal
 
     paper, away = own_reversal(model.Params()), own_reversal(RUNS_AWAY)
-    assert paper["error"] is None and paper["peak_over_steady"] == pytest.approx(1.0, abs=0.01)
-    assert away["peak_over_steady"] is None and away["start_rate"] > 0.01 and "the fabric grows" in away["error"]
+    assert paper.error is None and paper.peak_over_steady == pytest.approx(1.0, abs=0.01)
+    assert away.peak_over_steady is None and away.start_rate > 0.01 and "the fabric grows" in away.error
     # a law whose fabric never leaves zero has no steady state to reverse from: said, not raised
     still = own_reversal(model.Params(a1=0.0, b1=0.0))
-    assert still["start_rate"] is None and still["error"].startswith("no steady state: ")
+    assert still.start_rate is None and still.error.startswith("no steady state: ")
     from pipeline.calibration.restart import own_reversal_cell
     assert own_reversal_cell(still) == "no steady state"
 
@@ -225,13 +225,13 @@ def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path, cap
     for key in ("C_eq15", "n", "m", "b1", "b2", "c2_coef", "phi_c"):
         i = step.free.index(key)
         assert 0 < step.standard_deviation[i] < np.inf, key
-        assert step.percentile_2_5[i] <= report.estimates[key]["value"] <= step.percentile_97_5[i], key
+        assert step.percentile_2_5[i] <= report.estimates[key].value <= step.percentile_97_5[i], key
     # one reversal: its stepwise errors are the spread over the resamplings of its cycles
     for key in ("C_eq15", "m", "phi_c"):
         e = report.estimates[key]
-        assert e["error_from"] == "cycle resamples"
+        assert e.error_from == "cycle resamples"
         half_width = step.half_width_68[step.free.index(key)]
-        assert e["standard_error"] == pytest.approx(half_width * small_sample_factor(4)) and half_width > 0, key
+        assert e.standard_error == pytest.approx(half_width * small_sample_factor(4)) and half_width > 0, key
     print_report(report, tmp_path / "fit")
     out = capsys.readouterr().out
     assert "nan" not in out and "one run ± its error from resamplings of its cycles (docs/calibration.md)" in out
@@ -380,11 +380,9 @@ def test_the_restart_table_reads_its_options_and_marks_what_is_not_determined():
     with pytest.raises(PipelineError, match="--exponents: 5.0 must lie in"):
         restart._numbers("exponents", "0.5,5")
     names = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
-    row = {"fit_from": 0.005, "persistence_exponent": 0.75, "params": {n: 1.0 for n in names},
-           "standard_errors": {n: 0.1 for n in names}, "status": {"m": "not determined"}, "misfit": 1.2,
-           "chi2": 100.0, "chi2_share_after_changes": 0.05, "table2": {"relative_rise": 0.045, "quantiles": None},
-           "own_reversal": {"start_rate": 0.017, "peak_over_steady": None, "error": "the fabric grows"}}
-    text = restart.markdown([{**row, "runs": 9}], "reduced")
+    row = fit_row(fit_from=0.005, params=dict.fromkeys(names, 1.0), status={"m": "not determined"},
+                  own_reversal=OwnReversal(0.017, None, "the fabric grows"), runs=9)
+    text = restart.markdown([row], "reduced")
     assert "| 0.005 | 0.75 | 9 | +1 ± 0.1 | +1 ± 0.1 | +1 (open) |" in text and "+4.5% | n/a | +0.017, fails |" in text
     assert "| Table 2 |" in text and "+2.8e-05, peak 1.00 |" in text  # Table 2's own reversal, on the edge
 
@@ -398,10 +396,8 @@ def test_each_restart_row_writes_every_parameter_it_ran_with_where_the_compariso
     from pipeline.calibration.definitions import own_reversal
 
     params = model.Params().replace(persistence_exponent=0.5, a1=-0.03, b2=-40.0, phi_c=0.58)
-    row = {"fit_from": 0.005, "persistence_exponent": 0.5, "runs": 6, "weight": "angles",
-           "model_params": params.to_dict(),
-           "definitions": {"strain": "nominal", "phi": "gap", "pressure": "target"},
-           "own_reversal": own_reversal(params)}
+    row = fit_row(fit_from=0.005, persistence_exponent=0.5, runs=6, weight="angles", model_params=params,
+                  own_reversal=own_reversal(params))
     path = restart.write_row_params(tmp_path, row)
     assert path == tmp_path / "fit_from" / "from0.005-k0.5-runs6.json"
     assert io.read_params(path) == params
@@ -471,9 +467,9 @@ def test_a_fit_row_weighs_the_runs_as_make_fit_does(tmp_path):
     row = definitions.fit_row(runs, paper, weight="angles")
     data, noise = global_fit.prepare([r.with_definitions(paper) for r in runs], weight="angles")
     per_angle = global_fit.refine(data, model.Params(), noise=noise)
-    assert row["weight"] == "angles" and row["misfit"] == pytest.approx(per_angle.misfit)
-    assert row["params"]["a1"] == pytest.approx(per_angle.params.a1)
-    assert definitions.fit_row(runs, paper)["chi2"] != pytest.approx(row["chi2"])
+    assert row.weight == "angles" and row.misfit == pytest.approx(per_angle.misfit)
+    assert row.params["a1"] == pytest.approx(per_angle.params.a1)
+    assert definitions.fit_row(runs, paper).chi2 != pytest.approx(row.chi2)
 
 
 @pytest.mark.slow
@@ -504,9 +500,9 @@ def test_a_fit_row_whose_dilatancy_the_runs_cannot_fix_keeps_table_2s_and_says_s
     monkeypatch.setattr(global_fit, "refine_dilatancy", no_dilatancy)
     run = synthetic_run(tmp_path, name="one", seed=1, noise=0.003, n_cycles=1)
     row = definitions.fit_row([run], Definitions(strain="nominal", phi="gap"))
-    assert "not determined" in row["dilatancy_note"] and "did not converge" in row["dilatancy_note"]
-    assert row["params"]["c2_coef"] == model.PAPER.c2_coef and row["params"]["phi_c"] == model.PAPER.phi_c
-    assert np.isnan(row["standard_errors"]["phi_c"]) and np.isfinite(row["standard_errors"]["C"])
+    assert "not determined" in row.dilatancy_note and "did not converge" in row.dilatancy_note
+    assert row.params["c2_coef"] == model.PAPER.c2_coef and row.params["phi_c"] == model.PAPER.phi_c
+    assert np.isnan(row.standard_errors["phi_c"]) and np.isfinite(row.standard_errors["C"])
     assert "(open)" in definitions.markdown([row], "x").split("\n")[-3]
 
 

@@ -18,7 +18,7 @@ from pipeline.dataset.derived import PAPER_DEFINITIONS, Definitions
 from pipeline.dataset.smoothing import relaxation_strain
 from pipeline.figures.draw import draw
 from pipeline.io import read_params, write_params
-from tests.helpers import fit_summary, module_main, synthetic_run
+from tests.helpers import fit_row, fit_summary, module_main, synthetic_run
 
 main = module_main("pipeline.figures")
 
@@ -54,10 +54,10 @@ def test_comparison_writes_predictions_and_metrics(compared):
             assert m["dem"].shape == m["dem_sem"].shape == m["strain_after"].shape
             assert abs(m["model/Table 2/fraction"][0] - 1) < 0.05 and abs(m["dem"][0] - 1) < 0.2
     # the model with the true parameters fits the synthetic data to the noise: small normalised errors
-    row = next(e for e in metrics.errors if e["run"] == "theta180" and e["parameters"] == "Table 2")
-    assert max(row[k] for k in ("A12", "A32", "tau12", "tau32")) < 0.15
+    row = next(e for e in metrics.errors if e.run == "theta180" and e.parameters == "Table 2")
+    assert max(row.errors[k] for k in ("A12", "A32", "tau12", "tau32")) < 0.15
     # model data made with c1 = -C and Phi below Phi_c + c3 satisfy Eq. 19
-    assert metrics.second_law["holds"]
+    assert metrics.second_law.holds
 
 
 def test_a_protocol_at_several_seeds_has_its_errors_over_the_seeds_and_an_overshoot_row_per_seed(compared):
@@ -65,20 +65,20 @@ def test_a_protocol_at_several_seeds_has_its_errors_over_the_seeds_and_an_oversh
     the first seed's own row is one end of the range; a protocol at one seed has no spread. The overshoot has a row
     per seed, the other seed's right after the first's."""
     _, metrics = compared
-    spread = {(r["run"], r["parameters"]): r for r in metrics.seed_spread}
+    spread = {(r.run, r.parameters): r for r in metrics.seed_spread}
     assert set(spread) == {("theta180", "Table 2"), ("theta180", "our fit")}
     for (run, label), r in spread.items():
-        assert r["seeds"] == [1, 3]
-        first = next(e for e in metrics.errors if e["run"] == run and e["parameters"] == label)
+        assert r.seeds == [1, 3]
+        first = next(e for e in metrics.errors if e.run == run and e.parameters == label)
         for k in ("A12", "A32", "tau12", "tau32"):
-            v = r[k]
-            assert v["least"] < v["mean"] < v["largest"] and first[k] in (v["least"], v["largest"]), (label, k)
+            v = r.errors[k]
+            assert v.least < v.mean < v.largest and first.errors[k] in (v.least, v.largest), (label, k)
     # the overshoot: a row per seed, each seed's beside the first's, each its own measure
-    order = [(r["run"], r["seed"], r["segment"]) for r in metrics.overshoot]
+    order = [(r.run, r.seed, r.segment) for r in metrics.overshoot]
     assert order == [("theta180", 1, "after the turn to theta"), ("theta180", 3, "after the turn to theta"),
                      ("theta180", 1, "after the turn back"), ("theta180", 3, "after the turn back"),
                      ("theta060", 2, "after the turn to theta"), ("theta060", 2, "after the turn back")]
-    assert metrics.overshoot[0]["A"]["dem"] != metrics.overshoot[1]["A"]["dem"]
+    assert metrics.overshoot[0].A.dem != metrics.overshoot[1].A.dem
 
 
 def test_the_cycle_figure_draws_a_protocols_other_seeds_beside_its_first(compared, monkeypatch):
@@ -115,7 +115,7 @@ def test_the_memory_of_a_turn_at_two_seeds_has_a_row_and_a_curve_per_seed(tmp_pa
     sets = {"Table 2": model.Params(), "our fit": model.Params()}
     metrics = compare([first], sets, None, tmp_path / "compare", "synthetic", other_seeds=(second,),
                       made_from=schema.MadeFrom.of([first.path, second.path], {}))
-    assert [(r["seed"], r["segment"]) for r in metrics.memory] == [
+    assert [(r.seed, r.segment) for r in metrics.memory] == [
         (1, "after the turn to theta"), (2, "after the turn to theta"), (1, "after the turn back"),
         (2, "after the turn back")]
     drawn = []
@@ -135,15 +135,14 @@ def test_the_overshoot_of_model_made_runs_is_the_models_and_the_model_arrives_fr
     new direction, early minus steady, from the cycles) is the model's own by the same measure on its cycle,
     after both changes of each run; the model approaches its steady value from below (negative)."""
     _, metrics = compared
-    rows = {(r["run"], r["segment"]): r for r in metrics.overshoot}
+    rows = {(r.run, r.segment): r for r in metrics.overshoot}
     assert set(rows) == {(run, seg) for run in ("theta180", "theta060")
                          for seg in ("after the turn to theta", "after the turn back")}
     for r in rows.values():
-        for field in ("A", "tau"):
-            v = r[field]
-            assert v["model"]["Table 2"] < 0 and v["steady"] > 0, r
-            assert abs(v["dem"] - v["model"]["Table 2"]) < 3 * v["dem_se"] + 0.002, r
-    assert rows[("theta180", "after the turn to theta")]["tau"]["model"]["Table 2"] < -0.02  # slow after a reversal
+        for v in (r.A, r.tau):
+            assert v.model["Table 2"] < 0 and v.steady > 0, r
+            assert abs(v.dem - v.model["Table 2"]) < 3 * v.dem_se + 0.002, r
+    assert rows[("theta180", "after the turn to theta")].tau.model["Table 2"] < -0.02  # slow after a reversal
     X = np.zeros((3, 3))
     X[0, 1], X[2, 1] = -0.05, 0.02
     assert metrics_along(X, 0.0) == -0.05 and metrics_along(X, 90.0) == pytest.approx(0.02)
@@ -155,12 +154,12 @@ def test_the_memory_of_model_made_runs_is_the_models_and_fades(compared):
     normal to the new direction, as a fraction of the old steady fabric's) is the model's own by the same measure,
     after both turns at 60 degrees; it fades from near 1/3 to a few per cent; the reversal has no such part."""
     _, metrics = compared
-    rows = {(r["run"], r["segment"]): r for r in metrics.memory}
+    rows = {(r.run, r.segment): r for r in metrics.memory}
     assert set(rows) == {("theta060", "after the turn to theta"), ("theta060", "after the turn back")}
     for r in rows.values():
-        model_left = r["model"]["Table 2"]
+        model_left = r.model["Table 2"]
         assert 0.2 < model_left[0] < 0.5 and model_left[0] > model_left[1] > model_left[2] > 0, r
-        for dem, se, mod in zip(r["dem"], r["dem_se"], model_left, strict=True):
+        for dem, se, mod in zip(r.dem, r.dem_se, model_left, strict=True):
             assert abs(dem - mod) < 3 * se + 0.02, r
 
 
@@ -279,13 +278,13 @@ def test_the_profile_figure_is_drawn_from_profiles_json_of_the_same_fit_only(com
 def test_the_report_shows_the_fit_against_the_restart_in_standard_errors_from_table_2():
     from pipeline.figures.report import jump_lines
 
-    paper = model.Params().to_dict()
-    row = {"persistence_exponent": 0.75, "fit_from": 0.005, "misfit": 1.2, "table2": {"relative_rise": 0.045},
-           "params": {**paper, "a1": -0.015}, "standard_errors": {n: 0.003 if n == "a1" else 1.0 for n in paper}}
-    lines = jump_lines([row, {**row, "persistence_exponent": 0.5}], paper)
+    paper = model.Params()
+    row = fit_row(fit_from=0.005, params={**paper.to_dict(), "a1": -0.015},
+                  standard_errors={n: 0.003 if n == "a1" else 1.0 for n in paper.to_dict()})
+    lines = jump_lines([row, dataclasses.replace(row, persistence_exponent=0.5)], paper)
     assert len([x for x in lines if x.startswith("| 0.005")]) == 1  # k = 3/4 rows only
     assert "-0.015 (+2.0)" in lines[-1] and "+4.5%" in lines[-1]
-    lines = jump_lines([{**row, "fit_from": 0.002, "runs": 3}, {**row, "runs": 17}], paper)
+    lines = jump_lines([dataclasses.replace(row, fit_from=0.002, runs=3), dataclasses.replace(row, runs=17)], paper)
     assert lines[-2].startswith("| 0.002 | 3 |") and lines[-1].startswith("| 0.005 | 17 |")
 
 
@@ -310,11 +309,10 @@ def test_the_report_says_how_new_runs_join_the_fit():
 def test_the_report_takes_the_fits_past_the_jump_only_of_the_fits_weighting():
     from pipeline.figures.report import same_weighting
 
-    rows = [{"fit_from": 0.005, "weight": "angles"}, {"fit_from": 0.0, "weight": "angles"}]
+    rows = [fit_row(fit_from=0.005, weight="angles"), fit_row(fit_from=0.0, weight="angles")]
     angles, runs = fit_summary(weight="angles"), fit_summary(weight="runs")
     assert same_weighting(rows, angles) and not same_weighting(rows, runs)
-    assert same_weighting([{"fit_from": 0.005}], runs)  # from before the weighting was recorded
-    assert not same_weighting([{"fit_from": 0.005}], angles)
+    assert same_weighting([fit_row(fit_from=0.005)], runs) and not same_weighting([fit_row(fit_from=0.005)], angles)
 
 
 def test_atomic_writes_leave_files_as_readable_as_a_plain_write(tmp_path):

@@ -15,15 +15,20 @@ from tests.helpers import fit_summary
 def metrics(**extra) -> schema.Metrics:
     return schema.Metrics(preset="p", data_set="p (yade)", definitions={"strain": "nominal"},
                           param_sets={"Table 2": model.Params(), "our fit": model.Params().replace(C=-5.0)},
-                          components=["A12"], errors=[{"run": "theta180", "A12": 0.1}], seed_spread=[], overshoot=[],
-                          memory=[], **extra)
+                          components=["A12"], errors=[schema.ErrorRow("theta180", 1, "Table 2", {"A12": 0.1})],
+                          seed_spread=[], overshoot=[], memory=[], **extra)
+
+
+REVERSAL = schema.Reversal(0.8, 0.6, [0.58, 0.61], {"Table 2": 0.88, "our fit": 0.8}, {"Table 2": 0.9, "our fit": 0.85})
 
 
 def test_each_file_reads_back_as_written_and_names_its_version(tmp_path):
     path = tmp_path / "metrics.json"
-    path.write_text(json.dumps(metrics(reversal={"backstress_share": 0.8}).to_dict()))
+    path.write_text(json.dumps(metrics(reversal=REVERSAL).to_dict()))
     back = schema.read_metrics(path)
-    assert back == metrics(reversal={"backstress_share": 0.8}) and back.param_sets["our fit"].C == -5.0
+    assert back == metrics(reversal=REVERSAL) and back.our_fit.C == -5.0 and back.errors[0].errors == {"A12": 0.1}
+    assert json.loads(path.read_text())["errors"] == [{"run": "theta180", "seed": 1, "parameters": "Table 2",
+                                                       "A12": 0.1}]  # a table's columns beside its row's name
     assert json.loads(path.read_text())["schema_version"] == schema.METRICS_VERSION
     assert "relaxation" not in json.loads(path.read_text())  # none: not written, as before versions
     estimates = schema.Estimates({"C": -5.0}, ["C"], [-5.0], [None], None, None, None, 1.2, 30.0, 9, True, "ok", [])
