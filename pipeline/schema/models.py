@@ -10,6 +10,7 @@ from pathlib import Path
 from .. import io
 from ..errors import PipelineError
 from .base import MadeFrom, Record, read_json_object
+from .fit import OwnReversal
 
 MODELS_SCHEMA, MODELS_VERSION = "granular-backstress/models", 2  # models.h5 and models.json; 2: made_from
 
@@ -77,7 +78,7 @@ class LawScore(Record):
     scores on each split and across cells."""
 
     WHAT = "law's score"
-    NESTED = {"splits": SplitScore, "across": AcrossScore}
+    NESTED = {"splits": SplitScore, "across": AcrossScore, "own_reversal": OwnReversal}
 
     variant: str
     params: dict
@@ -89,7 +90,7 @@ class LawScore(Record):
     chi2: float
     aic: float
     bic: float
-    own_reversal: dict
+    own_reversal: OwnReversal
     splits: list
     across: list
 

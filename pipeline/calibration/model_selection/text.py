@@ -21,8 +21,8 @@ def markdown(label: str, results: list[LawScore], judgements: list[Judgement],
               "| variant | parameters | misfit | AIC | BIC | own reversal |", "|---|---|---|---|---|---|"]
     for r in results:
         rev = r.own_reversal
-        runs_away = "no cycle" if rev["error"] else f"peak/steady {rev['peak_over_steady']:.2f}"
-        own = "no steady state" if rev["start_rate"] is None else f"start rate {rev['start_rate']:+.3g}, {runs_away}"
+        runs_away = "no cycle" if rev.error else f"peak/steady {rev.peak_over_steady:.2f}"
+        own = "no steady state" if rev.start_rate is None else f"start rate {rev.start_rate:+.3g}, {runs_away}"
         lines.append(f"| {r.variant} | {r.parameters} | {r.misfit:.2f} | {r.aic:.0f} | {r.bic:.0f} | "
                      f"{own} |")
     lines += ["", "Parameters (fit on every run; ± one standard error from the noise):", ""]
