@@ -4,7 +4,10 @@ fields checked against a file's keys and version, and ``MadeFrom``, what made a 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
+import types
+import typing
 from pathlib import Path
 
 from .. import io
@@ -46,9 +49,32 @@ def _fields_of(cls, data: dict, path, what: str, renamed: dict | None = None) ->
 
 @dataclasses.dataclass(frozen=True)
 class Each:
-    """In a record's ``NESTED``: the field is a mapping of names to records of ``kind`` (or ``model.Params``)."""
+    """A field that is a mapping of names to records of ``kind`` (annotated ``dict[str, kind]``)."""
 
     kind: type
+
+
+def _kind(hint):
+    """How a field annotated ``hint`` is read: a class that reads itself (``from_dict``: a record, ``model.Params``),
+    in ``X | None``, ``list[X]`` or ``dict[str, X]`` (``Each``); None for plain JSON values."""
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        kinds = [k for k in map(_kind, args) if k is not None]
+        return kinds[0] if kinds else None
+    if origin is list:
+        return _kind(args[0]) if args else None
+    if origin is dict:
+        inner = _kind(args[1]) if args else None
+        return Each(inner) if inner is not None else None
+    return hint if isinstance(hint, type) and hasattr(hint, "from_dict") else None
+
+
+@functools.cache
+def nested(cls) -> dict:
+    """The fields of the record class ``cls`` that hold records, and how each is read (``_kind`` of its
+    annotation)."""
+    hints = typing.get_type_hints(cls)
+    return {f.name: kind for f in dataclasses.fields(cls) if (kind := _kind(hints[f.name])) is not None}
 
 
 def _read(kind, value, path):
@@ -84,16 +110,15 @@ def _written(value):
 
 class Record:
     """A record in a file: read from and written to its JSON object with the keys ``RENAMED`` maps to its fields
-    (a key that is no identifier), a missing or unknown key refused in one line (``_fields_of``); ``NESTED``
-    names the fields that hold a record, a list of records or a mapping of them (``Each``);
-    ``REST`` names a mapping field whose entries the file holds flat beside the others (a table's columns); a
-    field whose metadata says ``written=False`` is kept in memory only; with ``OMIT_NONE`` an optional field that
-    is None is not written."""
+    (a key that is no identifier), a missing or unknown key refused in one line (``_fields_of``). A field annotated
+    with a record class (or ``model.Params``), alone, optional, in a list or as ``dict[str, X]``, is read as one
+    (``nested``). ``REST`` names a mapping field whose entries the file holds flat beside the others (a table's
+    columns); a field whose metadata says ``written=False`` is kept in memory only; with ``OMIT_NONE`` an optional
+    field that is None is not written."""
 
     VERSION = 1
     WHAT = "record"
     RENAMED: dict = {}
-    NESTED: dict = {}
     REST = ""
     OMIT_NONE = False
 
@@ -106,7 +131,7 @@ class Record:
             data = {**{k: v for k, v in data.items() if cls.RENAMED.get(k, k) in names},
                     cls.REST: {k: v for k, v in data.items() if cls.RENAMED.get(k, k) not in names}}
         fields = _fields_of(cls, data, path, cls.WHAT, cls.RENAMED)
-        for name, kind in cls.NESTED.items():
+        for name, kind in nested(cls).items():
             fields[name] = _read(kind, fields.get(name), f"{path}: {name}" if isinstance(kind, Each) else path)
         return cls(**fields)
 

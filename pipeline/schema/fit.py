@@ -9,7 +9,7 @@ import model
 
 from .. import io
 from ..errors import PipelineError
-from .base import Each, MadeFrom, Record, read_json_object
+from .base import MadeFrom, Record, read_json_object
 from .params import read_params
 
 FIT_VERSION = 2  # 2: made_from
@@ -42,8 +42,6 @@ class Bootstrap(Record):
     the same number of resamplings."""
 
     WHAT = "bootstrap"
-    NESTED = {"stepwise": StepwiseBootstrap}
-
     free: list
     replicates: list
     standard_deviation: list
@@ -223,21 +221,18 @@ class Identifiability(Record):
 
     WHAT = "identifiability summary"
 
-    parameters: dict
+    parameters: dict[str, ParameterInterval]
     intervals_68: dict
     not_determined: list
     held: dict
     misfit: float
     misfit_widening: float
     misfit_noted: bool
-    weakest: list
-    strongest: list
+    weakest: list[Combination]
+    strongest: list[Combination]
     noise_measured: bool
     table2: Table2Test | None
     spread_over_angles: SpreadOverAngles | None = None
-
-    NESTED = {"parameters": Each(ParameterInterval), "weakest": Combination, "strongest": Combination,
-              "table2": Table2Test, "spread_over_angles": SpreadOverAngles}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -255,7 +250,7 @@ class StepwiseRun(Record):
     transient_strain: float
     steady_packing_fraction: float
     C_eq15_by_reversal: list
-    estimates: dict
+    estimates: dict[str, float]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -342,8 +337,6 @@ class FitRow(Record):
 
     WHAT = "fit row"
     OMIT_NONE = True
-    NESTED = {"table2": Table2Test, "own_reversal": OwnReversal, "model_params": model.Params}
-
     definitions: dict
     stress_fitted: str
     weight: str
@@ -377,36 +370,31 @@ class FitSummary(Record):
     VERSION = FIT_VERSION
     WHAT = "fit summary"
     RENAMED = {"global": "global_fit"}
-    NESTED = {"bootstrap": Bootstrap, "jackknife": Jackknife, "identifiability": Identifiability,
-              "global_fit": Estimates, "dilatancy": Estimates, "noise": NoiseSummary, "next_runs": CandidateRun,
-              "runs": StepwiseRun, "estimates": Each(StepwiseEstimate), "sensitivity": Sensitivity,
-              "cross_check": CrossCheck, "residual_map": ResidualCell, "params": model.Params,
-              "params_stepwise": model.Params, "made_from": MadeFrom}
 
     method: str
-    definitions: dict
+    definitions: dict[str, str]  # strain, phi, pressure: dataset.derived.Definitions
     stress_fitted: str
     weight: str
-    held: dict
+    held: dict[str, float]
     fit_from: float
     persistence_exponent: float
     jaumann_window_strain: float
-    runs: list  # of StepwiseRun
-    estimates: dict  # of StepwiseEstimate
+    runs: list[StepwiseRun]
+    estimates: dict[str, StepwiseEstimate]
     sensitivity: Sensitivity | None
     params_stepwise: model.Params | None
     params: model.Params
-    cross_check: list  # of CrossCheck
+    cross_check: list[CrossCheck]
     global_fit: Estimates | None
     noise: NoiseSummary | None
     identifiability: Identifiability | None
-    next_runs: list | None  # of CandidateRun
+    next_runs: list[CandidateRun] | None
     dilatancy: Estimates | None
     bootstrap: Bootstrap | None
     jackknife: Jackknife | None
-    global_runs: list | None
-    residual_map: list | None  # of ResidualCell
-    notes: list
+    global_runs: list[str] | None
+    residual_map: list[ResidualCell] | None
+    notes: list[str]
     made_from: MadeFrom
 
     def to_dict(self) -> dict:

@@ -8,7 +8,7 @@ from pathlib import Path
 import model
 
 from ..errors import PipelineError
-from .base import Each, MadeFrom, Record, read_json_object
+from .base import MadeFrom, Record, read_json_object
 
 METRICS_VERSION = 1
 COMPARE_SCHEMA, COMPARE_VERSION = "granular-backstress/compare", 1
@@ -47,12 +47,10 @@ class SeedSpread(Record):
 
     WHAT = "spread over seeds"
     REST = "errors"
-    NESTED = {"errors": Each(ErrorRange)}
-
     run: str
     parameters: str
-    seeds: list
-    errors: dict
+    seeds: list[int]
+    errors: dict[str, ErrorRange]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -74,8 +72,6 @@ class OvershootRow(Record):
     """A run's overshoot of A and tau/p after one change of direction (``segment``), at one seed."""
 
     WHAT = "overshoot row"
-    NESTED = {"A": Overshoot, "tau": Overshoot}
-
     run: str
     seed: int
     segment: str
@@ -124,13 +120,11 @@ class DriftRow(Record):
     """A run's protocol, seed and cycles compared, and each quantity's ``Trend`` over them."""
 
     WHAT = "drift row"
-    NESTED = {"trends": Each(Trend)}
-
     theta_deg: float
     rotate_at: float
     seed: int
     cycles: int
-    trends: dict
+    trends: dict[str, Trend]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -177,10 +171,8 @@ class CutRelaxation(Record):
     """Relaxation strains at one cut: the DEM's parts split with each set's C, and each set's own model cycle."""
 
     WHAT = "relaxation at a cut"
-    NESTED = {"dem": Each(Strains), "model": Each(Strains)}
-
-    dem: dict
-    model: dict
+    dem: dict[str, Strains]
+    model: dict[str, Strains]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -189,12 +181,10 @@ class Relaxation(Record):
     each set's model cycle, and both at each cut (``by_cut``: the strain left out after the reversal)."""
 
     WHAT = "relaxation summary"
-    NESTED = {"dem": Strains, "model": Each(Strains), "by_cut": Each(CutRelaxation)}
-
     reversal_runs: int
     dem: Strains
-    model: dict
-    by_cut: dict
+    model: dict[str, Strains]
+    by_cut: dict[str, CutRelaxation]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -207,23 +197,20 @@ class Metrics(Record):
     VERSION = METRICS_VERSION
     WHAT = "comparison"
     OMIT_NONE = True
-    NESTED = {"param_sets": Each(model.Params), "errors": ErrorRow, "seed_spread": SeedSpread,
-              "overshoot": OvershootRow, "memory": MemoryRow, "drift": DriftRow, "reversal": Reversal,
-              "second_law": SecondLaw, "relaxation": Relaxation, "made_from": MadeFrom}
 
     preset: str
     data_set: str
-    definitions: dict
-    param_sets: dict
-    components: list
-    errors: list
-    seed_spread: list
-    overshoot: list
-    memory: list
+    definitions: dict[str, str]  # strain, phi, pressure: dataset.derived.Definitions
+    param_sets: dict[str, model.Params]
+    components: list[str]
+    errors: list[ErrorRow]
+    seed_spread: list[SeedSpread]
+    overshoot: list[OvershootRow]
+    memory: list[MemoryRow]
     reversal: Reversal | None = None
     second_law: SecondLaw | None = None
     relaxation: Relaxation | None = None
-    drift: list | None = None
+    drift: list[DriftRow] | None = None
     made_from: MadeFrom | None = None
 
     @property

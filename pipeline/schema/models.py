@@ -45,13 +45,11 @@ class SplitScore(Record):
     held-out runs' scores, pooled in ``rms_noise``."""
 
     WHAT = "split score"
-    NESTED = {"rows": HeldOut}
-
     name: str
     params: dict | None
     misfit: float | None
     error: str | None
-    rows: list
+    rows: list[HeldOut]
     rms_noise: float
 
 
@@ -61,13 +59,11 @@ class AcrossScore(Record):
     law fitted here predicting the other's."""
 
     WHAT = "score across cells"
-    NESTED = {"here_from_there": HeldOut, "there_from_here": HeldOut}
-
     other: str
     params_there: dict
-    here_from_there: list
+    here_from_there: list[HeldOut]
     rms_noise_here: float
-    there_from_here: list
+    there_from_here: list[HeldOut]
     rms_noise_there: float
 
 
@@ -78,8 +74,6 @@ class LawScore(Record):
     scores on each split and across cells."""
 
     WHAT = "law's score"
-    NESTED = {"splits": SplitScore, "across": AcrossScore, "own_reversal": OwnReversal}
-
     variant: str
     params: dict
     free: list
@@ -91,8 +85,8 @@ class LawScore(Record):
     aic: float
     bic: float
     own_reversal: OwnReversal
-    splits: list
-    across: list
+    splits: list[SplitScore]
+    across: list[AcrossScore]
 
     def tests(self):
         """(test, its held-out rows, their pooled RMS in noise units) for every split and cross-cell prediction."""
@@ -131,16 +125,14 @@ class ModelsSummary(Record):
 
     VERSION = MODELS_VERSION
     WHAT = "models summary"
-    NESTED = {"variants": LawScore, "verdict": Judgement}
-
     data_set: str
     stress_fitted: str
     weight: str
     train_angles: list
     beyond_noise_z: float
-    variants: list
+    variants: list[LawScore]
     not_fitted: dict
-    verdict: list
+    verdict: list[Judgement]
     made_from: dict
 
     def to_dict(self) -> dict:
