@@ -18,6 +18,7 @@ def run_file(folder, **kw):
     return synthetic_file(folder, **kw)
 
 
+@pytest.mark.slow  # reads every committed run (1 GB): its cost grows with the data, not the code
 def test_the_committed_card_lists_every_committed_run_as_its_file_says():
     result = run_main(card.main, ["--check"])
     assert result.returncode == 0, result.stderr
