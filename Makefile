@@ -5,7 +5,7 @@
 # be set from outside (override)
 override USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM STRESS \
 	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS \
-	LAWS SKIP_CYCLES CASES POINTS LADDER
+	LAWS SKIP_CYCLES CASES POINTS LADDER NAMES
 # any other variable given on the command line (the Makefile's own: PY, FIT_DIR, DATA_SET...) is refused by its name
 # alone, before Make expands anything: its value would run as Make text
 override NOT_USER_VARIABLES := $(strip $(foreach v,$(.VARIABLES),$(if $(filter command line,$(origin $(v))),$(if \
@@ -135,7 +135,7 @@ fit-jackknife: venv ## the fit plus a refit leaving out each reversal seed (OVER
 fit-angles: venv ## the fit on the runs at some angles only (ANGLES="180 90 60 30", 180 among them) [FIT_FROM] [STRESS] [WEIGHT] -> results/<data set>/fit-angles-<ANGLES>[...]/
 fit-definitions: venv ## the global fit under each definition of strain, Phi and p [WEIGHT=angles] -> results/<data set>/fit/definitions.md
 fit-from: venv ## the fit past the reversal jump: gamma0 = 0, 0.005, 0.01 and a profile of k [WEIGHT=angles] -> fit/fit_from.md
-fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=bulk PHI=central] [WEIGHT=angles] [POINTS=9 per parameter] (minutes) -> fit/profiles*.json
+fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=bulk PHI=central] [WEIGHT=angles] [POINTS=9 per parameter] [NAMES=C,b2: those only] (minutes) -> fit/profiles*.json
 fidelity: venv ## the fidelity ladder (LADDER=config/fidelity.toml): make its missing DEM runs (JOBS=2), then results/fidelity[-<ladder>]/
 fidelity-table: venv ## results/fidelity[-<ladder>]/ from the committed summaries and the runs present, no DEM [LADDER] (under a minute)
 profile-dem: system venv ## where Yade's time goes, per engine (PRESETS=reduced,paper; THREADS=1) -> results/bench/dem_profile.md

@@ -1,16 +1,16 @@
 """Profile likelihood of the global fit (``make fit-profile``): each parameter held on a grid, the rest refitted.
 
 ``python -m pipeline.calibration.profile [--preset P] [--engine E] [--set K=V] [--points 9] [--span 4]
-[--strain ...] [--phi ...] [--weight runs|angles]``
-reads the preset's runs as ``make fit`` does (with the definitions given), fits them, then for every
-parameter of the global fit refits the others with it held at ``points`` values across +-``span``
-standard errors, and writes ``profiles.json`` beside the fit (``profiles-<strain>-<phi>-<p>.json`` for
-other definitions than the default): for each parameter the grid, the chi^2 rise above the best fit
-(in units of the DEM's noise) and the 68 / 95 % intervals where the rise stays below 1 / 3.84 times
-the parameter's noise factor ``V_kk / (H^-1)_kk`` (the sandwich variance over the white one: how much
-the noise's correlation along strain inflates that parameter's variance). Along a curved valley the
-interval follows the curve; a side the grid does not close is reported as open, and a flat profile
-(no rise anywhere) marks a parameter the data do not determine.
+[--names C,b2] [--strain ...] [--phi ...] [--weight runs|angles]``
+reads the preset's runs as ``make fit`` does (with the definitions given), fits them, then for every parameter of
+the global fit (or those ``--names`` gives) refits the others with it held at ``points`` values across +-``span``
+standard errors, and writes ``profiles.json`` beside the fit (``profiles-<strain>-<phi>-<p>.json`` for other
+definitions than the default, ``profiles[-...]-<names>.json`` for some parameters only): for each parameter the
+grid, the chi^2 rise above the best fit (in units of the DEM's noise) and the 68 / 95 % intervals where the rise
+stays below 1 / 3.84 times the parameter's noise factor ``V_kk / (H^-1)_kk`` (the sandwich variance over the white
+one: how much the noise's correlation along strain inflates that parameter's variance). Along a curved valley the
+interval follows the curve; a side the grid does not close is reported as open, and a flat profile (no rise
+anywhere) marks a parameter the data do not determine.
 """
 
 from __future__ import annotations
@@ -60,10 +60,14 @@ def grid_for(value: float, se: float, points: int, span: float) -> np.ndarray:
     return value + half * np.linspace(-1, 1, points)
 
 
-def profiles(data: list, best: global_fit.GlobalFit, points: int = 9, span: float = 4.0, progress=None) -> dict:
-    """The profile of every parameter of ``best`` (see the module docstring)."""
-    out, done, total = {}, 0, points * len(best.names)
+def profiles(data: list, best: global_fit.GlobalFit, points: int = 9, span: float = 4.0, progress=None,
+             names: tuple[str, ...] = ()) -> dict:
+    """The profile of every parameter of ``best``, or of ``names`` (see the module docstring)."""
+    chosen = [name for name in best.names if not names or name in names]
+    out, done, total = {}, 0, points * len(chosen)
     for k, name in enumerate(best.names):
+        if name not in chosen:
+            continue
         grid = grid_for(best.values[k], best.standard_errors[k], points, span)
         free = tuple(n for n in best.names if n != name)
         rise = []
@@ -92,12 +96,19 @@ def main(argv=None) -> int:
     selection.add_arguments(parser)
     parser.add_argument("--points", type=int, default=9, help="values per parameter (default 9)")
     parser.add_argument("--span", type=float, default=4.0, help="half-width in standard errors (default 4)")
+    parser.add_argument("--names", default="", help="the parameters to profile, comma-separated (default: all)")
     parser.add_argument("--out", help="output folder (default results/<data set folder>/fit)")
     add_definition_arguments(parser)
     add_weight_argument(parser)
     args = parser.parse_args(argv)
     if args.points < 3 or not (np.isfinite(args.span) and args.span > 0):
         raise PipelineError(f"points={args.points} must be >= 3 and span={args.span} > 0")
+    given = [n for n in args.names.split(",") if n]
+    unknown = [n for n in given if n not in global_fit.FREE]
+    if unknown:
+        raise PipelineError(f"--names: {unknown[0]!r} is not a parameter the fit refines "
+                            f"({', '.join(global_fit.FREE)})")
+    names = tuple(n for n in global_fit.FREE if n in given)  # in the fit's order: one file name per set
     definitions = definitions_from(args)
     chosen = selection.from_arguments(args)
     out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
@@ -114,8 +125,9 @@ def main(argv=None) -> int:
               flush=True)
 
     result = {"definitions": dataclasses.asdict(definitions), "weight": args.weight,
-              **profiles(data, best, args.points, args.span, progress)}
-    name = "profiles.json" if definitions == PAPER_DEFINITIONS else f"profiles-{definitions.slug()}.json"
+              **profiles(data, best, args.points, args.span, progress, names)}
+    stem = "profiles" if definitions == PAPER_DEFINITIONS else f"profiles-{definitions.slug()}"
+    name = stem + "".join(f"-{n}" for n in names) + ".json"
     io.write_json(out / name, result)
     for key, p in result["parameters"].items():
         low, high = p["intervals"]["68"]

@@ -66,6 +66,12 @@ def points_option(v: Variables) -> list[str]:
     return ["--points", points] if points else []
 
 
+def names_option(v: Variables) -> list[str]:
+    """``make fit-profile``'s NAMES: the parameters profiled, comma-separated (the stage checks the names)."""
+    names = v.names("NAMES")
+    return ["--names", ",".join(names)] if names else []
+
+
 def sweep_id(v: Variables) -> list[str]:
     ident = v.name("SWEEP")
     return ["--sweep", ident] if ident else []

@@ -21,6 +21,7 @@ from .arguments import (
     fit_paths,
     fit_suffix,
     laws_args,
+    names_option,
     needs,
     points_option,
     sweep_id,
@@ -170,7 +171,7 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
     "fit-from": lambda v: [Call("pipeline.calibration.restart", (*data_args(v), *weight_option(v)))],
     "fit-profile": lambda v: [Call("pipeline.calibration.profile", (
         *data_args(v), "--strain", v.choice("STRAIN", choices.STRAINS, "nominal"),
-        "--phi", v.choice("PHI", choices.PHIS, "gap"), *points_option(v),
+        "--phi", v.choice("PHI", choices.PHIS, "gap"), *points_option(v), *names_option(v),
         *weight_option(v)))],
     "compare": compare,
     "compare-seed": compare_seed,

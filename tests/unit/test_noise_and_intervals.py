@@ -108,6 +108,16 @@ def test_a_parameter_the_data_cannot_fix_has_a_flat_profile_and_is_reported_not_
     result = profiles(data, best, points=5)["parameters"]
     assert max(result["m"]["chi2_rise"]) < 1e-3 and result["m"]["intervals"]["68"] == [None, None]
     assert max(result["C"]["chi2_rise"]) > 10 and None not in result["C"]["intervals"]["68"]
+    named = profiles(data, best, points=5, names=("C",))["parameters"]  # one parameter: its profile alone, the same
+    assert list(named) == ["C"] and named["C"]["chi2_rise"] == result["C"]["chi2_rise"]
+
+
+def test_profiling_a_parameter_the_fit_does_not_refine_is_one_line_before_any_fit(capsys):
+    from pipeline.calibration.profile import main
+
+    assert main(["--preset", "reduced", "--names", "C,colour"]) == 2
+    err = capsys.readouterr().err
+    assert "--names: 'colour' is not a parameter the fit refines" in err and err.count("\n") == 1
 
 
 def test_a_model_that_misses_the_runs_says_so_beside_intervals_widened_by_the_root_of_its_misfit(tmp_path, capsys):

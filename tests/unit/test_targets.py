@@ -149,7 +149,7 @@ READER = {"THETA": "dem", "PRESET": "dem", "ENGINE": "dem", "RANKS": "dem", "ROT
           "THETAS": "sweep", "ROTATE_ATS": "sweep", "SEEDS": "sweep", "LAUNCH": "sweep", "SLURM": "sweep",
           "JOBS": "sweep", "MANY": "sweep", "SWEEP": "sweep-status", "SEED": "compare-seed", "A": "versus",
           "B": "versus", "RUN_DIR": "bench-lammps-settings", "ACROSS": "models", "LAWS": "models",
-          "POINTS": "fit-profile",
+          "POINTS": "fit-profile", "NAMES": "fit-profile",
           "LADDER": "fidelity"}
 PAYLOADS = ("$(shell touch INJECTED)", "x;touch INJECTED", "x\ntouch INJECTED", "`touch INJECTED`",
             "$(touch INJECTED)", "x' \"y", "x" * 5000, "ü→∞", "٩٠", "２")
