@@ -42,6 +42,7 @@ class Bootstrap(Record):
     the same number of resamplings."""
 
     WHAT = "bootstrap"
+
     free: list
     replicates: list
     standard_deviation: list
@@ -337,6 +338,7 @@ class FitRow(Record):
 
     WHAT = "fit row"
     OMIT_NONE = True
+
     definitions: dict
     stress_fitted: str
     weight: str

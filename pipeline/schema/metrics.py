@@ -72,6 +72,7 @@ class OvershootRow(Record):
     """A run's overshoot of A and tau/p after one change of direction (``segment``), at one seed."""
 
     WHAT = "overshoot row"
+
     run: str
     seed: int
     segment: str
@@ -120,6 +121,7 @@ class DriftRow(Record):
     """A run's protocol, seed and cycles compared, and each quantity's ``Trend`` over them."""
 
     WHAT = "drift row"
+
     theta_deg: float
     rotate_at: float
     seed: int
@@ -171,6 +173,7 @@ class CutRelaxation(Record):
     """Relaxation strains at one cut: the DEM's parts split with each set's C, and each set's own model cycle."""
 
     WHAT = "relaxation at a cut"
+
     dem: dict[str, Strains]
     model: dict[str, Strains]
 
@@ -181,6 +184,7 @@ class Relaxation(Record):
     each set's model cycle, and both at each cut (``by_cut``: the strain left out after the reversal)."""
 
     WHAT = "relaxation summary"
+
     reversal_runs: int
     dem: Strains
     model: dict[str, Strains]

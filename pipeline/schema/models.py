@@ -45,6 +45,7 @@ class SplitScore(Record):
     held-out runs' scores, pooled in ``rms_noise``."""
 
     WHAT = "split score"
+
     name: str
     params: dict | None
     misfit: float | None
@@ -59,6 +60,7 @@ class AcrossScore(Record):
     law fitted here predicting the other's."""
 
     WHAT = "score across cells"
+
     other: str
     params_there: dict
     here_from_there: list[HeldOut]
@@ -74,6 +76,7 @@ class LawScore(Record):
     scores on each split and across cells."""
 
     WHAT = "law's score"
+
     variant: str
     params: dict
     free: list
@@ -125,6 +128,7 @@ class ModelsSummary(Record):
 
     VERSION = MODELS_VERSION
     WHAT = "models summary"
+
     data_set: str
     stress_fitted: str
     weight: str
