@@ -115,23 +115,17 @@ class Calibration:
         """``fit.json``'s content (``pipeline.schema.FitSummary``)."""
         s = self.settings
         method = "stepwise (paper Sec. 4: Eqs. 9, 12, 15, 16, 18), then a global least-squares refinement"
-        return FitSummary.from_dict({"schema_version": FitSummary.VERSION, "method": method,
-                "definitions": dataclasses.asdict(s.definitions), "stress_fitted": s.stress, "weight": s.weight,
-                "held": s.hold,
-                "fit_from": s.fit_from,
-                "persistence_exponent": s.persistence_exponent,
-                "jaumann_window_strain": s.window, "runs": self.per_run, "estimates": self.estimates,
-                "sensitivity": self.sensitivity,
-                "params_stepwise": self.stepwise and self.stepwise.to_dict(), "params": self.params.to_dict(),
-                "cross_check": self.cross_check,
-                "global": None if self.refined is None else self.refined.estimates().to_dict(),
-                "noise": None if self.noise is None else self.noise.summary().to_dict(),
-                "identifiability": self.identifiability and self.identifiability.to_dict(),
-                "next_runs": [r.to_dict() for r in self.next_runs],
-                "dilatancy": None if self.dilatancy is None else self.dilatancy.estimates().to_dict(),
-                "bootstrap": self.bootstrap and self.bootstrap.to_dict(),
-                "jackknife": self.jackknife and self.jackknife.to_dict(), "global_runs": self.global_runs,
-                "residual_map": self.residual_map, "notes": self.notes, "made_from": self.made_from.to_dict()})
+        options = schema.FitOptions(method, s.definitions, s.stress, s.weight, dict(s.hold), s.fit_from,
+                                    s.persistence_exponent, s.window)
+        stepwise = schema.Stepwise.from_dict({"runs": self.per_run, "estimates": self.estimates,
+                                              "sensitivity": self.sensitivity, "cross_check": self.cross_check,
+                                              "params": None})
+        refined = None if self.refined is None else schema.GlobalRefinement(
+            self.global_runs, self.refined.estimates(), self.residual_map, list(self.next_runs))
+        return FitSummary(options, dataclasses.replace(stepwise, params=self.stepwise), self.params, refined,
+                          None if self.dilatancy is None else self.dilatancy.estimates(),
+                          None if self.noise is None else self.noise.summary(), self.identifiability,
+                          self.bootstrap, self.jackknife, list(self.notes), self.made_from)
 
     def params_metadata(self) -> dict | None:
         """What ``params.json`` records beside the values: the fit, its definitions and intervals."""

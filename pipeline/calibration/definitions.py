@@ -11,7 +11,6 @@ hypothesis on the same data (its chi^2 rise and whether it lies in the joint 95 
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import sys
 
@@ -54,7 +53,7 @@ def fit_row(runs: list, definitions: Definitions, fit_from: float = 0.0,
         note = f"Eq. 18's c2_coef and Phi_c not determined ({exc}): Table 2's shown"
         se.update({n: float("nan") for n in ("c2_coef", "phi_c")})
     summary = identifiability.summary(refined, data)
-    return FitRow(dataclasses.asdict(definitions), stress, weight, fit_from, persistence_exponent, note,
+    return FitRow(definitions, stress, weight, fit_from, persistence_exponent, note,
                   params={n: getattr(params, n) for n in NAMES}, model_params=params,
                   standard_errors={n: se[n] for n in NAMES},
                   status={n: p.status for n, p in summary.parameters.items()}, misfit=refined.misfit,
@@ -89,7 +88,7 @@ def early_share(refined, data: list) -> float:
     """The share of the best fit's chi^2 that lies within ``EARLY_STRAIN`` after a change of direction (in
     a cycle, 2 of 280 samples per 0.005: a uniform misfit would give 2 * 0.05 / 1.4 = 7 %)."""
     rows = residual_map(refined, data, (0.0, EARLY_STRAIN - 1e-9, np.inf))
-    return float(sum(r["share"] for r in rows if r["window"][0] == 0.0)) if rows else float("nan")
+    return float(sum(r.share for r in rows if r.window[0] == 0.0)) if rows else float("nan")
 
 
 def preset_fit_runs(chosen: selection.DataSet) -> list:
@@ -125,7 +124,7 @@ def markdown(rows: list[FitRow], label: str) -> str:
              head, "|" + "---|" * (len(NAMES) + 8)]
     yes = {True: "yes", False: "no", None: "n/a"}
     for r in rows:
-        d, p, se, t = Definitions(**r.definitions), r.params, r.standard_errors, r.table2
+        d, p, se, t = r.definitions, r.params, r.standard_errors, r.table2
         cells = " | ".join(f"{p[n]:+.4g} ± {se[n]:.2g}" if se[n] is not None and np.isfinite(se[n])
                            else f"{p[n]:+.4g} (open)" for n in NAMES)
         inside = f"{yes[t.inside_95]} / {yes[t.inside_95_widened]}" if t.quantiles else "n/a"

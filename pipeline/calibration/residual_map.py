@@ -1,12 +1,13 @@
-"""Where the global fit's residuals are largest (``fit.json`` → ``residual_map``): its chi^2 split by run, quantity
-and strain since the last change of direction. A feature the model does not resolve, such as the jump right
-after a reversal, shows here before a parameter that absorbed it is trusted.
+"""Where the global fit's residuals are largest (``fit.json`` → ``global`` → ``residual_map``): its chi^2 split by
+run, quantity and strain since the last change of direction. A feature the model does not resolve, such as the
+jump right after a reversal, shows here before a parameter that absorbed it is trusted.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..schema import ResidualCell
 from . import global_fit
 from .fit_cycle import FitCycle
 from .noise import COMPONENTS
@@ -28,7 +29,7 @@ def sample_strains(d: FitCycle) -> np.ndarray:
     return np.concatenate([d.strain[d.segment_mask(k)] for k in range(len(d.restarts))])
 
 
-def residual_map(fit: global_fit.GlobalFit, data: list[FitCycle], windows: tuple = WINDOWS) -> list[dict]:
+def residual_map(fit: global_fit.GlobalFit, data: list[FitCycle], windows: tuple = WINDOWS) -> list[ResidualCell]:
     """Per run, fitted quantity (A_ij, tau_ij/p) and window of ``windows`` (edges in strain since a change):
     samples, chi^2, its share of the total and its chi^2 per sample over the fit's mean per sample; largest share
     first. A component the fit leaves out
@@ -55,7 +56,7 @@ def residual_map(fit: global_fit.GlobalFit, data: list[FitCycle], windows: tuple
     total, count = sum(x["chi2"] for x in rows), sum(x["samples"] for x in rows)
     if total == 0:  # exact data: nothing to map
         return []
-    for x in rows:
-        x["share"] = x["chi2"] / total
-        x["per_sample_over_mean"] = (x["chi2"] / x["samples"]) / (total / count)
-    return sorted(rows, key=lambda x: -x["share"])
+    mean = total / count
+    cells = [ResidualCell(**x, share=x["chi2"] / total, per_sample_over_mean=x["chi2"] / x["samples"] / mean)
+             for x in rows]
+    return sorted(cells, key=lambda c: -c.share)

@@ -144,7 +144,7 @@ def write_row_params(out, row: FitRow):
     jump can be compared with the DEM and run in a continuum code; its metadata say how it was fitted and whether
     the model's own reversal runs with it."""
     metadata = {"fit": "global past the jump (pipeline.calibration.restart)", "fit_from": row.fit_from,
-                "runs": row.runs, "weight": row.weight, "definitions": row.definitions,
+                "runs": row.runs, "weight": row.weight, "definitions": row.definitions.to_dict(),
                 "own_reversal": row.own_reversal.to_dict()}
     return io.write_params(out / PARAMS_FOLDER / row_params_name(row), row.model_params, metadata)
 

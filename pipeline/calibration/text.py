@@ -10,12 +10,12 @@ from ..schema import FitSummary, Jackknife
 
 def print_global(report: FitSummary) -> None:
     """The global fit first: values with their 68 % intervals from the measured noise, what is determined."""
-    g, ident, nm = report.global_fit, report.identifiability, report.noise
+    g, ident, nm, options = report.global_fit, report.identifiability, report.noise, report.options
     unit = ("the DEM's noise: 1 is a fit within the noise" if ident.noise_measured else
             "the scatter about a smoothed cycle, which is less than the noise")
-    weighting = ("; each angle counts once, its seeds averaged" if report.weight == "angles"
+    weighting = ("; each angle counts once, its seeds averaged" if options.weight == "angles"
                  else "")
-    print(f"global fit on {len(report.global_runs)} run(s){weighting}; misfit {g.misfit:.2f} (chi^2 per degree "
+    print(f"global fit on {len(g.runs)} run(s){weighting}; misfit {g.estimates.misfit:.2f} (chi^2 per degree "
           f"of freedom in units of {unit})")
     if not ident.noise_measured:
         print(f"intervals: none ({nm.source}): run two cycles or more, or three seeds")
@@ -23,10 +23,10 @@ def print_global(report: FitSummary) -> None:
         print(f"intervals: 68 % from the DEM's noise ({nm.source}; correlated over "
               f"{min(min(v) for v in nm.correlation_strain.values()):.2f}-"
               f"{max(max(v) for v in nm.correlation_strain.values()):.2f} strain), not scaled by the misfit; "
-              f"they and 'determined' hold at the persistence exponent k = {report.persistence_exponent:g}, "
+              f"they and 'determined' hold at the persistence exponent k = {options.persistence_exponent:g}, "
               "held (make fit-from profiles it)")
-    if report.fit_from:
-        print(f"fitted past the reversal jump: the model restarts from the DEM's state {report.fit_from:g} "
+    if options.fit_from:
+        print(f"fitted past the reversal jump: the model restarts from the DEM's state {options.fit_from:g} "
               "strain after each change of direction (make fit-from compares restarts)")
     noted = ident.misfit_noted
     spread = ident.spread_over_angles.ranges if ident.spread_over_angles else {}
@@ -69,28 +69,29 @@ def interval_text(band) -> str:
 
 
 def print_next_runs(report: FitSummary, count: int = 5) -> None:
-    ranked = [r for r in report.next_runs if r.error is None]
+    candidates = report.global_fit.next_runs
+    ranked = [r for r in candidates if r.error is None]
     if not ranked:
-        if report.next_runs:
-            first = report.next_runs[0]
+        if candidates:
+            first = candidates[0]
             print(f"runs that would fix the weakest combination: none can be told, no candidate can be weighed at the "
-                  f"best fit (the first, {first.run}: {first.error}; fit.json: next_runs)")
+                  f"best fit (the first, {first.run}: {first.error}; fit.json: global, next_runs)")
         return
     first = ranked[0]
     print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first.weakest_before:.3g}; "
-          "fit.json: next_runs" + ("; another seed of an angle shares that angle's weight"
-                                   if report.weight == "angles" else "") + "):")
+          "fit.json: global, next_runs" + ("; another seed of an angle shares that angle's weight"
+                                   if report.options.weight == "angles" else "") + "):")
     for r in ranked[:count]:
         print(f"  {r.run}: ±{r.weakest_after:.3g}, {r.cpu_hours:.2f} CPU-hours")
 
 
 def print_residual_map(report: FitSummary, top: int = 4) -> None:
     """The largest shares of the global fit's chi^2 by run, quantity and strain since a change of direction."""
-    rows = report.residual_map or []
+    rows = report.global_fit.residual_map
     if not rows:
         return
     print("where the global fit's residuals are largest (share of chi^2; chi^2 per sample over the mean; "
-          "fit.json: residual_map):")
+          "fit.json: global, residual_map):")
     for r in rows[:top]:
         lo, hi = r.window
         span = f"{lo:g}-{hi:g}" if hi != float("inf") else f"past {lo:g}"
@@ -114,22 +115,23 @@ def print_report(report: FitSummary, out: Path) -> None:
                           if not n.startswith("persistence_exponent")))
     if report.jackknife:
         print_jackknife(report.jackknife)
-    one_run = len(report.runs) == 1
+    stepwise = report.stepwise
+    one_run = len(stepwise.runs) == 1
     print("the paper's stepwise route (Sec. 4), "
           + ("one run ± its error from resamplings of its cycles (docs/calibration.md)" if one_run else
              "mean ± standard error over the reversal runs")
           + ", and its range over smoothing windows 0.03-0.08 and 1-4 relaxation strains of transient "
-            "(fit.json: sensitivity):")
-    sens = report.sensitivity
+            "(fit.json: stepwise, sensitivity):")
+    sens = stepwise.sensitivity
     settings = [*sens.smoothing_window.values(), *sens.transient_efolds.values()]
-    for key, e in report.estimates.items():
+    for key, e in stepwise.estimates.items():
         if key.startswith("persistence_exponent"):
             continue  # biased at the DEM's 0.005 sampling (0.50 / 1.04 on model data made with 0.75): fit.json only
         values = [v[key] for v in settings if key in v and math.isfinite(v[key])]
         spread = f"   ({min(values):+.4g} to {max(values):+.4g} over its settings)" if values else ""
         error = f"± {e.standard_error:.2g}" if math.isfinite(e.standard_error) else "(one run of one cycle: no error)"
         print(f"{key:>30s} = {e.value:+.4g} {error}{spread}")
-    for c in report.cross_check:
+    for c in stepwise.cross_check:
         if c.C_median is not None:
             q = c.C_quartiles
             se = f" ± {c.C_se:.2f}" if c.C_se is not None and math.isfinite(c.C_se) else ""
@@ -138,7 +140,7 @@ def print_report(report: FitSummary, out: Path) -> None:
     for note in report.notes[2:]:
         print(f"note: {note}")
     print(f"wrote {out / 'params.json'} (global fit), fit.json and fit.h5"
-          + (", params_stepwise.json" if report.params_stepwise else ""))
+          + (", params_stepwise.json" if report.stepwise.params else ""))
 
 
 def print_jackknife(j: Jackknife) -> None:

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 from pathlib import Path
@@ -90,16 +89,18 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
     ours = sets[schema.OUR_FIT]
     others = [metrics.model_for(run, sets) for run in other_seeds]
     rows = metrics.error_rows(runs, predictions)
-    result = {"preset": preset, "data_set": label or preset, "definitions": dataclasses.asdict(runs[0].definitions),
-              "param_sets": dict(sets), "components": list(metrics.COMPONENTS), "errors": rows,
-              "seed_spread": metrics.seed_spread(rows + metrics.error_rows(other_seeds, others))}
+    errors = schema.Errors(list(metrics.COMPONENTS), rows,
+                           metrics.seed_spread(rows + metrics.error_rows(other_seeds, others)))
+    result = {"preset": preset, "data_set": label or preset, "definitions": runs[0].definitions,
+              "param_sets": schema.ParamSets(sets[schema.TABLE2], ours), "errors": errors}
     per_run = metrics.per_run
-    result["overshoot"] = metrics.beside_first(per_run(metrics.overshoots, runs, predictions),
-                                               per_run(metrics.overshoots, other_seeds, others))
     curves = per_run(metrics.memory_curves, runs, predictions)
     more = [c for c in per_run(metrics.memory_curves, other_seeds, others)
             if any((c["run"], c["segment"]) == (d["run"], d["segment"]) for d in curves)]
-    result["memory"] = metrics.beside_first(metrics.memories(curves), metrics.memories(more))
+    result["after_changes"] = schema.AfterChanges(
+        metrics.beside_first(per_run(metrics.overshoots, runs, predictions),
+                             per_run(metrics.overshoots, other_seeds, others)),
+        metrics.beside_first(metrics.memories(curves), metrics.memories(more)))
     result["drift"] = [drift_row(r) for r in [*runs, *other_seeds]]
     reversals = [r for r in runs if r.is_reversal]
     if reversals:

@@ -10,47 +10,15 @@ tau = sigma', fabric A of Eq. 8, S of Eq. 10, work rates of Sec. 5 per unit p*ga
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from model import deviator, hardening_variable_stack, shear_direction, stretching
 
-from .. import choices
+from ..schema.definitions import Definitions
 
 #: the series averaged into the periodic cycle
 CYCLE_KEYS = ("strain_bulk", "A", "tau_over_p", "mean_stress_over_p", "S", "packing_fraction", "w_shear", "w_vol",
               "shear_rate_bulk")
-@dataclass(frozen=True)
-class Definitions:
-    """The choices the paper leaves open, applied when a run is read (README, "Definitions").
-
-    ``strain``: ``"bulk"`` (rates per unit strain of the central band, measured: s . dv/dy) or
-    ``"nominal"`` (the paper's t*gamma_dot with gamma_dot = 2U/H0, H0 between the walls' inner planes).
-    ``phi``: ``"central"`` (solid fraction of the central region) or ``"gap"`` (all grains' volume over
-    W^2 (H - d), the cell between the walls' surfaces; H is the gap between the inner planes).
-    ``pressure``: ``"target"`` (tau/p with the controlled p) or ``"wall"`` (tau divided by the wall
-    normal stress measured over each sampling interval).
-    """
-
-    strain: str = "bulk"
-    phi: str = "central"
-    pressure: str = "target"
-
-    CHOICES = {"strain": choices.STRAINS, "phi": choices.PHIS, "pressure": choices.PRESSURES}
-
-    def __post_init__(self):
-        for name, allowed in self.CHOICES.items():
-            if getattr(self, name) not in allowed:
-                raise ValueError(f"{name}={getattr(self, name)!r} is not one of {', '.join(allowed)}")
-
-    def label(self) -> str:
-        return f"strain {self.strain}, Phi {self.phi}, p {self.pressure}"
-
-    def slug(self) -> str:
-        """``bulk-central-target``: the definitions in a file name."""
-        return f"{self.strain}-{self.phi}-{self.pressure}"
-
 
 DEFAULT = Definitions()
 #: the paper's own: strain t*2U/H (Sec. 2) and Phi of the whole gap; what ``make fit`` reports first

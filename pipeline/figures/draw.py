@@ -18,8 +18,8 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     schema.check_compared(metrics, compare_dir / "metrics.json")
     io.check_writable_dir(out)
     fit = schema.read_fit(fit_dir / "fit.json") if (fit_dir / "fit.json").exists() else None
-    sets = metrics.param_sets
-    fitted, paper = metrics.our_fit, metrics.table2
+    sets = metrics.param_sets.labelled()
+    fitted, paper = metrics.param_sets.our_fit, metrics.param_sets.table2
     preset = metrics.preset
     figures = out / "figures"
     made = []

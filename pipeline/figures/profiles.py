@@ -15,7 +15,7 @@ from .output import save
 def belongs_to(result: dict, fit) -> bool:
     """Whether ``profiles.json`` profiles the fit in ``fit.json`` (a ``schema.FitSummary``, or None): the same
     parameters at the same best values."""
-    g = fit.global_fit if fit else None
+    g = fit.global_fit.estimates if fit and fit.global_fit else None
     best = dict(zip(g.free, g.values, strict=True)) if g else {}
     parameters = result.get("parameters", {})
     return bool(parameters) and set(parameters) == set(best) and all(

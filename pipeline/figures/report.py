@@ -121,7 +121,8 @@ def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
     lines += ["", f"Intervals from the DEM's own noise ({noise.source}; correlated over "
               f"{min(lengths):.2f}-{max(lengths):.2f} strain, A and tau/p noise correlated at "
               f"{min(noise.A_tau_correlation):+.2f} to {max(noise.A_tau_correlation):+.2f}), "
-              f"not scaled by the misfit. Misfit: {g.misfit:.2f} (chi^2 per degree of freedom in noise units; "
+              f"not scaled by the misfit. Misfit: {g.estimates.misfit:.2f} (chi^2 per degree of freedom in noise "
+              "units; "
               "1 = the model fits within the noise). `make fit-profile` gives the profile intervals, "
               "`make fit-bootstrap` a bootstrap of the noise."
               + (misfit_sentence(ident) if noted else ""), "",
@@ -145,33 +146,34 @@ def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
 
 def same_weighting(rows: list[FitRow], fit: FitSummary | None) -> bool:
     """Whether the rows of ``make fit-from`` (``fit_from.json``) weighed the runs as the fit in ``fit.json`` did."""
-    return all(r.weight == (fit.weight if fit else "runs") for r in rows)
+    return all(r.weight == (fit.options.weight if fit else "runs") for r in rows)
 
 
 def fit_runs_sentence(fit: FitSummary | None) -> str:
-    """How many runs the global fit took (``fit.json`` → ``global_runs``) and how it weighed them."""
-    runs = fit.global_runs if fit else None
+    """How many runs the global fit took (``fit.json`` → ``global`` → ``runs``) and how it weighed them."""
+    runs = fit.global_fit.runs if fit and fit.global_fit else None
     if not runs:
         return ""
     return (f" The fit took {len(runs)} run(s), every seed of the reversal and of each angle rotated at half the "
-            "period, " + ("each angle counted once (WEIGHT=angles)." if fit.weight == "angles"
+            "period, " + ("each angle counted once (WEIGHT=angles)." if fit.options.weight == "angles"
                           else "each run counted once."))
 
 
 def next_runs_lines(fit: FitSummary) -> list[str]:
-    """The best new runs per CPU-hour (``fit.json`` → ``next_runs``), each joined to the fit's runs with its
-    weighting."""
-    runs = [r for r in fit.next_runs or [] if r.error is None]  # last: those that cannot be weighed
+    """The best new runs per CPU-hour (``fit.json`` → ``global`` → ``next_runs``), each joined to the fit's runs
+    with its weighting."""
+    candidates = fit.global_fit.next_runs
+    runs = [r for r in candidates if r.error is None]  # last: those that cannot be weighed
     if not runs:
-        failed = fit.next_runs or []
+        failed = candidates
         return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
                 f"None can be told: no candidate can be weighed at the best fit (the first, "
-                f"{failed[0].run}: {failed[0].error}; fit.json: next_runs)."] if failed else []
+                f"{failed[0].run}: {failed[0].error}; fit.json: global, next_runs)."] if failed else []
     return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
-            f"Its relative ± is {runs[0].weakest_before:.3g} now (fit.json: next_runs, every candidate); each "
+            f"Its relative ± is {runs[0].weakest_before:.3g} now (fit.json: global, next_runs, every candidate); each "
             "run is joined to the fit's runs"
             + (" with each angle counted once, so another seed of an angle shares that angle's weight."
-               if fit.weight == "angles" else ", each counting once."), "",
+               if fit.options.weight == "angles" else ", each counting once."), "",
             "| run | weakest ± after | largest relative ± after | CPU-hours |", "|---|---|---|---|",
             *(f"| {r.run} | {r.weakest_after:.3g} | {r.worst_relative_se_after:.3g} | "
               f"{r.cpu_hours:.2f} |" for r in runs[:6])]
@@ -318,12 +320,13 @@ def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int,
           fit_from: list[FitRow] | None = None) -> Path:
     """Write report.md from the comparison's ``metrics``, the calibration's summary ``fit`` and, where ``make
     fit-from`` has run, its rows."""
-    sets = metrics.param_sets
-    paper, ours = metrics.table2, metrics.our_fit
-    components = metrics.components
+    sets = metrics.param_sets.labelled()
+    paper, ours = metrics.param_sets.table2, metrics.param_sets.our_fit
+    errors, after = metrics.errors, metrics.after_changes
+    components = errors.components
     lines = [f"# Model against our DEM: `{metrics.data_set}`", "",
              f"{n_runs} DEM run(s) compared, one per protocol"
-             + (" (their other seeds: \"Over seeds\")" if metrics.seed_spread else "")
+             + (" (their other seeds: \"Over seeds\")" if errors.seed_spread else "")
              + f"; the model runs in the fit's strain measure for each run's protocol.{fit_runs_sentence(fit)}",
              "",
              "## Parameters", "", law_sentence(ours), "",
@@ -331,14 +334,14 @@ def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int,
     lines += ["", "## Model against DEM", "",
               "RMSE over the cycle divided by the steady |A12| or |tau12/p|.", "",
               "| run | parameters | " + " | ".join(components) + " |", "|---|---|" + "---|" * len(components)]
-    for e in metrics.errors:
+    for e in errors.rows:
         lines.append(f"| {e.run} | {e.parameters} | " + " | ".join(f"{e.errors[k]:.2f}" for k in components) + " |")
-    if metrics.seed_spread:
-        lines += ["", *seed_spread_lines(metrics.seed_spread, components)]
-    if metrics.overshoot:
-        lines += ["", *overshoot_lines(metrics.overshoot, list(sets))]
-    if metrics.memory:
-        lines += ["", *memory_lines(metrics.memory, list(sets))]
+    if errors.seed_spread:
+        lines += ["", *seed_spread_lines(errors.seed_spread, components)]
+    if after.overshoot:
+        lines += ["", *overshoot_lines(after.overshoot, list(sets))]
+    if after.memory:
+        lines += ["", *memory_lines(after.memory, list(sets))]
     if metrics.drift:
         lines += ["", *drift_lines(metrics.drift)]
     if metrics.reversal is not None:
@@ -360,6 +363,6 @@ def write(metrics: Metrics, fit: FitSummary | None, out: Path, n_runs: int,
         lines += ["", *relaxation_cut_lines(rel.by_cut)]
     if fit_from:
         lines += ["", *jump_lines(fit_from, paper)]
-    if fit and fit.sensitivity:
-        lines += ["", *sensitivity_lines(fit.sensitivity)]
+    if fit and fit.stepwise.sensitivity:
+        lines += ["", *sensitivity_lines(fit.stepwise.sensitivity)]
     return write_text(out, "\n".join(lines) + "\n")

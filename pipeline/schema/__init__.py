@@ -8,6 +8,7 @@ A result nested in a file is a record of its own (``base.Record``).
 """
 
 from .base import Each, MadeFrom, Record, read_json_object
+from .definitions import Definitions
 from .fit import (
     FIT_VERSION,
     Bootstrap,
@@ -15,8 +16,10 @@ from .fit import (
     Combination,
     CrossCheck,
     Estimates,
+    FitOptions,
     FitRow,
     FitSummary,
+    GlobalRefinement,
     Identifiability,
     Jackknife,
     NoiseSummary,
@@ -25,6 +28,7 @@ from .fit import (
     ResidualCell,
     Sensitivity,
     SpreadOverAngles,
+    Stepwise,
     StepwiseBootstrap,
     StepwiseEstimate,
     StepwiseRun,
@@ -40,14 +44,17 @@ from .metrics import (
     METRICS_VERSION,
     OUR_FIT,
     TABLE2,
+    AfterChanges,
     CutRelaxation,
     DriftRow,
     ErrorRange,
     ErrorRow,
+    Errors,
     MemoryRow,
     Metrics,
     Overshoot,
     OvershootRow,
+    ParamSets,
     Relaxation,
     Reversal,
     SecondLaw,
@@ -76,14 +83,14 @@ from .models import (
 from .params import PARAMS_METADATA_VERSION, ParamsFile, read_params, write_params
 
 __all__ = [
-    "COMPARE_SCHEMA", "COMPARE_VERSION", "FIT_VERSION", "METRICS_VERSION", "MODELS_SCHEMA", "MODELS_VERSION",
-    "OUR_FIT", "PARAMS_METADATA_VERSION", "TABLE2", "AcrossScore", "Bootstrap", "CandidateRun", "Combination",
-    "CrossCheck", "CutRelaxation", "DriftRow", "Each", "ErrorRange", "ErrorRow", "Estimates", "FitRow", "FitSummary",
-    "HeldOut", "Identifiability", "Jackknife", "Judgement", "LawScore", "MadeFrom", "MemoryRow", "Metrics",
-    "ModelsSummary", "NoiseSummary", "Overshoot", "OvershootRow", "OwnReversal", "ParameterInterval", "ParamsFile",
-    "Record", "Relaxation", "ResidualCell", "Reversal", "SecondLaw", "SeedSpread", "Sensitivity", "SplitScore",
-    "SpreadOverAngles", "StepwiseBootstrap", "StepwiseEstimate", "StepwiseRun", "Strains", "Table2Test", "Trend",
-    "check_compare", "check_compared", "check_fitted", "models_json", "read_fit", "read_fit_rows", "read_json_object",
-    "read_metrics", "read_models", "read_models_h5", "read_params", "stamp_compare", "write_fit", "write_models_h5",
-    "write_params",
+    "COMPARE_SCHEMA", "COMPARE_VERSION", "FIT_VERSION", "METRICS_VERSION", "MODELS_SCHEMA", "MODELS_VERSION", "OUR_FIT",
+    "PARAMS_METADATA_VERSION", "TABLE2", "AcrossScore", "AfterChanges", "Bootstrap", "CandidateRun", "Combination",
+    "CrossCheck", "CutRelaxation", "Definitions", "DriftRow", "Each", "ErrorRange", "ErrorRow", "Errors", "Estimates",
+    "FitOptions", "FitRow", "FitSummary", "GlobalRefinement", "HeldOut", "Identifiability", "Jackknife", "Judgement",
+    "LawScore", "MadeFrom", "MemoryRow", "Metrics", "ModelsSummary", "NoiseSummary", "Overshoot", "OvershootRow",
+    "OwnReversal", "ParamSets", "ParameterInterval", "ParamsFile", "Record", "Relaxation", "ResidualCell", "Reversal",
+    "SecondLaw", "SeedSpread", "Sensitivity", "SplitScore", "SpreadOverAngles", "Stepwise", "StepwiseBootstrap",
+    "StepwiseEstimate", "StepwiseRun", "Strains", "Table2Test", "Trend", "check_compare", "check_compared",
+    "check_fitted", "models_json", "read_fit", "read_fit_rows", "read_json_object", "read_metrics", "read_models",
+    "read_models_h5", "read_params", "stamp_compare", "write_fit", "write_models_h5", "write_params",
 ]

@@ -132,7 +132,7 @@ class Record:
                     cls.REST: {k: v for k, v in data.items() if cls.RENAMED.get(k, k) not in names}}
         fields = _fields_of(cls, data, path, cls.WHAT, cls.RENAMED)
         for name, kind in nested(cls).items():
-            fields[name] = _read(kind, fields.get(name), f"{path}: {name}" if isinstance(kind, Each) else path)
+            fields[name] = _read(kind, fields.get(name), f"{path}: {name}")
         return cls(**fields)
 
     def to_dict(self) -> dict:

@@ -10,9 +10,10 @@ import model
 from .. import io
 from ..errors import PipelineError
 from .base import MadeFrom, Record, read_json_object
+from .definitions import Definitions
 from .params import read_params
 
-FIT_VERSION = 2  # 2: made_from
+FIT_VERSION = 3  # 2: made_from; 3: the options, the stepwise route and the global fit each a record
 
 
 @dataclasses.dataclass(frozen=True)
@@ -339,7 +340,7 @@ class FitRow(Record):
     WHAT = "fit row"
     OMIT_NONE = True
 
-    definitions: dict
+    definitions: Definitions
     stress_fitted: str
     weight: str
     fit_from: float
@@ -364,38 +365,71 @@ def read_fit_rows(path: Path, make: str) -> list[FitRow]:
 
 
 @dataclasses.dataclass(frozen=True)
-class FitSummary(Record):
-    """``fit.json``: the calibration of one data set (``make fit``). ``params`` are the fit's; ``global_fit`` the
-    global refinement's estimates, errors and misfit (the file's ``global``); ``identifiability`` what the data fix;
-    ``noise`` the noise model; the rest, the tables ``report.md`` and ``make fit`` print."""
+class FitOptions(Record):
+    """What shaped a fit: its method, the definitions its runs were read with, the stress it fitted, how runs
+    share it, the parameters held (name to value), the restart strain after each change of direction, the
+    persistence exponent k and the window (strain) of the Jaumann rate's derivatives."""
 
-    VERSION = FIT_VERSION
-    WHAT = "fit summary"
-    RENAMED = {"global": "global_fit"}
+    WHAT = "fit's options"
 
     method: str
-    definitions: dict[str, str]  # strain, phi, pressure: dataset.derived.Definitions
+    definitions: Definitions
     stress_fitted: str
     weight: str
     held: dict[str, float]
     fit_from: float
     persistence_exponent: float
     jaumann_window_strain: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Stepwise(Record):
+    """The paper's stepwise route (Sec. 4): each reversal run's estimates, their combination, its sensitivity to
+    the route's choices, Sec. 3.3's cross-check on each run at another angle, and the parameter set it gives (None
+    where the estimates are no valid set)."""
+
+    WHAT = "stepwise calibration"
+
     runs: list[StepwiseRun]
     estimates: dict[str, StepwiseEstimate]
     sensitivity: Sensitivity | None
-    params_stepwise: model.Params | None
-    params: model.Params
     cross_check: list[CrossCheck]
-    global_fit: Estimates | None
+    params: model.Params | None
+
+
+@dataclasses.dataclass(frozen=True)
+class GlobalRefinement(Record):
+    """The global least-squares refinement (the file's ``global``): the runs it fitted, its estimates, where its
+    chi^2 lies (the residual map), and the runs it could add next, best first (empty where not ranked: parameters
+    held, or the noise not measured)."""
+
+    WHAT = "global refinement"
+
+    runs: list[str]
+    estimates: Estimates
+    residual_map: list[ResidualCell]
+    next_runs: list[CandidateRun]
+
+
+@dataclasses.dataclass(frozen=True)
+class FitSummary(Record):
+    """``fit.json``: the calibration of one data set (``make fit``). ``params`` are the fit's: the global
+    refinement's (the file's ``global``) with Eq. 18's dilatancy, or the stepwise route's without one;
+    ``identifiability`` what the data fix; ``noise`` the noise model; ``notes`` what the numbers hold to."""
+
+    VERSION = FIT_VERSION
+    WHAT = "fit summary"
+    RENAMED = {"global": "global_fit"}
+
+    options: FitOptions
+    stepwise: Stepwise
+    params: model.Params
+    global_fit: GlobalRefinement | None
+    dilatancy: Estimates | None
     noise: NoiseSummary | None
     identifiability: Identifiability | None
-    next_runs: list[CandidateRun] | None
-    dilatancy: Estimates | None
     bootstrap: Bootstrap | None
     jackknife: Jackknife | None
-    global_runs: list[str] | None
-    residual_map: list[ResidualCell] | None
     notes: list[str]
     made_from: MadeFrom
 

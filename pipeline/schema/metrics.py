@@ -9,8 +9,9 @@ import model
 
 from ..errors import PipelineError
 from .base import MadeFrom, Record, read_json_object
+from .definitions import Definitions
 
-METRICS_VERSION = 1
+METRICS_VERSION = 2  # 2: the parameter sets, the errors and the response after each change each a record
 COMPARE_SCHEMA, COMPARE_VERSION = "granular-backstress/compare", 1
 #: the labels of the two parameter sets every comparison holds: the paper's and the data set's own fit
 TABLE2, OUR_FIT = "Table 2", "our fit"
@@ -192,11 +193,49 @@ class Relaxation(Record):
 
 
 @dataclasses.dataclass(frozen=True)
+class ParamSets(Record):
+    """The two parameter sets every comparison holds: the paper's (the file's "Table 2") and the data set's own fit
+    ("our fit"); ``labelled`` gives them under those labels, the keys of each table's ``model`` column."""
+
+    WHAT = "parameter sets"
+    RENAMED = {TABLE2: "table2", OUR_FIT: "our_fit"}
+
+    table2: model.Params
+    our_fit: model.Params
+
+    def labelled(self) -> dict[str, model.Params]:
+        return {TABLE2: self.table2, OUR_FIT: self.our_fit}
+
+
+@dataclasses.dataclass(frozen=True)
+class Errors(Record):
+    """The model's errors: a row per run and parameter set (``rows``; ``components`` names their columns), and for
+    a run measured at several seeds, their range over the seeds."""
+
+    WHAT = "errors"
+
+    components: list[str]
+    rows: list[ErrorRow]
+    seed_spread: list[SeedSpread]
+
+
+@dataclasses.dataclass(frozen=True)
+class AfterChanges(Record):
+    """The response after each change of direction, a row per run, change and seed: the overshoot of A and tau/p
+    along the new direction, and the memory of the old one over strain windows."""
+
+    WHAT = "response after changes"
+
+    overshoot: list[OvershootRow]
+    memory: list[MemoryRow]
+
+
+@dataclasses.dataclass(frozen=True)
 class Metrics(Record):
-    """``metrics.json``: the model against a data set's runs (``make compare``). ``param_sets`` maps a label
-    ("Table 2", "our fit") to its parameters; ``errors`` has a row per run and set, ``components`` names their
-    columns; the rest are the tables of ``report.md`` (None where the data set has no reversal, or no fit file
-    with reversal curves: ``relaxation``)."""
+    """``metrics.json``: the model against a data set's runs (``make compare``), read with ``definitions``: the two
+    parameter sets, the errors, the response after each change of direction, and the tables of ``report.md`` (None
+    where the data set has no reversal, or no fit file with reversal curves: ``relaxation``); ``drift``, each run's
+    quantities over its cycles."""
 
     VERSION = METRICS_VERSION
     WHAT = "comparison"
@@ -204,26 +243,15 @@ class Metrics(Record):
 
     preset: str
     data_set: str
-    definitions: dict[str, str]  # strain, phi, pressure: dataset.derived.Definitions
-    param_sets: dict[str, model.Params]
-    components: list[str]
-    errors: list[ErrorRow]
-    seed_spread: list[SeedSpread]
-    overshoot: list[OvershootRow]
-    memory: list[MemoryRow]
+    definitions: Definitions
+    param_sets: ParamSets
+    errors: Errors
+    after_changes: AfterChanges
     reversal: Reversal | None = None
     second_law: SecondLaw | None = None
     relaxation: Relaxation | None = None
     drift: list[DriftRow] | None = None
     made_from: MadeFrom | None = None
-
-    @property
-    def table2(self) -> model.Params:
-        return self.param_sets[TABLE2]
-
-    @property
-    def our_fit(self) -> model.Params:
-        return self.param_sets[OUR_FIT]
 
     def to_dict(self) -> dict:
         return {"schema_version": self.VERSION, **super().to_dict()}

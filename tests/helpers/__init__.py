@@ -50,24 +50,30 @@ def run_main(main, argv) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(list(argv), code, out.getvalue(), err.getvalue())
 
 
-def fit_summary(**fields):
-    """A ``fit.json`` (``pipeline.schema.FitSummary``) with only ``fields`` given (each run counted once), the rest
-    empty: what a test of one part of the report needs."""
-    import dataclasses
+def fit_summary(weight="runs", estimates=None, runs=(), next_runs=None, persistence_exponent=0.75, **fields):
+    """A ``fit.json`` (``pipeline.schema.FitSummary``) with only what a test of one part of the report needs: runs
+    counted by ``weight``, a global refinement where ``estimates`` or ``next_runs`` are given (its ``runs``), no
+    stepwise run, the rest empty; ``fields`` replace."""
+    import model
+    from pipeline import schema
 
-    from pipeline.schema import FitSummary
-
-    return FitSummary(**{**{f.name: None for f in dataclasses.fields(FitSummary)}, "weight": "runs", **fields})
+    options = schema.FitOptions("a test", schema.Definitions(), "shear", weight, {}, 0.0, persistence_exponent, 0.05)
+    refined = None if estimates is None and next_runs is None else schema.GlobalRefinement(
+        list(runs), estimates, [], list(next_runs or []))
+    return schema.FitSummary(**{"options": options, "stepwise": schema.Stepwise([], {}, None, [], None),
+                                "params": model.Params(), "global_fit": refined, "dilatancy": None, "noise": None,
+                                "identifiability": None, "bootstrap": None, "jackknife": None, "notes": [],
+                                "made_from": schema.MadeFrom({}, {}), **fields})
 
 
 def fit_row(**fields):
     """A row of ``make fit-from`` or ``make fit-definitions`` (``pipeline.schema.FitRow``) at Table 2's values, each
     standard error 0.1, misfit 1.2, Table 2's chi^2 4.5 % above it, the paper's definitions; ``fields`` replace."""
     import model
-    from pipeline.schema import FitRow, OwnReversal, Table2Test
+    from pipeline.schema import Definitions, FitRow, OwnReversal, Table2Test
 
     names = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
-    return FitRow(**{"definitions": {"strain": "nominal", "phi": "gap", "pressure": "target"}, "stress_fitted": "shear",
+    return FitRow(**{"definitions": Definitions("nominal", "gap", "target"), "stress_fitted": "shear",
                      "weight": "runs", "fit_from": 0.0, "persistence_exponent": 0.75, "dilatancy_note": "",
                      "params": {n: getattr(model.PAPER, n) for n in names}, "model_params": model.PAPER,
                      "standard_errors": dict.fromkeys(names, 0.1), "status": {}, "misfit": 1.2, "chi2": 100.0,

@@ -31,7 +31,7 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
     path = synthetic_file(tmp_path, n_cycles=2)
     assert fit_main(["--runs", str(path), "--out", str(tmp_path / "fit")]) == 0
     report = read_fit(tmp_path / "fit" / "fit.json")
-    est = {k: v.value for k, v in report.estimates.items()}
+    est = {k: v.value for k, v in report.stepwise.estimates.items()}
     # the fabric law (Eqs. 9, 12, 13) from the smoothed Jaumann rate
     assert est["b1"] == pytest.approx(TRUE.b1, rel=0.02) and est["b2"] == pytest.approx(TRUE.b2, rel=0.02)
     assert est["a1"] == pytest.approx(TRUE.a1, rel=0.05) and est["a2"] == pytest.approx(TRUE.a2, rel=0.15)
@@ -45,7 +45,7 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
         assert getattr(refined, name) == pytest.approx(getattr(TRUE, name), rel=0.02), name
     assert refined.c1 == -refined.C
     # on noise-free data the fabric law does not hinge on the smoothing window
-    for window, values in report.sensitivity.smoothing_window.items():
+    for window, values in report.stepwise.sensitivity.smoothing_window.items():
         assert values["b2"] == pytest.approx(TRUE.b2, rel=0.02), window
 
 
@@ -53,8 +53,8 @@ def test_noise_free_reversal_gives_the_fabric_law_and_eq15s_known_bias(tmp_path)
 def test_several_seeds_give_a_mean_and_its_standard_error(tmp_path):
     runs = [synthetic_run(tmp_path, name=f"s{seed}", n_cycles=2, noise=0.002, seed=seed) for seed in range(3)]
     report = fit(runs, tmp_path / "fit")
-    b2 = report.estimates["b2"]
-    assert len(b2.per_run) == 3 and len(report.runs) == 3
+    b2 = report.stepwise.estimates["b2"]
+    assert len(b2.per_run) == 3 and len(report.stepwise.runs) == 3
     assert b2.standard_error == pytest.approx(np.std(b2.per_run, ddof=1) / np.sqrt(3))
 
 
@@ -76,11 +76,11 @@ def test_sec33_cross_check_on_other_angles_finds_constant_C(tmp_path):
     reversal = synthetic_run(tmp_path, name="rev", n_cycles=1)
     angles = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}", n_cycles=1) for t in (60.0, 120.0)]
     report = fit([reversal], tmp_path / "fit", cross_runs=angles)
-    for check in report.cross_check:
+    for check in report.stepwise.cross_check:
         assert check.C_median == pytest.approx(TRUE.C, rel=0.02)
         assert check.m == pytest.approx(TRUE.m, abs=0.1) and check.n == pytest.approx(TRUE.n, abs=0.02)
     # one reversal of one cycle: nothing to take a stepwise error from, and none is claimed
-    assert all(np.isnan(e.standard_error) and e.error_from is None for e in report.estimates.values())
+    assert all(np.isnan(e.standard_error) and e.error_from is None for e in report.stepwise.estimates.values())
 
 
 @pytest.mark.slow
@@ -88,7 +88,7 @@ def test_global_fit_on_noisy_angles_recovers_table_2_within_its_standard_errors(
     runs = [synthetic_run(tmp_path, theta=t, name=f"g{int(t)}", n_cycles=3, noise=0.01, seed=int(t))
             for t in (180.0, 30.0, 90.0, 150.0)]
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:])
-    g = report.global_fit
+    g = report.global_fit.estimates
     assert g.success and 0.5 < g.misfit < 3  # white noise, measured from the cycles: misfit ~ 1
     for name, value, se in zip(g.free, g.values, g.standard_errors, strict=True):
         assert abs(value - getattr(TRUE, name)) < 3.5 * se, name
@@ -216,7 +216,7 @@ def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path, cap
     runs = [synthetic_run(tmp_path, theta=t, name=f"b{int(t)}", n_cycles=4, noise=0.01, seed=int(t) + 7)
             for t in (180.0, 90.0)]
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], bootstrap=12)
-    boot, g = report.bootstrap, report.global_fit
+    boot, g = report.bootstrap, report.global_fit.estimates
     assert len(boot.replicates) == 12
     ratio = np.array(boot.standard_deviation) / np.array(g.standard_errors)
     assert np.all((ratio > 0.3) & (ratio < 3)), dict(zip(g.free, ratio, strict=True))
@@ -225,10 +225,10 @@ def test_make_fit_bootstrap_adds_the_noise_and_stepwise_bootstraps(tmp_path, cap
     for key in ("C_eq15", "n", "m", "b1", "b2", "c2_coef", "phi_c"):
         i = step.free.index(key)
         assert 0 < step.standard_deviation[i] < np.inf, key
-        assert step.percentile_2_5[i] <= report.estimates[key].value <= step.percentile_97_5[i], key
+        assert step.percentile_2_5[i] <= report.stepwise.estimates[key].value <= step.percentile_97_5[i], key
     # one reversal: its stepwise errors are the spread over the resamplings of its cycles
     for key in ("C_eq15", "m", "phi_c"):
-        e = report.estimates[key]
+        e = report.stepwise.estimates[key]
         assert e.error_from == "cycle resamples"
         half_width = step.half_width_68[step.free.index(key)]
         assert e.standard_error == pytest.approx(half_width * small_sample_factor(4)) and half_width > 0, key
@@ -287,8 +287,8 @@ def test_held_parameters_stay_and_the_fisher_directions_name_the_weakest_combina
     runs = [synthetic_run(tmp_path, theta=t, name=f"h{int(t)}", n_cycles=2, noise=0.005, seed=int(t))
             for t in (180.0, 90.0)]
     report = fit(runs[:1], tmp_path / "fit", cross_runs=runs[1:], hold={"a2": TRUE.a2})
-    g = report.global_fit
-    assert "a2" not in g.free and g.params["a2"] == TRUE.a2 and report.held == {"a2": TRUE.a2}
+    g = report.global_fit.estimates
+    assert "a2" not in g.free and g.params["a2"] == TRUE.a2 and report.options.held == {"a2": TRUE.a2}
     steps = [d["relative_step"] for d in g.directions]
     assert len(steps) == len(g.free) == 6 and steps == sorted(steps, reverse=True)
     for d in g.directions:

@@ -54,7 +54,7 @@ def test_comparison_writes_predictions_and_metrics(compared):
             assert m["dem"].shape == m["dem_sem"].shape == m["strain_after"].shape
             assert abs(m["model/Table 2/fraction"][0] - 1) < 0.05 and abs(m["dem"][0] - 1) < 0.2
     # the model with the true parameters fits the synthetic data to the noise: small normalised errors
-    row = next(e for e in metrics.errors if e.run == "theta180" and e.parameters == "Table 2")
+    row = next(e for e in metrics.errors.rows if e.run == "theta180" and e.parameters == "Table 2")
     assert max(row.errors[k] for k in ("A12", "A32", "tau12", "tau32")) < 0.15
     # model data made with c1 = -C and Phi below Phi_c + c3 satisfy Eq. 19
     assert metrics.second_law.holds
@@ -65,20 +65,20 @@ def test_a_protocol_at_several_seeds_has_its_errors_over_the_seeds_and_an_oversh
     the first seed's own row is one end of the range; a protocol at one seed has no spread. The overshoot has a row
     per seed, the other seed's right after the first's."""
     _, metrics = compared
-    spread = {(r.run, r.parameters): r for r in metrics.seed_spread}
+    spread = {(r.run, r.parameters): r for r in metrics.errors.seed_spread}
     assert set(spread) == {("theta180", "Table 2"), ("theta180", "our fit")}
     for (run, label), r in spread.items():
         assert r.seeds == [1, 3]
-        first = next(e for e in metrics.errors if e.run == run and e.parameters == label)
+        first = next(e for e in metrics.errors.rows if e.run == run and e.parameters == label)
         for k in ("A12", "A32", "tau12", "tau32"):
             v = r.errors[k]
             assert v.least < v.mean < v.largest and first.errors[k] in (v.least, v.largest), (label, k)
     # the overshoot: a row per seed, each seed's beside the first's, each its own measure
-    order = [(r.run, r.seed, r.segment) for r in metrics.overshoot]
+    order = [(r.run, r.seed, r.segment) for r in metrics.after_changes.overshoot]
     assert order == [("theta180", 1, "after the turn to theta"), ("theta180", 3, "after the turn to theta"),
                      ("theta180", 1, "after the turn back"), ("theta180", 3, "after the turn back"),
                      ("theta060", 2, "after the turn to theta"), ("theta060", 2, "after the turn back")]
-    assert metrics.overshoot[0].A.dem != metrics.overshoot[1].A.dem
+    assert metrics.after_changes.overshoot[0].A.dem != metrics.after_changes.overshoot[1].A.dem
 
 
 def test_the_cycle_figure_draws_a_protocols_other_seeds_beside_its_first(compared, monkeypatch):
@@ -115,7 +115,7 @@ def test_the_memory_of_a_turn_at_two_seeds_has_a_row_and_a_curve_per_seed(tmp_pa
     sets = {"Table 2": model.Params(), "our fit": model.Params()}
     metrics = compare([first], sets, None, tmp_path / "compare", "synthetic", other_seeds=(second,),
                       made_from=schema.MadeFrom.of([first.path, second.path], {}))
-    assert [(r.seed, r.segment) for r in metrics.memory] == [
+    assert [(r.seed, r.segment) for r in metrics.after_changes.memory] == [
         (1, "after the turn to theta"), (2, "after the turn to theta"), (1, "after the turn back"),
         (2, "after the turn back")]
     drawn = []
@@ -135,7 +135,7 @@ def test_the_overshoot_of_model_made_runs_is_the_models_and_the_model_arrives_fr
     new direction, early minus steady, from the cycles) is the model's own by the same measure on its cycle,
     after both changes of each run; the model approaches its steady value from below (negative)."""
     _, metrics = compared
-    rows = {(r.run, r.segment): r for r in metrics.overshoot}
+    rows = {(r.run, r.segment): r for r in metrics.after_changes.overshoot}
     assert set(rows) == {(run, seg) for run in ("theta180", "theta060")
                          for seg in ("after the turn to theta", "after the turn back")}
     for r in rows.values():
@@ -154,7 +154,7 @@ def test_the_memory_of_model_made_runs_is_the_models_and_fades(compared):
     normal to the new direction, as a fraction of the old steady fabric's) is the model's own by the same measure,
     after both turns at 60 degrees; it fades from near 1/3 to a few per cent; the reversal has no such part."""
     _, metrics = compared
-    rows = {(r.run, r.segment): r for r in metrics.memory}
+    rows = {(r.run, r.segment): r for r in metrics.after_changes.memory}
     assert set(rows) == {("theta060", "after the turn to theta"), ("theta060", "after the turn back")}
     for r in rows.values():
         model_left = r.model["Table 2"]
@@ -214,7 +214,7 @@ def test_missing_inputs_are_one_line_errors(tmp_path, capsys):
 def test_parameters_are_compared_in_the_definitions_they_were_fitted_in(compared, tmp_path):
     tmp, _ = compared
     fit_json = json.loads((tmp / "fit" / "fit.json").read_text())
-    assert fitted_in(tmp / "fit" / "params.json") == Definitions(**fit_json["definitions"])
+    assert fitted_in(tmp / "fit" / "params.json") == Definitions(**fit_json["options"]["definitions"])
     mine = Definitions(strain="bulk", phi="central", pressure="wall")  # e.g. a row of make fit-from, alone
     write_params(tmp_path / "row.json", model.Params(), {"definitions": dataclasses.asdict(mine)})
     assert fitted_in(tmp_path / "row.json") == mine
@@ -255,7 +255,7 @@ def test_the_profile_figure_is_drawn_from_profiles_json_of_the_same_fit_only(com
     fit_dir.mkdir()
     for name in ("fit.json", "fit.h5"):
         (fit_dir / name).write_bytes((tmp / "fit" / name).read_bytes())
-    g = json.loads((fit_dir / "fit.json").read_text())["global"]
+    g = json.loads((fit_dir / "fit.json").read_text())["global"]["estimates"]
 
     def profile(best):
         grid = best + np.linspace(-0.4, 0.4, 5)

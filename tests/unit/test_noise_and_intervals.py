@@ -9,8 +9,8 @@ import model
 from pipeline.calibration import covariance, global_fit, identifiability, noise, resampling
 from pipeline.calibration.fit_cycle import FitCycle
 from pipeline.calibration.profile import profiles
-from pipeline.schema import CandidateRun, FitSummary
-from tests.helpers import synthetic_run
+from pipeline.schema import CandidateRun
+from tests.helpers import fit_summary, synthetic_run
 
 TRUE = model.Params()
 NOISE = {"noise": 0.01, "correlation_strain": 0.03, "a_tau_correlation": -0.5}
@@ -142,11 +142,9 @@ def test_a_model_that_misses_the_runs_says_so_beside_intervals_widened_by_the_ro
         assert (wide_low + wide_high) / 2 == pytest.approx(p.value), name
     said = {}
     for label, ident, misfit in (("near", near, fit.misfit), ("far", far, 9.0)):
-        blank = {f.name: None for f in dataclasses.fields(FitSummary)}
         estimates = dataclasses.replace(fit, misfit=misfit).estimates()
-        report = FitSummary(**{**blank, "global_fit": estimates, "identifiability": ident,
-                               "noise": nm.summary(), "global_runs": runs, "weight": "runs",
-                               "persistence_exponent": 0.75})
+        report = fit_summary(estimates=estimates, runs=[str(r.path) for r in runs], identifiability=ident,
+                             noise=nm.summary())
         print_global(report)
         said[label] = (capsys.readouterr().out, "\n".join(parameter_lines(TRUE, TRUE, report)))
     for printed, reported in (said["near"], said["far"]):
@@ -252,7 +250,7 @@ def test_without_a_measured_noise_there_are_no_intervals_and_no_verdict_on_table
     ident = report.identifiability
     assert not report.noise.measured and not ident.noise_measured and ident.table2 is None
     assert all(p.intervals["68"] is None and p.status.startswith("no interval") for p in ident.parameters.values())
-    assert report.next_runs == []
+    assert report.global_fit.next_runs == []
 
 
 @pytest.mark.slow

@@ -26,11 +26,11 @@ def test_a_feature_the_model_lacks_tops_the_map_in_its_run_quantity_and_window(t
     fit = SimpleNamespace(values=np.array([getattr(TRUE, n) for n in global_fit.FREE]), params=TRUE,
                           names=global_fit.FREE)
     rows = residual_map(fit, data)
-    assert sum(r["share"] for r in rows) == pytest.approx(1.0)
-    assert sum(r["samples"] for r in rows) == sum(2 * 5 * len(d.strain) for d in data)
-    top = {(r["theta_deg"], r["quantity"], tuple(r["window"])) for r in rows[:2]}
+    assert sum(r.share for r in rows) == pytest.approx(1.0)
+    assert sum(r.samples for r in rows) == sum(2 * 5 * len(d.strain) for d in data)
+    top = {(r.theta_deg, r.quantity, tuple(r.window)) for r in rows[:2]}
     assert top == {(90.0, "tau11/p", (0.3, np.inf)), (90.0, "tau22/p", (0.3, np.inf))}
-    assert rows[0]["per_sample_over_mean"] > 5
+    assert rows[0].per_sample_over_mean > 5
 
 
 def test_strain_since_change_restarts_at_each_turn(tmp_path):
@@ -47,5 +47,5 @@ def test_components_the_fit_leaves_out_have_no_rows_and_no_samples(tmp_path):
     fit = SimpleNamespace(values=np.array([getattr(TRUE, n) for n in global_fit.FREE]), params=TRUE,
                           names=global_fit.FREE)
     rows = residual_map(fit, [d])
-    assert {r["quantity"] for r in rows} == {"A12", "A32", "A11", "A22", "A13", "tau12/p", "tau32/p"}
-    assert sum(r["samples"] for r in rows) == 7 * len(d.strain)
+    assert {r.quantity for r in rows} == {"A12", "A32", "A11", "A22", "A13", "tau12/p", "tau32/p"}
+    assert sum(r.samples for r in rows) == 7 * len(d.strain)

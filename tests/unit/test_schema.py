@@ -1,6 +1,7 @@
 """The files the stages hand each other (``pipeline/schema/``): what the writers write reads back as the same
 typed object, and a file of another version, with a key missing or unknown, or not JSON, is refused in one line."""
 
+import dataclasses
 import json
 
 import h5py
@@ -13,10 +14,10 @@ from tests.helpers import fit_summary
 
 
 def metrics(**extra) -> schema.Metrics:
-    return schema.Metrics(preset="p", data_set="p (yade)", definitions={"strain": "nominal"},
-                          param_sets={"Table 2": model.Params(), "our fit": model.Params().replace(C=-5.0)},
-                          components=["A12"], errors=[schema.ErrorRow("theta180", 1, "Table 2", {"A12": 0.1})],
-                          seed_spread=[], overshoot=[], memory=[], **extra)
+    errors = schema.Errors(["A12"], [schema.ErrorRow("theta180", 1, "Table 2", {"A12": 0.1})], [])
+    return schema.Metrics(preset="p", data_set="p (yade)", definitions=schema.Definitions("nominal"),
+                          param_sets=schema.ParamSets(model.Params(), model.Params().replace(C=-5.0)),
+                          errors=errors, after_changes=schema.AfterChanges([], []), **extra)
 
 
 REVERSAL = schema.Reversal(0.8, 0.6, [0.58, 0.61], {"Table 2": 0.88, "our fit": 0.8}, {"Table 2": 0.9, "our fit": 0.85})
@@ -26,16 +27,27 @@ def test_each_file_reads_back_as_written_and_names_its_version(tmp_path):
     path = tmp_path / "metrics.json"
     path.write_text(json.dumps(metrics(reversal=REVERSAL).to_dict()))
     back = schema.read_metrics(path)
-    assert back == metrics(reversal=REVERSAL) and back.our_fit.C == -5.0 and back.errors[0].errors == {"A12": 0.1}
-    assert json.loads(path.read_text())["errors"] == [{"run": "theta180", "seed": 1, "parameters": "Table 2",
-                                                       "A12": 0.1}]  # a table's columns beside its row's name
+    assert back == metrics(reversal=REVERSAL) and back.param_sets.our_fit.C == -5.0
+    assert back.errors.rows[0].errors == {"A12": 0.1}
+    written = json.loads(path.read_text())
+    assert written["errors"]["rows"] == [{"run": "theta180", "seed": 1, "parameters": "Table 2",
+                                          "A12": 0.1}]  # a table's columns beside its row's name
+    assert written["param_sets"]["our fit"]["C"] == -5.0 and back.param_sets.labelled()["our fit"].C == -5.0
     assert json.loads(path.read_text())["schema_version"] == schema.METRICS_VERSION
     assert "relaxation" not in json.loads(path.read_text())  # none: not written, as before versions
     estimates = schema.Estimates({"C": -5.0}, ["C"], [-5.0], [None], None, None, None, 1.2, 30.0, 9, True, "ok", [])
-    fit = fit_summary(notes=["a note"], global_fit=estimates)
+    cell = schema.ResidualCell(180.0, 0.7, "A12", [0.0, 0.005], 2, 3.0, 0.4, 8.0)
+    fit = fit_summary(notes=["a note"], estimates=estimates, runs=["theta180.h5"])
+    fit = dataclasses.replace(fit, global_fit=dataclasses.replace(fit.global_fit, residual_map=[cell]))
     schema.write_fit(tmp_path / "fit.json", fit)
-    assert schema.read_fit(tmp_path / "fit.json") == fit and json.loads((tmp_path / "fit.json").read_text())[
-        "global"]["misfit"] == 1.2
+    written = json.loads((tmp_path / "fit.json").read_text())
+    assert schema.read_fit(tmp_path / "fit.json") == fit and written["global"]["estimates"]["misfit"] == 1.2
+    assert written["global"]["residual_map"][0]["window"] == [0.0, 0.005] and written["options"]["definitions"] == {
+        "strain": "bulk", "phi": "central", "pressure": "target"}  # every group of the fit a record of its own
+    written["options"]["definitions"]["strain"] = "sideways"
+    (tmp_path / "fit.json").write_text(json.dumps(written))
+    with pytest.raises(PipelineError, match="strain='sideways' is not one of bulk, nominal"):
+        schema.read_fit(tmp_path / "fit.json")
     schema.write_params(tmp_path / "params.json", model.Params(), {"definitions": {"strain": "bulk"}})
     found = schema.read_params(tmp_path / "params.json")
     assert found.params == model.Params() and found.definitions == {"strain": "bulk"}
@@ -61,10 +73,11 @@ def test_a_fits_resamplings_read_back_as_records_under_the_files_keys(tmp_path):
 
 
 @pytest.mark.parametrize("change, fragment", [
-    (lambda d: {**d, "schema_version": 2}, "is a comparison of version 2; this code reads version 1"),
+    (lambda d: {**d, "schema_version": 1}, "is a comparison of version 1; this code reads version 2"),
     (lambda d: {k: v for k, v in d.items() if k != "errors"}, "missing ['errors']"),
     (lambda d: {**d, "colour": 1}, "unknown ['colour']"),
-    (lambda d: {**d, "param_sets": {"ours": {"C": 1.0}}}, "param_sets['ours']"),
+    (lambda d: {**d, "param_sets": {**d["param_sets"], "our fit": {"C": 1.0}}}, "param_sets: our_fit: missing keys n"),
+    (lambda d: {**d, "definitions": {"strain": "sideways"}}, "strain='sideways' is not one of"),
     (lambda d: [d], "not a comparison (not a JSON object)"),
 ])
 def test_a_damaged_or_foreign_metrics_file_is_refused_in_one_line(tmp_path, change, fragment):
@@ -78,7 +91,7 @@ def test_a_damaged_or_foreign_metrics_file_is_refused_in_one_line(tmp_path, chan
 def test_a_file_from_before_versions_reads_as_version_one_and_others_are_refused(tmp_path):
     old = {k: v for k, v in fit_summary().to_dict().items() if k not in ("schema_version", "made_from")}
     (tmp_path / "fit.json").write_text(json.dumps(old))
-    with pytest.raises(PipelineError, match="is a fit summary of version 1; this code reads version 2"):
+    with pytest.raises(PipelineError, match="is a fit summary of version 1; this code reads version 3"):
         schema.read_fit(tmp_path / "fit.json")  # from before fits recorded what made them: refit
     (tmp_path / "fit.json").write_text(json.dumps(fit_summary().to_dict()))
     assert schema.read_fit(tmp_path / "fit.json") == fit_summary()
