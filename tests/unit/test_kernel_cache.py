@@ -4,6 +4,7 @@ kernel that inlined its old code."""
 import shutil
 
 import numba
+import pytest
 
 import model
 from model import kernel_cache
@@ -45,6 +46,7 @@ print(kernel_cache.rebuilding_when_damaged(twice)(21.0))
 '''
 
 
+@pytest.mark.slow  # three interpreters, each importing numba
 def test_a_damaged_kernel_cache_is_rebuilt_with_a_warning(tmp_path):
     """Every file of the cache overwritten (as a full disk or a stray copy may leave it): one warning, the folder
     removed, the kernel compiled again, the right answer; the next run reads the new cache quietly."""
