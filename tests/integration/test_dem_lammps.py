@@ -5,6 +5,7 @@ import hashlib
 import json
 import os
 import re
+import shutil
 import signal
 import struct
 import subprocess
@@ -179,6 +180,15 @@ def test_an_interrupted_lammps_run_resumes_bit_identical_to_an_uninterrupted_one
     assert not list(run_dir.glob("restart_*")) and not (run_dir / "checkpoint.json").exists()
 
 
+@pytest.fixture(scope="module")
+def interrupted_lammps(tmp_path_factory):
+    """A results folder holding the tiny LAMMPS run stopped at its first sample, made once: each case damages a
+    copy."""
+    results = tmp_path_factory.mktemp("interrupted")
+    interrupt_at_first_sample(results)
+    return results
+
+
 @pytest.mark.parametrize("damage, fragment", [
     ("restart-truncated", "is missing or damaged"),
     ("record-junk", "checkpoint.json cannot be read"),
@@ -187,12 +197,13 @@ def test_an_interrupted_lammps_run_resumes_bit_identical_to_an_uninterrupted_one
     ("header-rehashed", "the scene failed loading its checkpoint (lammps: ERROR"),
     ("wall-sphere-rehashed", "does not hold the atoms it was written with"),
 ])
-def test_a_damaged_lammps_checkpoint_is_a_one_line_error_that_suggests_fresh(tmp_path, damage, fragment):
+def test_a_damaged_lammps_checkpoint_is_a_one_line_error_that_suggests_fresh(interrupted_lammps, tmp_path, damage,
+                                                                             fragment):
     """A checkpoint the scene did not write is refused in one line: a truncated restart file, a record that is no
     JSON, one without a state, one naming a file outside the run folder (which the next checkpoint would delete:
     that file is left as it was), and restart files damaged before their size and hash were taken (the record
     matches them): a header LAMMPS refuses, and a wall sphere 1 % larger, which LAMMPS reads without a word."""
-    interrupt_at_first_sample(tmp_path)
+    shutil.copytree(interrupted_lammps, tmp_path, dirs_exist_ok=True)
     run_dir = run_spec.work_dir(tiny_spec("lammps"), tmp_path)
     record = json.loads((run_dir / "checkpoint.json").read_text())
     victim = tmp_path / "victim.lmp"
