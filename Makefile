@@ -133,7 +133,7 @@ sweep-collect: venv ## make fit, compare and figures on the data set of the late
 fit-bootstrap: venv ## the fit plus a bootstrap of the DEM's noise (BOOT=100 refits, minutes) -> results/<data set>/fit-bootstrap/
 fit-jackknife: venv ## the fit plus a refit leaving out each reversal seed (OVER=seeds) or each angle (OVER=angles) [FIT_FROM] [STRESS] [WEIGHT] -> results/<data set>/fit-jackknife-<OVER>[...]/
 fit-angles: venv ## the fit on the runs at some angles only (ANGLES="180 90 60 30", 180 among them) [FIT_FROM] [STRESS] [WEIGHT] -> results/<data set>/fit-angles-<ANGLES>[...]/
-fit-definitions: venv ## the global fit under each definition of strain, Phi and p [WEIGHT=angles] -> results/<data set>/fit/definitions.md
+fit-definitions: venv ## the global fit under each definition of strain, Phi and p [WEIGHT=angles] -> results/<data set>/fit[-per-angle][-skip<K>]/definitions.md
 fit-from: venv ## the fit past the reversal jump: gamma0 = 0, 0.005, 0.01 and a profile of k [WEIGHT=angles] -> fit/fit_from.md
 fit-profile: venv ## the profile likelihood of every fitted parameter [STRAIN=bulk PHI=central] [WEIGHT=angles] [POINTS=9 per parameter] [NAMES=C,b2: those only] (minutes) -> fit/profiles*.json
 fidelity: venv ## the fidelity ladder (LADDER=config/fidelity.toml): make its missing DEM runs (JOBS=2), then results/fidelity[-<ladder>]/

@@ -24,10 +24,9 @@ from ..dataset import selection
 from ..dataset.derived import Definitions
 from ..dataset.lookup import fit_runs
 from ..errors import CalibrationError, PipelineError
-from ..paths import preset_output
 from ..schema import FitRow, OwnReversal
 from . import global_fit, identifiability
-from .options import add_weight_argument, weighted_label
+from .options import add_weight_argument, table_folder, weighted_label
 from .residual_map import residual_map
 
 NAMES = ("C", "n", "m", "a1", "b1", "a2", "b2", "c2_coef", "phi_c")
@@ -139,11 +138,11 @@ def markdown(rows: list[FitRow], label: str) -> str:
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration.definitions", description=__doc__.splitlines()[0])
     selection.add_arguments(parser)
-    parser.add_argument("--out", help="output folder (default results/<data set folder>/fit)")
+    parser.add_argument("--out", help="output folder (default: the fit's of the same weighting and cycles)")
     add_weight_argument(parser)
     args = parser.parse_args(argv)
     chosen = selection.from_arguments(args)
-    out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
+    out = io.check_writable_dir(args.out or table_folder(chosen, args.weight))
     rows = compare_definitions(preset_fit_runs(chosen), args.weight)
     label = weighted_label(chosen.label, args.weight)
     print(f"wrote {io.write_table(out, 'definitions', [r.to_dict() for r in rows], markdown(rows, label))} and "

@@ -1,7 +1,11 @@
 """Command-line options the calibration's entry points share (``make fit``, ``fit-definitions``, ``fit-from``,
 ``fit-profile``)."""
 
+from pathlib import Path
+
+from ..paths import preset_output
 from . import global_fit
+from .naming import fit_folder
 
 
 def add_weight_argument(parser) -> None:
@@ -15,3 +19,10 @@ def add_weight_argument(parser) -> None:
 def weighted_label(label: str, weight: str) -> str:
     """A data set's label, and how its runs were weighted where not the default."""
     return label if weight == global_fit.WEIGHT_DEFAULT else f"{label}, each angle counted once"
+
+
+def table_folder(chosen, weight: str) -> Path:
+    """Where a table of fits of the data set ``chosen`` (``make fit-definitions``, ``fit-from``, ``fit-profile``)
+    goes by default: the folder of ``make fit`` with the same weighting and skipped cycles, so that no other
+    option's table replaces it."""
+    return preset_output(chosen.folder, fit_folder(weight=weight, skip_cycles=chosen.skip_cycles))

@@ -30,9 +30,8 @@ from ..dataset.derived import PAPER_DEFINITIONS
 from ..dataset.lookup import fit_runs
 from ..dataset.options import add_definition_arguments, definitions_from
 from ..errors import CalibrationError, PipelineError
-from ..paths import preset_output
 from . import global_fit
-from .options import add_weight_argument
+from .options import add_weight_argument, table_folder
 
 LEVELS = {"68": 1.0, "95": 3.841459}  # chi^2_1 quantiles, times each parameter's noise factor
 
@@ -97,7 +96,7 @@ def main(argv=None) -> int:
     parser.add_argument("--points", type=int, default=9, help="values per parameter (default 9)")
     parser.add_argument("--span", type=float, default=4.0, help="half-width in standard errors (default 4)")
     parser.add_argument("--names", default="", help="the parameters to profile, comma-separated (default: all)")
-    parser.add_argument("--out", help="output folder (default results/<data set folder>/fit)")
+    parser.add_argument("--out", help="output folder (default: the fit's of the same weighting and cycles)")
     add_definition_arguments(parser)
     add_weight_argument(parser)
     args = parser.parse_args(argv)
@@ -111,7 +110,7 @@ def main(argv=None) -> int:
     names = tuple(n for n in global_fit.FREE if n in given)  # in the fit's order: one file name per set
     definitions = definitions_from(args)
     chosen = selection.from_arguments(args)
-    out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
+    out = io.check_writable_dir(args.out or table_folder(chosen, args.weight))
     runs = [r.with_definitions(definitions) for r in fit_runs(chosen)]
     if not runs:
         raise PipelineError(f"no run of {chosen.label}")

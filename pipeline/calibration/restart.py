@@ -27,11 +27,10 @@ from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS, states_after_changes
 from ..errors import PipelineError
-from ..paths import preset_output
 from ..schema import FitRow, OwnReversal
 from . import global_fit
 from .definitions import NAMES, fit_row, own_reversal, preset_fit_runs
-from .options import add_weight_argument, weighted_label
+from .options import add_weight_argument, table_folder, weighted_label
 
 FIT_FROM = (0.0, 0.002, 0.005, 0.01)
 EXPONENTS = (0.5, 0.625, 0.75, 0.875, 1.0)
@@ -155,12 +154,12 @@ def main(argv=None) -> int:
     selection.add_arguments(parser)
     parser.add_argument("--fit-from", default=",".join(f"{g:g}" for g in FIT_FROM), help="gamma0 values (strain)")
     parser.add_argument("--exponents", default=",".join(f"{k:g}" for k in EXPONENTS), help="k values profiled")
-    parser.add_argument("--out", help="output folder (default results/<data set folder>/fit)")
+    parser.add_argument("--out", help="output folder (default: the fit's of the same weighting and cycles)")
     add_weight_argument(parser)
     args = parser.parse_args(argv)
     fit_from, exponents = _numbers("fit-from", args.fit_from), _numbers("exponents", args.exponents)
     chosen = selection.from_arguments(args)
-    out = io.check_writable_dir(args.out or preset_output(chosen.folder, "fit"))
+    out = io.check_writable_dir(args.out or table_folder(chosen, args.weight))
     rows = table(preset_fit_runs(chosen), fit_from, exponents, weight=args.weight)
     for row in rows:
         write_row_params(out, row)

@@ -31,7 +31,7 @@ from tests.helpers.sockets import listening_inodes, scene_ranks, socket_inodes
 pytestmark = [pytest.mark.yade, pytest.mark.slurm]
 
 THETAS = "30 90 180"
-LONGER = ["--set", "n_cycles=4"]  # about 20 s a run here: time to warn one and kill another mid-run
+LONGER = ["--set", "n_cycles=3"]  # about 15 s a run here: time to warn one and kill another mid-run
 SLURM = ["--slurm", "time_limit=00:10:00", "--slurm", "signal_lead_seconds=60", "--slurm", "memory=1G"]
 
 

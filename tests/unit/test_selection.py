@@ -1,5 +1,7 @@
 """Which runs fit, compare and figures read: the data set of a preset, its folder, and Make's view of it."""
 
+import dataclasses
+
 import pytest
 
 import model
@@ -93,6 +95,18 @@ def test_each_fit_writes_a_folder_of_its_own_named_by_what_sets_its_numbers():
     assert names == ["fit-jackknife-angles", "fit-jackknife-angles-from0.005", "fit-jackknife-seeds-all",
                      "fit-angles-180-90-from0.005", "fit-angles-180-90-all", "fit-angles-180-90-60-30-from0.01-all",
                      "fit", "fit-jump", "fit-jackknife-seeds-loading", "fit-per-angle-skip1", "fit"]
+
+
+def test_the_tables_of_fits_go_beside_the_fit_of_the_same_weighting_and_cycles():
+    """``make fit-definitions``, ``fit-from`` and ``fit-profile`` write into the folder ``make fit`` with the same
+    WEIGHT and SKIP_CYCLES writes: a table of one never replaces another's."""
+    from pipeline.calibration.options import table_folder
+
+    chosen = DataSet("paper", "lammps")
+    folders = [table_folder(chosen, "runs"), table_folder(chosen, "angles"),
+               table_folder(dataclasses.replace(chosen, skip_cycles=1), "angles")]
+    assert [f.name for f in folders] == ["fit", "fit-per-angle", "fit-per-angle-skip1"]
+    assert len({f.parent for f in folders}) == 1 and folders[0].parent.name == chosen.folder
 
 
 def test_the_names_defaults_are_the_stages_defaults():
