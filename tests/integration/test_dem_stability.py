@@ -27,7 +27,8 @@ def test_a_coarse_time_step_at_the_bound_runs_to_its_verdict(tmp_path):
     """``dt0.5`` (the time step at the spec's bound) lands its samples up to a controller interval past their
     targets, more than half the dense spacing: its file is still written and the case judged (``make stability``
     stopped on it with a traceback when samples were told grid or dense by their strain)."""
-    row = stability.run_case(next(c for c in stability.CASES if c.label == "dt0.5"), tmp_path)
+    row = stability.run_case(next(c for c in stability.CASES if c.label == "dt0.5"), tmp_path,
+                             energy_strain=ENERGY_STRAIN)
     assert row["outcome"] == "passed", row
 
 
