@@ -50,10 +50,10 @@ def test_the_registry_names_the_reference_first_and_every_scene_module_exists():
 
 def test_every_seed_of_the_tiny_cell_gets_its_grains_without_any_engine():
     """Random placement stalls for about one seed in seven of the tiny cell in the usual box; the box then grows,
-    so seeds 1-50 all build. ``dem.core`` imports neither Yade nor LAMMPS."""
+    so seeds 1-25 all build (4 of them in a grown box). ``dem.core`` imports neither Yade nor LAMMPS."""
     spec = run_spec.resolve(180, "tiny")
     placed = []
-    for seed in range(1, 51):
+    for seed in range(1, 26):
         s = dataclasses.replace(spec, seed=seed)
         n = protocol.grain_count(s)
         cloud, y_top = cell.initial_cloud(s, n, int(s.width_d), 1.0)

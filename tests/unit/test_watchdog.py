@@ -8,7 +8,12 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from pipeline.paths import ROOT
+
+#: each test runs a process that spends its seconds of CPU in LAPACK on purpose: with the slow tests (make test)
+pytestmark = pytest.mark.slow
 
 #: a process that starts its watchdog as ``driver.run_scene`` does, then either beats (a run that is alive) or sits
 #: in C (one eigenvalue problem after another, each longer than the limits)
