@@ -506,7 +506,7 @@ def test_a_warning_at_any_moment_of_a_run_is_a_resumable_stop(tmp_path):
     has its handler (before that, the interpreter is still starting) through its imports, the build, the
     compaction, the shear and the moments it ``exec``s itself at a checkpoint: every run stops resumably (exit
     138) or finishes, never fails; one that said where it would stop finishes only if it ended before there."""
-    for k, delay in enumerate(np.arange(0.0, 7.5, 0.55)):
+    for k, delay in enumerate(np.arange(0.0, 7.5, 0.8)):  # the run takes about 10 s; a checkpoint each 0.3 s
         results = tmp_path / f"r{k}"
         proc = subprocess.Popen(launcher(*TINY, "--engine", "lammps", results=results), cwd=ROOT,
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
