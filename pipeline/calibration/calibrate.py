@@ -119,10 +119,10 @@ class Calibration:
                                     s.persistence_exponent, s.window)
         stepwise = schema.Stepwise.from_dict({"runs": self.per_run, "estimates": self.estimates,
                                               "sensitivity": self.sensitivity, "cross_check": self.cross_check,
-                                              "params": None})
+                                              "params": self.stepwise and self.stepwise.to_dict()})
         refined = None if self.refined is None else schema.GlobalRefinement(
             self.global_runs, self.refined.estimates(), self.residual_map, list(self.next_runs))
-        return FitSummary(options, dataclasses.replace(stepwise, params=self.stepwise), self.params, refined,
+        return FitSummary(options, stepwise, self.params, refined,
                           None if self.dilatancy is None else self.dilatancy.estimates(),
                           None if self.noise is None else self.noise.summary(), self.identifiability,
                           self.bootstrap, self.jackknife, list(self.notes), self.made_from)
