@@ -17,15 +17,13 @@ LANE_TEST = "test_the_long_targets_run_in_a_lane_beside_the_session"
 #: run in this order in one copy: the demo (its two `quick` DEM runs, fit, compare, figures), then on its data set a
 #: sweep of the same runs (done: nothing runs) and its collection, the fit past the jump, a three-point profile of C
 #: and b2, Eq. 13's law and `jump` judged within the data set (fits of seconds: `elastic`'s fast state takes minutes
-#: on these runs), every benchmark at the smallest size, the studies of the committed data no other target reads, and
-#: the stability study on a case past the time-step bound (the tests of the study run the cases that pass)
+#: on these runs), every benchmark at the smallest size and the studies of the committed data no other target reads
 LANE = [("demo",), ("sweep", "PRESET=quick", "THETAS=180 90"), ("sweep-collect",), ("fit-from", "PRESET=quick"),
         ("fit-profile", "PRESET=quick", "POINTS=3", "NAMES=C,b2"),
         ("models", "PRESET=quick", "ACROSS=none", "LAWS=jump"),
         ("bench", "PRESETS=tiny", "POINTS=2000"),
         ("versus", "A=paper/lammps/n_cycles=1", "B=paper/lammps/inertial_number=0.001"), ("cells",), ("jump",),
-        ("budget", "PRESET=reduced"), ("profile-dem", "PRESETS=tiny"), ("stability", "CASES=dt2.0"),
-        ("model-cycles",)]
+        ("budget", "PRESET=reduced"), ("model-cycles",)]
 
 
 def project_copy(folder: Path) -> Path:

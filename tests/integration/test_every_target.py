@@ -20,14 +20,14 @@ pytestmark = [pytest.mark.yade, pytest.mark.lammps]
 RUN_HERE = {
     "help": "test_every_target_is_run_here_or_by_ci",
     **dict.fromkeys(("dem", "engines", "bench-lammps-settings", "bench-dem", "sweep", "runs", "sweep-status",
-                     "fidelity"),
+                     "fidelity", "profile-dem", "stability"),
                     "test_a_dem_or_engine_target_runs_at_the_tiny_size"),
     **dict.fromkeys(("fit", "compare", "figures", "compare-seed", "fit-bootstrap", "fit-jackknife", "fit-angles",
                      "fit-definitions", "fidelity-table", "data-card", "clean"),
                     "test_a_data_target_runs_on_the_committed_data"),
     # the demo (its DEM runs, demo-dem, first), what follows it on its data set, and the studies of committed data
     **dict.fromkeys(("demo", "demo-dem", "sweep-collect", "fit-from", "fit-profile", "models", "bench", "versus",
-                     "cells", "jump", "budget", "profile-dem", "stability", "model-cycles"), LANE_TEST),
+                     "cells", "jump", "budget", "model-cycles"), LANE_TEST),
 }
 assert {args[0] for args in LANE} <= set(RUN_HERE)
 RUN_BY_CI = ("test", "test-unit", "test-yade", "test-cluster", "lint", "venv", "system", "system-venv",
@@ -91,6 +91,11 @@ DEM_TARGETS = [
     ("fidelity", lambda p: tiny_ladder(p),
      lambda p, said: "running 1 ladder run(s)" in said and "2 run(s) of the ladder; 0 not made yet" in said
      and "moved from the `tiny` preset" in (p / "results/fidelity-ladder/table.md").read_text()),
+    ("profile-dem", ("PRESETS=tiny",), lambda p, said: (p / "results/bench/dem_profile.md").exists()),
+    # a case past the time-step bound: its verdict in seconds (test_dem_stability runs the cases that pass)
+    ("stability", ("CASES=dt2.0",),
+     lambda p, said: "| dt2.0 |" in (text := (p / "results/fidelity/stability.md").read_text())
+     and "| stopped | 3 |" in text),
 ]
 
 
@@ -162,8 +167,6 @@ def test_the_long_targets_run_in_a_lane_beside_the_session(long_lane):
     bench = long_lane.project / "results/bench"
     assert all((bench / name).exists() for name in ("update.md", "dem_throughput.md"))
     results = long_lane.project / "results"
-    stability = (results / "fidelity/stability.md").read_text()  # a case past the bound: its verdict in seconds
-    assert (bench / "dem_profile.md").exists() and "| dt2.0 |" in stability and "| stopped | 3 |" in stability
     assert "### θ = 180, cycle 1" in (results / "versus/versus.md").read_text()
     assert (results / "cells/cells.md").exists() and (results / "jump/jump.md").exists()
     budget = (results / "reduced-lammps/budget/budget.md").read_text()  # the reduced cell's runs with the budget
