@@ -133,7 +133,10 @@ class Record:
         fields = _fields_of(cls, data, path, cls.WHAT, cls.RENAMED)
         for name, kind in nested(cls).items():
             fields[name] = _read(kind, fields.get(name), f"{path}: {name}")
-        return cls(**fields)
+        try:
+            return cls(**fields)
+        except ValueError as exc:  # a record that checks its values (``Definitions``)
+            raise PipelineError(f"{path}: {exc}") from None
 
     def to_dict(self) -> dict:
         key = {field: name for name, field in self.RENAMED.items()}

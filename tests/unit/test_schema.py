@@ -46,7 +46,7 @@ def test_each_file_reads_back_as_written_and_names_its_version(tmp_path):
         "strain": "bulk", "phi": "central", "pressure": "target"}  # every group of the fit a record of its own
     written["options"]["definitions"]["strain"] = "sideways"
     (tmp_path / "fit.json").write_text(json.dumps(written))
-    with pytest.raises(PipelineError, match="strain='sideways' is not one of bulk, nominal"):
+    with pytest.raises(PipelineError, match="fit.json: options: definitions: strain='sideways' is not one of bulk"):
         schema.read_fit(tmp_path / "fit.json")
     schema.write_params(tmp_path / "params.json", model.Params(), {"definitions": {"strain": "bulk"}})
     found = schema.read_params(tmp_path / "params.json")
