@@ -80,7 +80,7 @@ def print_next_runs(report: FitSummary, count: int = 5) -> None:
     first = ranked[0]
     print(f"runs that would fix the weakest combination best per CPU-hour (now ±{first.weakest_before:.3g}; "
           "fit.json: global, next_runs" + ("; another seed of an angle shares that angle's weight"
-                                   if report.options.weight == "angles" else "") + "):")
+                                           if report.options.weight == "angles" else "") + "):")
     for r in ranked[:count]:
         print(f"  {r.run}: ±{r.weakest_after:.3g}, {r.cpu_hours:.2f} CPU-hours")
 

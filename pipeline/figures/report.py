@@ -122,8 +122,7 @@ def parameter_lines(fitted, paper, fit: FitSummary | None) -> list[str]:
               f"{min(lengths):.2f}-{max(lengths):.2f} strain, A and tau/p noise correlated at "
               f"{min(noise.A_tau_correlation):+.2f} to {max(noise.A_tau_correlation):+.2f}), "
               f"not scaled by the misfit. Misfit: {g.estimates.misfit:.2f} (chi^2 per degree of freedom in noise "
-              "units; "
-              "1 = the model fits within the noise). `make fit-profile` gives the profile intervals, "
+              "units; 1 = the model fits within the noise). `make fit-profile` gives the profile intervals, "
               "`make fit-bootstrap` a bootstrap of the noise."
               + (misfit_sentence(ident) if noted else ""), "",
               "## What the data fix", "",
@@ -165,10 +164,9 @@ def next_runs_lines(fit: FitSummary) -> list[str]:
     candidates = fit.global_fit.next_runs
     runs = [r for r in candidates if r.error is None]  # last: those that cannot be weighed
     if not runs:
-        failed = candidates
         return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
                 f"None can be told: no candidate can be weighed at the best fit (the first, "
-                f"{failed[0].run}: {failed[0].error}; fit.json: global, next_runs)."] if failed else []
+                f"{candidates[0].run}: {candidates[0].error}; fit.json: global, next_runs)."] if candidates else []
     return ["", "## Runs that would fix the weakest combination best per CPU-hour", "",
             f"Its relative ± is {runs[0].weakest_before:.3g} now (fit.json: global, next_runs, every candidate); each "
             "run is joined to the fit's runs"
