@@ -111,18 +111,19 @@ system-venv: ## Debian's python3-venv, for the project's virtualenv (apt-get; a 
 	@if python3 -c 'import ensurepip' 2>/dev/null; then echo "venv support present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) python3-venv; fi
 
-system-lammps: ## Debian's LAMMPS for Debian's python3 (apt-get: lammps, python3-lammps, liblammps-dev, OpenMPI, mpi4py, iproute2)
-	@if /usr/bin/python3 -c 'import mpi4py, lammps; lammps.lammps(cmdargs=["-log", "none", "-screen", "none"]).close()' \
+system-lammps: ## Debian's LAMMPS for Debian's python3 (apt-get: lammps, python3-lammps, liblammps-dev, OpenMPI, mpi4py, scipy, iproute2)
+	@if /usr/bin/python3 -c 'import mpi4py, scipy, lammps; lammps.lammps(cmdargs=["-log", "none", "-screen", "none"]).close()' \
 	  2>/dev/null && command -v ip >/dev/null && command -v unshare >/dev/null; then echo "lammps present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) lammps python3-lammps liblammps-dev openmpi-bin python3-mpi4py \
-	  iproute2 util-linux; fi
+	  python3-scipy iproute2 util-linux; fi
 
 system-slurm: ## Debian's slurm-wlm and munge, for the cluster test (apt-get)
 	@if command -v slurmctld >/dev/null && command -v munged >/dev/null; then echo "slurm and munge present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) slurm-wlm munge; fi
 
-system: system-venv ## Debian's Yade (apt-get); the scenes need only numpy and yade in Debian's python3
-	@if command -v yade >/dev/null; then echo "yade present"; else $(SUDO) apt-get update -qq && $(APT_INSTALL) yade; fi
+system: system-venv ## Debian's Yade and scipy (apt-get); the scenes need numpy, scipy and yade in Debian's python3
+	@if command -v yade >/dev/null && /usr/bin/python3 -c 'import scipy' 2>/dev/null; then echo "yade present"; else \
+	  $(SUDO) apt-get update -qq && $(APT_INSTALL) yade python3-scipy; fi
 
 # ---------------------------------------------------------------- the user's targets: checked, then run by Python
 dem: $(ENGINE_SYSTEM) venv ## one DEM run THETA=90 [PRESET=quick] [ENGINE=lammps] [SET=...] -> results/<preset>/dem/theta<THETA>.h5 (resumes; see README)

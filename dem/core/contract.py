@@ -37,7 +37,7 @@ class EngineRun(Protocol):
 
     def gather(self, grains: bool = True) -> tuple:
         """The contact and grain arrays of ``dem.core.measure`` (on every rank where there are several); the grain
-        arrays None where ``grains`` is false (a tracking point of the contact budget needs the contacts alone)."""
+        arrays None where ``grains`` is false."""
 
     def stop_after_this_step(self) -> None:
         """End the engine's loop once the current step is done (the driver's checkpoints and end)."""

@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from dem.core import budget, checks, contract, measure, protocol, schema, watchdog
+from dem.core import budget, checks, contract, measure, neighbours, protocol, schema, watchdog
 from dem.core.rawfile import DISK_ERRORS, DISK_FULL, DiskError, require_free, save_npz, stack, write_raw, write_status
 from dem.core.state import RunState
 
@@ -60,7 +60,10 @@ class Experiment:
         self.samples, tracked = load_samples(run_dir, state.samples_file)
         self.sample_strains = protocol.sample_strains(spec)
         self.track_strains = protocol.track_strains(spec)
-        self.tracker = budget.ContactTracker(tracked or None) if self.track_strains else None
+        try:
+            self.tracker = budget.ContactTracker(tracked or None) if self.track_strains else None
+        except ValueError as exc:
+            damaged(f"{run_dir}: {exc}")
         self.failure = None
         self.last_print = (time.time(), self.iteration())
         self.next_percent = 0.0
@@ -132,21 +135,22 @@ class Experiment:
         return strain >= self.sample_strains[self.state.next_sample] - protocol.EPS
 
     def observe(self, strain):
-        """Gather the contacts once (the grains too where a sample is due): track them where a tracking point is due
-        (every sample is one) and sample."""
+        """Gather the contacts once (the grains too where a sample is due or the contacts are tracked: the near
+        pairs need their positions): track them where a tracking point is due (every sample is one) and sample."""
         tic = time.perf_counter()
-        contacts, grains = self.gather(grains=self.sample_due(strain))
+        contacts, grains = self.gather(grains=self.sample_due(strain) or self.tracker is not None)
         y_bottom, y_top = self.inner_planes()
         region = (y_bottom + self.spec.region_margin_d, y_top - self.spec.region_margin_d)
         if self.tracker is not None:
-            self.track(strain, contacts, region)
+            self.track(strain, contacts, grains, region)
         if self.sample_due(strain):
             self.sample(strain, contacts, grains, (y_bottom, y_top), region)
         else:  # a tracking point alone: what the contact budget costs beyond the samples
             self.state.track_seconds += time.perf_counter() - tic
 
-    def track(self, strain, contacts, region):
-        """A tracking point of the contact budget (``dem.core.budget``): every target up to ``strain`` is done."""
+    def track(self, strain, contacts, grains, region):
+        """A tracking point of the contact budget (``dem.core.budget``) and of the near pairs
+        (``dem.core.neighbours``): every target up to ``strain`` is done."""
         st = self.state
         while st.next_track < len(self.track_strains) and self.track_strains[st.next_track] < strain + protocol.EPS:
             st.next_track += 1
@@ -154,8 +158,10 @@ class Experiment:
         internal = (id1 >= st.first_grain) & (id2 >= st.first_grain)
         inside = internal & measure.in_slab(contacts["point"][:, 1], *region)
         normal_force = np.einsum("ci,ci->c", contacts["force"][inside], normal[inside])
-        self.tracker.step(budget.pair_keys(id1[inside], id2[inside]), normal[inside], normal_force,
-                          budget.pair_keys(id1[internal], id2[internal]), protocol.direction_deg(strain, self.spec))
+        all_keys = np.unique(neighbours.pair_keys(id1[internal], id2[internal]))
+        near = neighbours.near_pairs(grains["id"], grains["pos"], grains["radius"], self.spec.width_d, all_keys)
+        self.tracker.step(neighbours.pair_keys(id1[inside], id2[inside]), normal[inside], normal_force, all_keys,
+                          protocol.direction_deg(strain, self.spec), near, region)
 
     def sample(self, strain, contacts, grains, walls, region):
         st = self.state

@@ -24,6 +24,13 @@ def contact_fields():
     return _tables()["contacts"]
 
 
+def contact_fields_of(version):
+    """``{name: (stored name, info)}`` of the contact fields a run file of schema ``version`` holds: those whose
+    ``since`` is not later, each under the name it had in that version (``was`` before version 4)."""
+    return {name: (info.get("was", name) if version < 4 else name, info)
+            for name, info in contact_fields().items() if info.get("since", 0) <= version}
+
+
 def check_row(row, contacts=False):
     """Raise ``KeyError`` naming the fields a sample row lacks or has beyond the schema (with the contact budget's
     where ``contacts``)."""

@@ -9,7 +9,9 @@ commit, commands, timestamps, spec
 ``/parameters`` attrs: every spec value, plus the contact constants and the time step; ``grain_diameter``
 ``/raw/...`` the samples as taken, named and unit-tagged by ``config/raw_schema.toml`` [samples]
 ``/contacts/...`` the contact budget of every sample (``dem/core/budget.py``; [contacts]), in runs that track their
-contacts (version 3 on; a file without it reads with ``DemRun.contacts`` None)
+contacts (version 3 on; a file without it reads with ``DemRun.contacts`` None); version 4 adds the near pairs, the
+gain and loss by load and the continuous persistence (``dem/core/neighbours.py``), and names version 3's
+``persistence`` ``persistence_touching`` (read under the new name from either)
 
 Nothing derived is stored: series and cycles are computed when the file is read
 (``pipeline.dataset.derived``), with the definitions the reader chooses, so a run never depends on
@@ -30,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from dem.core.protocol import on_grid, sample_strains
-from dem.core.schema import contact_fields, sample_fields
+from dem.core.schema import contact_fields, contact_fields_of, sample_fields
 from dem.core.spec import LEGACY_ENGINE, DemSpec
 from model.cli import printable
 
@@ -40,8 +42,8 @@ from . import derived
 from .reader import RunFileReader
 
 SCHEMA = "granular-backstress/dem-run"
-SCHEMA_VERSION = 3
-READABLE_VERSIONS = (1, 2, 3)
+SCHEMA_VERSION = 4
+READABLE_VERSIONS = (1, 2, 3, 4)
 CONVENTIONS = ("stress tension-positive, normalised by the controlled wall normal stress p; tau = sigma' "
                "(deviator); walls normal to e2; shear direction cos(phi) e1 + sin(phi) e3, phi from e1 towards "
                "e3; strain t*gamma_dot from the start of the first period; fabric A = <n n> - I/3 (Eq. 8)")
@@ -301,7 +303,7 @@ def _header(reader: RunFileReader) -> tuple[dict, dict, DemSpec]:
 
 
 def load(path) -> DemRun:
-    """Read a DEM run file (schema v1, v2 or v3) through ``RunFileReader``, checked against the schema before any
+    """Read a DEM run file (schema v1 to v4) through ``RunFileReader``, checked against the schema before any
     sample is read (links, storage, types, shapes, units, size), then for finite values and whole cycles."""
     with RunFileReader(path) as reader:
         path = reader.path
@@ -315,9 +317,10 @@ def load(path) -> DemRun:
                    for k, info in sample_fields().items()}
         tracked = reader.has("/contacts")
         if tracked:
-            checked |= {("contacts", k): reader.check_dataset(f"/contacts/{k}", schema_shape(info, n, bins),
+            version = int(reader.attributes("/")["schema_version"])
+            checked |= {("contacts", k): reader.check_dataset(f"/contacts/{stored}", schema_shape(info, n, bins),
                                                               info["unit"])
-                        for k, info in contact_fields().items()}
+                        for k, (stored, info) in contact_fields_of(version).items()}
         has_diameters = reader.has("/parameters/grain_diameter")
         if has_diameters:
             grains = params.get("n_grains")

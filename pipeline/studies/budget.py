@@ -164,12 +164,12 @@ def event_series(run, change: float, end: float, params: model.Params) -> dict |
     out["weak"] = components((1 - strong) * c["weak_fabric"][idx], s_new, t, a0, t_old)
     for k, name in enumerate(CLASSES):
         out[f"survivors_{name}"] = components(c["survivor_part"][idx, k], s_new, t, a0, t_old)
-    out["persistence"] = c["persistence"][idx]
+    out["persistence"] = c["persistence_touching"][idx]
     out["packing"] = raw["packing_fraction"][idx] - raw["packing_fraction"][before].mean()
     # the change's contacts lost per unit strain, -d ln(persistence)/d gamma: read at the samples alone, it does not
     # depend on the tracking spacing (the counts made and lost do); a class with no survivor left has no force (NaN)
     with np.errstate(divide="ignore", invalid="ignore"):
-        out["loss_rate"] = -np.diff(np.log(c["persistence"][idx, 0])) / step
+        out["loss_rate"] = -np.diff(np.log(c["persistence_touching"][idx, 0])) / step
         out["force"] = c["survivor_force"][idx] / c["survivor_force"][idx, :1]
     out["S"] = terms["S"]
     out["lambda"] = terms["S"] ** params.persistence_exponent

@@ -123,7 +123,8 @@ def test_both_engines_run_one_spec_into_files_the_pipeline_reads_alike(both_engi
 def test_both_engines_track_their_contacts_into_a_budget_that_sums_to_the_change_of_the_fabric(both_engines):
     """The contact budget (dem/core/budget.py) of each engine: made + lost + kept + crossed is the change of the
     measured fabric from sample to sample, to rounding; contacts are made and lost; the persistence of each change's
-    set starts at 1 and falls; the strong network is a minority."""
+    set starts at 1 and falls; the strong network is a minority; the near pairs (dem/core/neighbours.py) nest by
+    gap and feed the contacts made."""
     _, runs = both_engines
     for run in runs.values():
         c = run.contacts
@@ -133,8 +134,14 @@ def test_both_engines_track_their_contacts_into_a_budget_that_sums_to_the_change
         np.testing.assert_allclose(total[1:], np.diff(run.raw_all["fabric"], axis=0), atol=1e-13)
         assert c["made_count"][1:].sum() > 0 and c["lost_count"][1:].sum() > 0
         assert np.all(c["track_points"][1:] >= 1)
-        assert 0 <= np.nanmin(c["persistence"]) and np.nanmax(c["persistence"]) == 1.0
+        assert 0 <= np.nanmin(c["persistence_touching"]) and np.nanmax(c["persistence_touching"]) == 1.0
+        assert np.all(c["persistence_continuous"] <= c["persistence_touching"] + 1e-15)
         assert 0.2 < np.median(c["strong_fraction"]) < 0.5
+        # the near pairs: the shells nest, and the contacts made come out of them
+        assert np.all(np.diff(c["near_count"], axis=1) >= 0) and np.all(c["near_count"][:, 0] > 0)
+        np.testing.assert_array_equal(c["near_by_load"].sum(axis=2), c["near_count"])
+        np.testing.assert_array_equal(c["made_by_load"].sum(axis=1), c["made_count"])
+        assert np.all(c["made_near"][:, -1] <= c["made_count"]) and c["made_near"][1:, -1].sum() > 0
 
 
 def test_a_lammps_run_needs_no_yade(both_engines, tmp_path):

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from dem.core import budget, protocol
+from dem.core import budget, neighbours, protocol
 from dem.core.measure import fabric
 from pipeline.spec import resolve
 
@@ -21,21 +21,29 @@ def random_normals(n):
     return unit(RNG.normal(size=(n, 3)))
 
 
-def step(tracker, pairs, normals, touching=(), direction=0.0, forces=None):
+def near(pairs=(), gaps=(), normals=None):
+    """Near pairs (id1, id2) with their gaps, all in the region (their normals along e1 unless given)."""
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    normals = np.tile([1.0, 0.0, 0.0], (len(pairs), 1)) if normals is None else np.asarray(normals, dtype=float)
+    return neighbours.NearPairs(neighbours.pair_keys(pairs[:, 0], pairs[:, 1]), np.asarray(gaps, dtype=float),
+                                normals, np.zeros(len(pairs)))
+
+
+def step(tracker, pairs, normals, touching=(), direction=0.0, forces=None, near_pairs=None):
     """One tracking point: region contacts ``pairs`` (id1, id2) with ``normals``; ``touching`` more pairs that touch
-    outside the region."""
+    outside the region; ``near_pairs`` the near pairs (none unless given)."""
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     every = np.concatenate([pairs, np.asarray(touching, dtype=np.int64).reshape(-1, 2)])
-    keys = budget.pair_keys(pairs[:, 0], pairs[:, 1])
+    keys = neighbours.pair_keys(pairs[:, 0], pairs[:, 1])
     forces = np.ones(len(pairs)) if forces is None else np.asarray(forces, dtype=float)
-    tracker.step(keys, np.asarray(normals, dtype=float), forces, budget.pair_keys(every[:, 0], every[:, 1]),
-                 direction)
+    tracker.step(keys, np.asarray(normals, dtype=float), forces, neighbours.pair_keys(every[:, 0], every[:, 1]),
+                 direction, near() if near_pairs is None else near_pairs, (-1.0, 1.0))
 
 
 def test_a_pair_is_one_key_whatever_its_order():
-    assert budget.pair_keys(np.array([3, 9]), np.array([9, 3]))[0] == budget.pair_keys(np.array([9]),
-                                                                                       np.array([3]))[0]
-    assert len(set(budget.pair_keys(np.array([1, 2, 1]), np.array([2, 3, 3])).tolist())) == 3
+    assert neighbours.pair_keys(np.array([3, 9]), np.array([9, 3]))[0] == neighbours.pair_keys(np.array([9]),
+                                                                                             np.array([3]))[0]
+    assert len(set(neighbours.pair_keys(np.array([1, 2, 1]), np.array([2, 3, 3])).tolist())) == 3
 
 
 def test_the_terms_of_a_hand_made_step_are_the_known_ones():
@@ -124,8 +132,8 @@ def test_every_contact_kept_and_unchanged_persists_with_no_budget():
     for _ in range(4):
         step(tracker, pairs, normals, direction=90.0)
     row = tracker.row()
-    np.testing.assert_allclose(row["persistence"][0], 1.0)
-    np.testing.assert_allclose(row["persistence"][1:][row["persistence_count"][1:] > 0], 1.0)
+    np.testing.assert_allclose(row["persistence_touching"][0], 1.0)
+    np.testing.assert_allclose(row["persistence_touching"][1:][row["persistence_count"][1:] > 0], 1.0)
     assert row["persistence_count"][0] == 40 == row["persistence_count"][1:].sum()
     for t in budget.TERMS:
         np.testing.assert_allclose(row[f"budget_{t}"], 0.0, atol=1e-15)
@@ -142,12 +150,12 @@ def test_persistence_counts_the_contacts_of_the_last_change_by_how_the_new_shear
     step(tracker, [(1, 2), (3, 4), (4, 5)], [compressed, stretched, neutral], direction=0.0)
     row = tracker.row()
     np.testing.assert_array_equal(row["persistence_count"], [4, 2, 1, 1])
-    np.testing.assert_allclose(row["persistence"], [0.75, 0.5, 1.0, 1.0])
+    np.testing.assert_allclose(row["persistence_touching"], [0.75, 0.5, 1.0, 1.0])
     step(tracker, [(1, 2), (3, 4), (4, 5)], [compressed, stretched, neutral], direction=180.0)  # a reversal
     step(tracker, [(1, 2), (4, 5)], [compressed, neutral], direction=180.0)
     row = tracker.row()
     np.testing.assert_array_equal(row["persistence_count"], [3, 1, 1, 1])  # (3, 4) is now the compressed one
-    np.testing.assert_allclose(row["persistence"], [2 / 3, 0.0, 1.0, 1.0])
+    np.testing.assert_allclose(row["persistence_touching"], [2 / 3, 0.0, 1.0, 1.0])
 
 
 def test_the_class_edges_are_thirds_of_the_loading():
@@ -229,3 +237,76 @@ def test_eq13_terms_add_up_to_the_models_own_fabric_rate():
         rate = np.array(n[:5]) / n[5]
         np.testing.assert_allclose([total[0, 0], total[1, 1], total[0, 1], total[0, 2], total[1, 2]], rate,
                                    rtol=1e-10, atol=1e-12)
+
+
+def test_the_gain_and_loss_by_load_sum_to_the_made_and_lost_counts():
+    tracker = budget.ContactTracker()
+    pairs, normal = set(), {}
+    for k in range(1, 31):
+        for p in list(pairs):
+            if RNG.random() < 0.2:
+                pairs.discard(p)
+        for _ in range(int(RNG.integers(0, 8))):
+            p = tuple(sorted(RNG.choice(60, size=2, replace=False).tolist()))
+            if p not in pairs:
+                pairs.add(p)
+                normal[p] = random_normals(1)[0]
+        listed = sorted(pairs)
+        step(tracker, listed, [normal[p] for p in listed], direction=0.0 if k < 15 else 150.0)
+        if k % 5 == 0:
+            row = tracker.row()
+            assert row["made_by_load"].sum() == row["made_count"] and row["lost_by_load"].sum() == row["lost_count"]
+            assert row["contacts_by_load"].sum() == len(listed)
+
+
+def test_the_bins_of_load_run_from_most_compressed_to_most_stretched():
+    compressed, stretched, neutral = unit([1, -1, 0]), unit([1, 1, 0]), np.array([0.0, 0.0, 1.0])
+    counts = budget.by_load(np.array([compressed, stretched, neutral, neutral]), 0.0)
+    assert counts[0] == 1 and counts[-1] == 1 and counts[budget.LOAD_BINS // 2] == 2 and counts.sum() == 4
+
+
+def test_the_contacts_made_are_traced_to_the_near_shell_they_came_from():
+    """(1, 2) was 0.005 apart and (3, 4) 0.05 apart at the point before they touched; (5, 6) came from farther."""
+    e1 = np.eye(3)[0]
+    tracker = budget.ContactTracker()
+    step(tracker, [(7, 8)], [e1], near_pairs=near([(1, 2), (3, 4)], [0.005, 0.05]))
+    step(tracker, [(7, 8), (1, 2), (3, 4), (5, 6)], [e1] * 4, near_pairs=near([(9, 10)], [0.02]))
+    step(tracker, [(1, 2), (3, 4), (5, 6)], [e1] * 3, near_pairs=near([(7, 8)], [0.02]))  # (7, 8) opens by 0.02
+    row = tracker.row()
+    assert row["made_count"] == 3 and row["lost_count"] == 1
+    np.testing.assert_array_equal(row["made_near"], [1, 1, 2])  # within 0.01, 0.03, 0.1
+    np.testing.assert_array_equal(row["made_near_change"], [1, 1, 2])  # the first point is a change
+    np.testing.assert_array_equal(row["lost_near"], [0, 1, 1])
+    np.testing.assert_array_equal(row["near_count"], [0, 1, 1])
+    np.testing.assert_allclose(row["near_fabric"][1], np.outer(e1, e1) - np.eye(3) / 3)
+    assert np.all(np.isnan(row["near_fabric"][0]))
+
+
+def test_a_contact_that_opens_and_closes_again_touches_but_does_not_persist():
+    e1, e2 = np.eye(3)[:2]
+    tracker = budget.ContactTracker()
+    step(tracker, [(1, 2), (2, 3)], [e1, e2], direction=90.0)
+    step(tracker, [(1, 2)], [e1], direction=90.0)
+    step(tracker, [(1, 2), (2, 3)], [e1, e2], direction=90.0)
+    row = tracker.row()
+    assert row["persistence_touching"][0] == 1.0 and row["persistence_continuous"][0] == 0.5
+    step(tracker, [(1, 2), (2, 3)], [e1, e2], direction=0.0)  # a change: the set is retaken, whole
+    assert tracker.row()["persistence_continuous"][0] == 1.0
+
+
+def test_the_contacts_made_are_traced_to_the_near_shell_of_the_last_change():
+    e1 = np.eye(3)[0]
+    tracker = budget.ContactTracker()
+    step(tracker, [(7, 8)], [e1], near_pairs=near([(1, 2), (3, 4)], [0.05, 0.08]))  # the change
+    step(tracker, [(7, 8)], [e1], near_pairs=near([(1, 2), (5, 6)], [0.002, 0.005]))
+    step(tracker, [(7, 8), (1, 2), (5, 6)], [e1] * 3, near_pairs=near())
+    row = tracker.row()
+    np.testing.assert_array_equal(row["made_near"], [2, 2, 2])
+    np.testing.assert_array_equal(row["made_near_change"], [0, 0, 1])
+
+
+def test_a_tracker_from_an_older_checkpoint_is_refused_naming_what_it_lacks():
+    arrays = budget.ContactTracker().to_arrays()
+    del arrays["change_alive"]
+    with pytest.raises(ValueError, match="change_alive"):
+        budget.ContactTracker(arrays)
