@@ -49,6 +49,9 @@ class Experiment:
     and only the ``writer`` writes files."""
 
     writer = True
+    #: the near pairs searched at each tracking point (``dem.core.neighbours``); off only in ``make bench-dem``'s
+    #: ``budget`` mode, which measures what the search costs (the rows then hold empty shells)
+    neighbour_search = True
 
     def __init__(self, run_dir, spec, state):
         self.run_dir = run_dir
@@ -138,7 +141,8 @@ class Experiment:
         """Gather the contacts once (the grains too where a sample is due or the contacts are tracked: the near
         pairs need their positions): track them where a tracking point is due (every sample is one) and sample."""
         tic = time.perf_counter()
-        contacts, grains = self.gather(grains=self.sample_due(strain) or self.tracker is not None)
+        contacts, grains = self.gather(grains=self.sample_due(strain) or (self.tracker is not None
+                                                                           and self.neighbour_search))
         y_bottom, y_top = self.inner_planes()
         region = (y_bottom + self.spec.region_margin_d, y_top - self.spec.region_margin_d)
         if self.tracker is not None:
@@ -159,7 +163,8 @@ class Experiment:
         inside = internal & measure.in_slab(contacts["point"][:, 1], *region)
         normal_force = np.einsum("ci,ci->c", contacts["force"][inside], normal[inside])
         all_keys = np.unique(neighbours.pair_keys(id1[internal], id2[internal]))
-        near = neighbours.near_pairs(grains["id"], grains["pos"], grains["radius"], self.spec.width_d, all_keys)
+        near = (neighbours.near_pairs(grains["id"], grains["pos"], grains["radius"], self.spec.width_d, all_keys)
+                if self.neighbour_search else neighbours.NearPairs.empty())
         self.tracker.step(neighbours.pair_keys(id1[inside], id2[inside]), normal[inside], normal_force, all_keys,
                           protocol.direction_deg(strain, self.spec), near, region)
 

@@ -4,8 +4,9 @@
 RUN_DIR/spec.json, compacts it and shears it STEPS steps (no checkpoint), then times STEPS steps of shear in three
 modes, REPEATS times each, interleaved (best time kept): ``bare`` (the controller's ``fix python/invoke`` and
 ``fix halt`` removed: LAMMPS alone, the walls at their shear velocity with the gap held), ``untracked`` (the
-controller and the in-situ sampling without the contact budget's tracking points) and ``full`` (as in production,
-the contacts tracked every ``contact_track_strain``). Unlike ``dem/tools/yade_bench.py`` the runs follow one another
+controller and the in-situ sampling without the contact budget's tracking points), ``budget`` (the contacts tracked
+without the near pairs' search, ``dem/core/neighbours.py``) and ``full`` (as in production, the contacts and near pairs
+tracked every ``contact_track_strain``). Unlike ``dem/tools/yade_bench.py`` the runs follow one another
 rather than restart from one kept state (LAMMPS reads a restart file back in one process only once, see
 ``dem/lammps/scene.py``): each repeat shears on, in the same steady state.
 """
@@ -31,11 +32,13 @@ def main():
         lmp.command(f"run {steps}")
     lmp.command(f"run {steps}")
     every = int(scene.spec.control_every_steps)
-    times = {"bare": [], "untracked": [], "full": []}
+    times = {"bare": [], "untracked": [], "budget": [], "full": []}
     tracker, track_strains = run.tracker, run.track_strains
     for _ in range(repeats):
         for mode in times:
-            run.tracker, run.track_strains = (tracker, track_strains) if mode == "full" else (None, [])
+            tracked = mode in ("budget", "full")
+            run.tracker, run.track_strains = (tracker, track_strains) if tracked else (None, [])
+            run.neighbour_search = mode == "full"
             if mode == "bare":  # the walls go on at their shear velocity, the gap held (as dem/tools/yade_bench.py's)
                 lmp.command("unfix halt")
                 lmp.command("unfix control")

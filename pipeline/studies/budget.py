@@ -23,7 +23,9 @@ of either engine, with the most such runs) and, for every change of direction, o
 
 Events of one protocol (angle, rotation) are pooled over cycles, both turns of a cycle (the turn to theta and back
 are mirror images where both start from a steady state) and seeds; each value is the mean over events with its
-standard error. Writes ``budget.json`` (``BudgetGroup`` records), ``budget.md`` and, drawn from the file by
+standard error. Runs that recorded their near pairs (file version 4 on) add where the memory lives and where the
+contacts made come from (``pipeline.studies.near``). Writes ``budget.json`` (``BudgetGroup`` and ``NearGroup``
+records), ``budget.md`` and, drawn from the file by
 ``pipeline.figures.budget``, ``budget.png``. ``--spacing RUN.h5 ...`` instead compares runs of one spec tracked at
 different spacings (``spacing.md``).
 """
@@ -127,10 +129,36 @@ def components(X: np.ndarray, s_new, t, a0: float, t_old: float) -> tuple[np.nda
     return shear, np.einsum("i,...ij,j->...", t, X, E2) / (-t_old * a0)
 
 
-def event_series(run, change: float, end: float, params: model.Params) -> dict | None:
-    """Per sample after one change (up to ``end`` or the last window): the strain since the change, each term's
-    increment on both components, the state's fractions; None where the run does not resolve the change."""
-    raw, c = run.raw_all, run.contacts
+@dataclasses.dataclass(frozen=True)
+class Event:
+    """One change of direction in a run's samples: the sample at the change (``at``), the samples of the ``BEFORE``
+    strain before it and those after it up to the next change or the last window; its frame (``event_frame``) and
+    ``a0``, the steady fabric's shear part before it (``-s_old.A.e2``)."""
+
+    at: int
+    before: np.ndarray
+    after: np.ndarray
+    phi_old: float
+    s_new: np.ndarray
+    t: np.ndarray
+    t_old: float
+    a0: float
+    tol: float  # a quarter of the sample spacing after the change
+
+    @property
+    def idx(self) -> np.ndarray:
+        """The sample at the change, then every one after it."""
+        return np.concatenate([[self.at], self.after])
+
+    def fraction0(self, X: np.ndarray) -> float:
+        """The shear part ``-s_old.X.e2`` of tensors X (samples, 3, 3) averaged over the samples before the change."""
+        return float(-model.shear_direction(self.phi_old) @ np.nanmean(X[self.before], axis=0) @ E2)
+
+
+def find_event(run, change: float, end: float) -> Event | None:
+    """The change at strain ``change`` (the next at ``end``) in ``run``'s samples; None where the run does not resolve
+    it (no sample at it, none before or after it, no steady shear fabric before it)."""
+    raw = run.raw_all
     strain = raw["strain"]
     at = int(np.argmin(np.abs(strain - change)))  # the sample at the change lands within a controller interval
     fine = run.spec.dense_sample_strain if run.spec.dense_window_strain > 0 else run.spec.sample_strain
@@ -142,17 +170,38 @@ def event_series(run, change: float, end: float, params: model.Params) -> dict |
         return None
     phi_old, phi_new = float(raw["direction_deg"][at - 1]), float(raw["direction_deg"][at])
     s_new, t, t_old = event_frame(phi_old, phi_new)
-    A = raw["fabric"]
-    a0 = float(-model.shear_direction(phi_old) @ A[before].mean(axis=0) @ E2)
+    a0 = float(-model.shear_direction(phi_old) @ raw["fabric"][before].mean(axis=0) @ E2)
     if not a0 > 0:
         return None
-    idx = np.concatenate([[at], after])  # the sample at the change, then every one after it
+    return Event(at, before, after, phi_old, s_new, t, t_old, a0, 0.25 * fine)
+
+
+def run_events(run):
+    """Every change of direction of ``run`` it resolves (``find_event``): of Fig. 7's turned runs, the turns to theta
+    alone."""
+    changes = direction_changes(run.spec)
+    ends = changes[1:] + [run.raw_all["strain"][-1]]
+    for change, end in zip(changes, ends, strict=True):
+        if run.default_rotation or change % run.spec.period_strain > 1e-9:
+            found = find_event(run, change, end)
+            if found is not None:
+                yield found
+
+
+def event_series(run, ev: Event, params: model.Params) -> dict:
+    """Per sample after one change (``find_event``): the strain since the change, each term's increment on both
+    components, the state's fractions."""
+    raw, c = run.raw_all, run.contacts
+    strain = raw["strain"]
+    at, before, after, idx = ev.at, ev.before, ev.after, ev.idx
+    s_new, t, t_old, a0 = ev.s_new, ev.t, ev.t_old, ev.a0
+    A = raw["fabric"]
     gamma = strain[idx] - strain[at]
     step = np.diff(strain[idx])
     # Eq. 13 on the state at the start of each interval, along that interval's direction, per unit strain
     L = np.array([model.shear_velocity_gradient(phi) for phi in raw["direction_deg"][idx[:-1]]])
     terms = eq13_terms(A[idx[:-1]], L, params)
-    out = {"gamma": gamma, "step": step, "tol": 0.25 * fine}
+    out = {"gamma": gamma, "step": step, "tol": ev.tol}
     for name in MEASURED:
         out[name] = components(c[f"budget_{name}"][after], s_new, t, a0, t_old)
     out["exchange"] = tuple(m + lost for m, lost in zip(out["made"], out["lost"], strict=True))
@@ -261,7 +310,8 @@ def change_measures(run) -> list[dict[str, float]]:
     ends = changes[1:] + [run.raw_all["strain"][-1]]
     out = []
     for change, end in zip(changes, ends, strict=True):
-        e = event_series(run, change, end, model.PAPER)  # Eq. 13's terms are not compared: Table 2 will do
+        ev = find_event(run, change, end)
+        e = None if ev is None else event_series(run, ev, model.PAPER)  # Eq. 13's terms not compared: Table 2 will do
         values = {}
         for g in COMPARED_GAMMAS if e is not None else ():
             k = int(np.argmin(np.abs(e["gamma"] - g)))
@@ -288,15 +338,7 @@ def budget_groups(runs: list, params: model.Params) -> list[BudgetGroup]:
         by_protocol.setdefault((run.theta_deg, run.spec.rotate_at_strain), []).append(run)
     groups = []
     for (theta, rotate_at), members in sorted(by_protocol.items(), key=lambda kv: (-kv[0][0], kv[0][1])):
-        events = []
-        for run in members:
-            changes = direction_changes(run.spec)
-            ends = changes[1:] + [run.raw_all["strain"][-1]]
-            for change, end in zip(changes, ends, strict=True):
-                if run.default_rotation or change % run.spec.period_strain > 1e-9:  # Fig. 7: the turn to theta
-                    e = event_series(run, change, end, params)
-                    if e is not None:
-                        events.append(e)
+        events = [event_series(run, ev, params) for run in members for ev in run_events(run)]
         if not events:
             continue
         has_memory = abs(math.sin(math.radians(theta))) >= MEMORY_MIN_SIN
@@ -431,10 +473,14 @@ def main(argv=None) -> int:
     print(f"budget: {len(runs)} run(s) of {chosen.label} with a contact budget", flush=True)
     params, source = eq13_params(chosen, args.params)
     groups = budget_groups(runs, params)
-    record = {"schema_version": 1, "data_set": chosen.folder, "params": params.to_dict(), "params_source": source,
-              "windows": [list(w) for w in WINDOWS], "groups": [dataclasses.asdict(g) for g in groups]}
+    from . import near
+
+    shells = near.near_groups(runs)
+    record = {"schema_version": 2, "data_set": chosen.folder, "params": params.to_dict(), "params_source": source,
+              "windows": [list(w) for w in WINDOWS], "groups": [dataclasses.asdict(g) for g in groups],
+              "near_windows": [list(w) for w in near.WINDOWS], "near": [dataclasses.asdict(g) for g in shells]}
     io.write_json(out / "budget.json", record)
-    io.write_text(out / "budget.md", markdown(chosen.label, source, groups))
+    io.write_text(out / "budget.md", markdown(chosen.label, source, groups) + near.markdown(shells))
     from ..figures import budget as figure
 
     print(f"wrote {out / 'budget.md'}, budget.json and {figure.draw(out).name}")

@@ -26,7 +26,7 @@ def with_contacts(raw):
         out[f"budget_{name}"][0] = np.nan
     out["strong_fabric"] = out["weak_fabric"] = raw["fabric"]
     out["strong_fraction"] = np.full(n, 0.4)
-    out["persistence"] = np.ones((n, 4))
+    out["persistence_touching"] = np.ones((n, 4))
     return out
 
 

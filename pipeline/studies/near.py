@@ -1,0 +1,235 @@
+"""Where the memory of a turn lives: the near-contact fabric against the contact fabric, and where the contacts made
+come from, after each change of direction (``make budget``, runs of file version 4 on: ``dem/core/neighbours.py``).
+
+For every change of direction, per protocol (the events pooled as in ``pipeline.studies.budget``):
+
+- the **memory** (or, for a reversal, the **shear** part) of the contact fabric A, of the near shells' fabrics
+  ``G_g`` (pairs within a gap g of touching, g/d = 0.01, 0.03, 0.1) and of the contacts made in each window, each in
+  units of its own steady value before the change (``x0 = -s_old.X.e2``; 1 at the change, 0 once the old direction is
+  forgotten; the shear part runs from -1 after a reversal to 1): does G hold the memory longer than A, and do the
+  contacts made carry G's memory (drawn from G) or none (made along D', as Eq. 13's input)?
+- the share of the contacts made in each window whose pair was within gap g at the change (**fed** by the turn's near
+  shell), and the packing fraction's rise since the change (does G's memory go with the compaction?);
+- the **gain and loss functions**: contacts made and lost per unit strain in 8 bins of the load
+  ``x = n.D'n / max = 2 (n.s)(n.e2)`` (-1 most compressed, 1 most stretched), the gain per near pair of the widest
+  shell in the bin and the loss per contact in the bin, before the change (its steady state) and in each window.
+
+Each value is the mean over events with its standard error (``budget.Stat``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+import model
+from dem.core.budget import LOAD_BINS
+from dem.core.neighbours import NEAR_GAPS
+
+from ..comparison.metrics import MEMORY_MIN_SIN
+from .budget import E2, Event, Stat, components, group_label, run_events
+
+#: windows of strain after a change (coarser than the budget's: the near shells are read at the samples)
+WINDOWS = ((0.0, 0.005), (0.005, 0.02), (0.02, 0.05), (0.05, 0.1), (0.1, 0.2), (0.2, 0.4))
+#: the fabrics whose memory is followed: A, each shell's G_g, and the contacts made
+FABRICS = ("A", *(f"G{g:g}" for g in NEAR_GAPS), "made")
+#: the shell whose pairs the gain is counted per
+GAIN_SHELL = len(NEAR_GAPS) - 1
+
+
+@dataclasses.dataclass(frozen=True)
+class NearWindow:
+    """One window after the changes of one protocol: the fabrics' memory (``FABRICS``; A and G at the window's end,
+    the contacts made over it), the share of the contacts made that the turn's shells fed, the packing's rise at its
+    end, and the gain and loss per bin of load (per unit strain)."""
+
+    lo: float
+    hi: float
+    memory: dict[str, Stat]
+    fed: dict[str, Stat]
+    packing_rise: Stat
+    gain_per_near: list[Stat]
+    loss_per_contact: list[Stat]
+
+
+@dataclasses.dataclass(frozen=True)
+class NearGroup:
+    """Every change of direction of one protocol in a data set, its near pairs' record."""
+
+    label: str
+    theta_deg: float
+    rotate_at: float
+    runs: list[str]
+    events: int
+    component: str  # "memory" or, where the turn has no normal part, "shear"
+    steady: dict[str, Stat]  # before the change: each shell's x0 / A's, its pairs per region contact
+    steady_gain_per_near: list[Stat]
+    steady_loss_per_contact: list[Stat]
+    windows: list[NearWindow]
+
+
+def has_near(run) -> bool:
+    """Whether ``run`` recorded its near pairs (a run file of version 4 on)."""
+    return run.contacts is not None and "near_fabric" in run.contacts
+
+
+def _fraction(X, ev: Event, part: int) -> np.ndarray:
+    """X's memory (part 1) or shear (part 0) fraction at the change and each sample after it, in units of its own
+    steady value before the change (NaN where that is nil)."""
+    x0 = ev.fraction0(X)
+    if not abs(x0) > 1e-12:
+        return np.full(len(ev.idx), np.nan)
+    return components(X[ev.idx], ev.s_new, ev.t, x0, ev.t_old)[part]
+
+
+def _weighted(fabric, count, rows) -> np.ndarray:
+    """The mean of ``fabric`` over ``rows`` weighted by ``count`` (the contacts made each interval)."""
+    w = count[rows].astype(float)
+    keep = w > 0
+    if not keep.any():
+        return np.full((3, 3), np.nan)
+    return np.einsum("k,kij->ij", w[keep], fabric[rows][keep]) / w[keep].sum()
+
+
+def near_event(run, ev: Event, part: int) -> dict:
+    """Per sample after one change: the strain since it, the intervals' strains, A's and each G_g's fraction, the
+    packing's rise, and the per-interval counts (made, made fed by each shell, made and lost by load, the region's
+    contacts and near pairs by load); the made contacts' steady fabric before the change."""
+    raw, c = run.raw_all, run.contacts
+    idx = ev.idx
+    out = {"gamma": raw["strain"][idx] - raw["strain"][ev.at], "step": np.diff(raw["strain"][idx]), "tol": ev.tol,
+           "A": _fraction(raw["fabric"], ev, part),
+           "packing": raw["packing_fraction"][idx] - raw["packing_fraction"][ev.before].mean()}
+    for k, g in enumerate(NEAR_GAPS):
+        out[f"G{g:g}"] = _fraction(c["near_fabric"][:, k], ev, part)
+    for key in ("made_count", "made_near_change", "made_by_load", "lost_by_load", "contacts_by_load",
+                "near_by_load", "made_fabric"):
+        out[key] = c[key][idx]
+    out["made_x0"] = float(-model.shear_direction(ev.phi_old) @ _weighted(c["made_fabric"], c["made_count"],
+                                                                             ev.before) @ E2)
+    out["steady"] = {
+        "gain": c["made_by_load"][ev.before].sum(axis=0), "loss": c["lost_by_load"][ev.before].sum(axis=0),
+        "contacts": c["contacts_by_load"][ev.before].mean(axis=0),
+        "near": c["near_by_load"][ev.before, GAIN_SHELL].mean(axis=0),
+        "span": float(np.diff(raw["strain"][np.concatenate([ev.before, [ev.at]])]).sum()),
+        "x0": [ev.fraction0(c["near_fabric"][:, k]) / ev.a0 for k in range(len(NEAR_GAPS))],
+        "per_contact": [float(np.mean(c["near_count"][ev.before, k] / raw["contacts"][ev.before]))
+                        for k in range(len(NEAR_GAPS))],
+    }
+    return out
+
+
+def _in(e, lo, hi) -> np.ndarray:
+    """The intervals after the change that end within (lo, hi]."""
+    return (e["gamma"][1:] > lo + e["tol"]) & (e["gamma"][1:] <= hi + e["tol"])
+
+
+def _at_end(e, key, hi, lo) -> float:
+    k = int(np.argmin(np.abs(e["gamma"] - hi)))
+    return float(e[key][k]) if abs(e["gamma"][k] - hi) <= 0.25 * (hi - lo) + 1e-9 else math.nan
+
+
+def _made_memory(e, pick, ev_frame, part) -> float:
+    """The contacts made over the intervals ``pick``: their fabric's fraction in units of their steady one."""
+    rows = np.flatnonzero(pick) + 1  # interval k ends at sample k + 1
+    if not abs(e["made_x0"]) > 1e-12:
+        return math.nan
+    s_new, t, t_old = ev_frame
+    return float(components(_weighted(e["made_fabric"], e["made_count"], rows), s_new, t, e["made_x0"], t_old)[part])
+
+
+def _rates(counts, population, span) -> np.ndarray:
+    """Events per member of the population per unit strain, per bin (NaN for an empty bin)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(population > 0, counts / (population * span), np.nan)
+
+
+def window(events, lo, hi, part) -> NearWindow:
+    memory = {key: Stat.of([_at_end(e, key, hi, lo) for e, _ in events]) for key in FABRICS[:-1]}
+    memory["made"] = Stat.of([_made_memory(e, _in(e, lo, hi), frame, part) for e, frame in events
+                              if _in(e, lo, hi).any()])
+    fed, gain, loss = {}, [], []
+    for k, g in enumerate(NEAR_GAPS):
+        fed[f"G{g:g}"] = Stat.of([e["made_near_change"][1:][_in(e, lo, hi), k].sum()
+                                  / max(e["made_count"][1:][_in(e, lo, hi)].sum(), 1) for e, _ in events
+                                  if e["made_count"][1:][_in(e, lo, hi)].sum() > 0])
+    for e, _ in events:
+        pick = _in(e, lo, hi)
+        span = e["step"][pick].sum()
+        if not span > 0.5 * (hi - lo):
+            continue
+        rows = np.flatnonzero(pick) + 1
+        gain.append(_rates(e["made_by_load"][rows].sum(axis=0), e["near_by_load"][rows, GAIN_SHELL].mean(axis=0),
+                           span))
+        loss.append(_rates(e["lost_by_load"][rows].sum(axis=0), e["contacts_by_load"][rows].mean(axis=0), span))
+    return NearWindow(lo, hi, memory, fed, Stat.of([_at_end(e, "packing", hi, lo) for e, _ in events]),
+                      _per_bin(gain), _per_bin(loss))
+
+
+def _per_bin(rows) -> list[Stat]:
+    if not rows:
+        return [Stat(math.nan, None, 0)] * LOAD_BINS
+    rows = np.array(rows)
+    return [Stat.of(rows[:, b]) for b in range(LOAD_BINS)]
+
+
+def near_groups(runs: list) -> list[NearGroup]:
+    """``NearGroup`` of each protocol among ``runs`` (those that recorded their near pairs: ``has_near``)."""
+    by_protocol: dict[tuple, list] = {}
+    for run in runs:
+        if has_near(run):
+            by_protocol.setdefault((run.theta_deg, run.spec.rotate_at_strain), []).append(run)
+    groups = []
+    for (theta, rotate_at), members in sorted(by_protocol.items(), key=lambda kv: (-kv[0][0], kv[0][1])):
+        part = 1 if abs(math.sin(math.radians(theta))) >= MEMORY_MIN_SIN else 0
+        events = [(near_event(run, ev, part), (ev.s_new, ev.t, ev.t_old)) for run in members
+                  for ev in run_events(run)]
+        if not events:
+            continue
+        steady = {}
+        for k, g in enumerate(NEAR_GAPS):
+            steady[f"x0 G{g:g} / x0 A"] = Stat.of([e["steady"]["x0"][k] for e, _ in events])
+            steady[f"G{g:g} pairs per contact"] = Stat.of([e["steady"]["per_contact"][k] for e, _ in events])
+        st = [e["steady"] for e, _ in events if e["steady"]["span"] > 0]
+        groups.append(NearGroup(
+            group_label(members[0]), theta, rotate_at, sorted({str(r.path) for r in members}), len(events),
+            ("shear", "memory")[part], steady,
+            _per_bin([_rates(s["gain"], s["near"], s["span"]) for s in st]),
+            _per_bin([_rates(s["loss"], s["contacts"], s["span"]) for s in st]),
+            [window(events, lo, hi, part) for lo, hi in WINDOWS]))
+    return groups
+
+
+def markdown(groups: list[NearGroup]) -> str:
+    """The near pairs' section of ``budget.md``."""
+    if not groups:
+        return ""
+    gaps = ", ".join(f"{g:g}" for g in NEAR_GAPS)
+    lines = ["## Where the memory lives: the near pairs", "",
+             f"Near shells: pairs within a gap g = {gaps} d of touching (`dem/core/neighbours.py`). Each fabric's "
+             "memory (shear part for a reversal) in units of its own steady value before the change: A and G_g at the "
+             "window's end, the contacts made over the window. Fed: the share of the contacts made whose pair was in "
+             "the shell at the change. Gain: contacts made per near pair of the widest shell per unit strain; loss: "
+             "contacts lost per contact per unit strain; in 8 bins of x = 2 (n.s)(n.e2) from -1 (most compressed by "
+             "the shear of the interval) to 1 (most stretched). `pipeline/studies/near.py` defines every column.", ""]
+    bins = " | ".join(f"{-1 + 2 * (b + 0.5) / LOAD_BINS:+.2f}" for b in range(LOAD_BINS))
+    for g in groups:
+        lines += [f"### {g.label} ({g.events} changes, {len(g.runs)} run(s)): {g.component}", "",
+                  "Before the change: " + "; ".join(f"{k} {v.text(3)}" for k, v in g.steady.items()) + ".", "",
+                  "| strain after | " + " | ".join(FABRICS) + " | " + " | ".join(f"fed {k}" for k in
+                                                                          g.windows[0].fed) + " | ΔΦ |",
+                  "|---|" + "---|" * (len(FABRICS) + len(NEAR_GAPS) + 1)]
+        for w in g.windows:
+            cells = [w.memory[k].text(3) for k in FABRICS] + [w.fed[k].text(3) for k in w.fed]
+            lines.append(f"| {w.lo:g}–{w.hi:g} | " + " | ".join(cells) + f" | {w.packing_rise.text(4)} |")
+        for name, steady, attr in (("gain per near pair", g.steady_gain_per_near, "gain_per_near"),
+                                   ("loss per contact", g.steady_loss_per_contact, "loss_per_contact")):
+            lines += ["", f"The {name} per unit strain, by load x (bin centres):", "",
+                      f"| strain after | {bins} |", "|---|" + "---|" * LOAD_BINS,
+                      "| before | " + " | ".join(s.text(1) for s in steady) + " |"]
+            lines += [f"| {w.lo:g}–{w.hi:g} | " + " | ".join(s.text(1) for s in getattr(w, attr)) + " |"
+                      for w in g.windows]
+        lines.append("")
+    return "\n".join(lines) + "\n"
