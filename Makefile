@@ -7,10 +7,14 @@ override USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS
 	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS \
 	LAWS SKIP_CYCLES CASES POINTS LADDER NAMES
 # any other variable given on the command line (the Makefile's own: PY, FIT_DIR, DATA_SET...) is refused by its name
-# alone, before Make expands anything: its value would run as Make text
+# alone, before Make expands anything: its value would run as Make text; and so is -e (MAKEFLAGS=e), under which the
+# environment's values would replace the Makefile's own
 override NOT_USER_VARIABLES := $(strip $(foreach v,$(.VARIABLES),$(if $(filter command line,$(origin $(v))),$(if \
 	$(filter $(v),$(USER_VARIABLES)),,$(v)))))
 $(if $(NOT_USER_VARIABLES),$(error $(NOT_USER_VARIABLES): not a variable a user sets (those are: $(USER_VARIABLES))))
+override MAKE_LETTERS := $(if $(filter -%,$(firstword $(MAKEFLAGS))),,$(firstword $(MAKEFLAGS)))
+$(if $(findstring e,$(MAKE_LETTERS)),$(error make -e (or MAKEFLAGS=e) would let the environment replace the \
+	Makefile's own variables: run make without it))
 SHELL := /bin/bash
 .DEFAULT_GOAL := help
 .DELETE_ON_ERROR:
@@ -40,16 +44,15 @@ STAGES := bench dem sweep runs sweep-status sweep-collect fit-bootstrap fit-jack
 	fit-profile fidelity fidelity-table profile-dem bench-dem bench-lammps-settings engines data-card versus cells jump \
 	stability models budget
 CHECKED_GOALS := $(filter $(STAGES) fit compare compare-seed figures,$(MAKECMDGOALS))
-# set by results/.make/goals.mk for a checked goal, empty otherwise: never taken from the environment
+# set by results/.make/goals.mk for a checked goal, empty otherwise: never taken from the environment. The file is
+# written before it is read (its goals are words of the list above), and holds checked names only
 CHECK_ERROR :=
 DATA_SET :=
-DATA_RUNS :=
 FIT_SUFFIX :=
 ifneq ($(CHECKED_GOALS),)
+CHECK_ERROR := $(shell python3 -m pipeline.targets makefile results/.make/goals.mk $(CHECKED_GOALS))
 include results/.make/goals.mk
 endif
-results/.make/goals.mk: FORCE
-	@python3 -m pipeline.targets makefile $@ $(CHECKED_GOALS)
 check:
 	$(if $(CHECK_ERROR),$(error $(CHECK_ERROR)))
 # a goal whose variables are checked checks them first
@@ -167,18 +170,19 @@ demo-dem-%: | $(VENV_STAMP)
 
 # ---------------------------------------------------------------- the data set's files: fit -> compare -> figures
 fit: $(FIT_DIR)/params.json ## calibrate on the data set's runs [PRESET=...] [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] [VARIANT=loading] [SKIP_CYCLES=1] -> results/<data set>/fit[-<options>]/
-# the options of the last fit and the SHA-256 of its data set's runs: other options or a changed run make a new fit
+# the options of the last fit and the SHA-256 of its data set's runs: other options or a changed, added or removed run
+# make a new fit and comparison (the runs' paths never reach Make)
 $(FIT_DIR)/options.txt: FORCE
 	@python3 -m pipeline.targets fit-options $@
 
-$(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(DATA_RUNS) $(VENV_STAMP) $(DATASET_CODE) \
+$(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(VENV_STAMP) $(DATASET_CODE) \
 		$(wildcard pipeline/calibration/*.py) $(FIT_DIR)/options.txt
 	$(TARGETS) fit
 
 compare: $(COMPARE_DIR)/metrics.json ## the model against the data set's runs -> results/<data set>/compare/
 
-$(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 &: $(FIT_DIR)/params.json $(FIT_DIR)/fit.h5 $(DATA_RUNS) \
-		$(DATASET_CODE) $(wildcard pipeline/comparison/*.py)
+$(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 &: $(FIT_DIR)/params.json $(FIT_DIR)/fit.h5 \
+		$(FIT_DIR)/options.txt $(DATASET_CODE) $(wildcard pipeline/comparison/*.py)
 	$(TARGETS) compare
 
 compare-seed: check $(FIT_DIR)/params.json ## another seed's runs against the model, drawn: SEED=N -> results/<data set>/compare-seed<N>/

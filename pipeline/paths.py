@@ -52,13 +52,29 @@ def first_existing(relative: Path, roots: tuple[Path, ...] = DATA_ROOTS) -> Path
     return None
 
 
+def regular_file(path: Path) -> Path:
+    """``path``, refused in one line naming it unless it is a regular file (or a link to one): a folder, a FIFO (whose
+    reading would wait forever), a socket or a device found where a file is looked for is not data."""
+    if not path.is_file():
+        kind = ("a folder" if path.is_dir() else "a FIFO" if path.is_fifo() else "a socket" if path.is_socket()
+                else "a device" if path.is_block_device() or path.is_char_device() else "not a file")
+        raise PipelineError(f"{shown(path)} is {kind}, not a regular file: remove it")
+    return path
+
+
+def globbed(root: Path, pattern: str) -> list[Path]:
+    """The files under ``root`` matching ``pattern``, sorted, hidden ones (a writer's temporaries) left out, each a
+    regular file (``regular_file``)."""
+    return [regular_file(p) for p in sorted(root.glob(pattern)) if not p.name.startswith(".")]
+
+
 def preset_files(preset: str, roots: tuple[Path, ...] = DATA_ROOTS, variants: bool = True) -> list[Path]:
     """Every DEM file of ``preset`` (and, with ``variants``, of ``<preset>-<hash>``), one per relative path,
-    results/ first; sorted by folder and name. Hidden files (a writer's temporaries) are not runs."""
+    results/ first; sorted by folder and name; each a regular file (``globbed``)."""
     check_folder_name(preset)
     patterns = [f"{preset}/dem/*.h5"] + ([f"{preset}-*/dem/*.h5"] if variants else [])
-    relative = sorted({p.relative_to(root) for root in roots for pattern in patterns for p in root.glob(pattern)
-                       if not p.name.startswith(".")}, key=lambda r: r.parts)
+    relative = sorted({p.relative_to(root) for root in roots for pattern in patterns for p in globbed(root, pattern)},
+                      key=lambda r: r.parts)
     return [first_existing(r, roots) for r in relative]
 
 

@@ -18,7 +18,7 @@ from dem.core.spec import DemSpec
 from ..cli import Parser, one_line_errors
 from ..errors import DemFileError, PipelineError
 from ..io import atomic_path, write_bytes
-from ..paths import ROOT
+from ..paths import ROOT, globbed
 from . import drift, manifest
 from .dem_file import cpu_seconds, cpu_seconds_counted, load, run_provenance, sessions
 
@@ -56,7 +56,7 @@ def describe(path: Path, root: Path) -> dict:
 
 def inventory(root: Path) -> str:
     """The markdown table of every ``<folder>/dem/*.h5`` under ``root``, sorted by path."""
-    paths = sorted(root.glob("*/dem/*.h5"))
+    paths = globbed(root, "*/dem/*.h5")
     if not paths:
         raise PipelineError(f"{root}: no run files (<folder>/dem/*.h5)")
     lines = [HEADER, "|" + "---|" * HEADER.count(" | ") + "---|"]

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ..errors import DemFileError
 from ..io import atomic_path, write_bytes
-from ..paths import REFERENCE_DIR
+from ..paths import REFERENCE_DIR, globbed
 
 MANIFEST = "MANIFEST.sha256"
 #: a row: the digest, two spaces, a relative path of plain names (no ``.`` or ``..`` part, no leading ``/``)
@@ -42,7 +42,7 @@ def _sha256(path: str, *_identity) -> str:
 
 def run_files(root: Path) -> list[Path]:
     """Every run file of a data folder: ``<root>/<folder>/dem/<name>.h5``."""
-    return sorted(root.glob("*/dem/*.h5"))
+    return globbed(root, "*/dem/*.h5")
 
 
 def read(root: Path) -> dict[str, str]:

@@ -31,7 +31,7 @@ from .. import io
 from ..cli import Parser, one_line_errors
 from ..dataset.dem_file import load
 from ..errors import PipelineError
-from ..paths import DATA_ROOTS, RESULTS_DIR
+from ..paths import DATA_ROOTS, RESULTS_DIR, globbed
 
 GAMMAS = (0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05)
 WALL_WINDOW = 0.01
@@ -149,7 +149,7 @@ def every_run() -> list[Path]:
     """Every DEM file of the committed data and results/ (results/ first where both hold one path)."""
     seen, out = set(), []
     for root in DATA_ROOTS:
-        for path in sorted(root.glob("*/dem/*.h5")):
+        for path in globbed(root, "*/dem/*.h5"):
             if path.relative_to(root) not in seen:
                 seen.add(path.relative_to(root))
                 out.append(path)

@@ -45,7 +45,11 @@ def main(argv: list[str] | None = None, environ: Mapping[str, str] | None = None
     argv = sys.argv[1:] if argv is None else argv
     v = Variables(os.environ if environ is None else environ)
     if argv[:1] == ["makefile"] and len(argv) >= 2 and all(g in TARGETS or g in DATA_GOALS for g in argv[2:]):
-        write_if_changed(Path(argv[1]), goals_makefile(v, argv[2:]))
+        # Make reads what this prints as CHECK_ERROR: nothing once the file is written, else one line why not
+        try:
+            write_if_changed(Path(argv[1]), goals_makefile(v, argv[2:]))
+        except (OSError, PipelineError) as exc:
+            print(" ".join(f"cannot write {argv[1]}: {exc}".split()))
         return 0
     plan = argv[:1] == ["--plan"]
     rest = argv[1:] if plan else argv

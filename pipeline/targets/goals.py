@@ -17,8 +17,9 @@ DATA_GOALS = ("fit", "compare", "compare-seed", "figures")
 def goals_makefile(v: Variables, goals: list[str]) -> str:
     """``results/.make/goals.mk``: CHECK_ERROR, the first bad value among the goals' variables (the Makefile's
     ``check`` stops on it, in one line, before anything runs); else, for fit, compare and figures, the data set's
-    folder (DATA_SET) and every run file that may belong to it (DATA_RUNS), which their file rules need."""
-    from ..paths import preset_files, shown
+    folder (DATA_SET) and the fit's suffix (FIT_SUFFIX), which their file rules need. No path found on disk is
+    written (the fit's ``options.txt`` stamps the runs): only these two names, checked against the folder pattern."""
+    from ..paths import check_folder_name
 
     lines = [f"# the goals {' '.join(goals)}, their variables checked (python -m pipeline.targets makefile)"]
     try:
@@ -30,10 +31,11 @@ def goals_makefile(v: Variables, goals: list[str]) -> str:
             data_args(v)
             if "compare-seed" in goals:
                 compare_seed(v)
-            chosen = data_set_of(v)
-            runs = [shown(p) for p in preset_files(chosen.preset)]
-            lines += [f"DATA_SET := {chosen.folder}", f"DATA_RUNS := {' '.join(runs)}",
-                      f"FIT_SUFFIX := {fit_suffix(v)}"]
+            folder, suffix = data_set_of(v).folder, fit_suffix(v)
+            check_folder_name(folder, "data set")
+            if suffix:
+                check_folder_name(suffix.lstrip("-"), "fit suffix")
+            lines += [f"DATA_SET := {folder}", f"FIT_SUFFIX := {suffix}"]
     except PipelineError as exc:
         text = " ".join(str(exc).split()).replace("$", "$$").replace("#", "\\#").rstrip("\\")
         lines.append(f"CHECK_ERROR := {text}")

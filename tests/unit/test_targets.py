@@ -38,13 +38,12 @@ def test_make_fit_hands_the_stage_the_data_set_and_the_fits_options(variables, w
     assert plan("fit", **variables) == [f"python -m pipeline.calibration {words}"]
 
 
-def test_the_include_file_names_the_data_sets_folder_and_its_runs(tmp_path):
+def test_the_include_file_names_the_data_sets_folder_and_no_path_found_on_disk(tmp_path):
     text = targets.goals_makefile(targets.Variables({"PRESET": "paper", "ENGINE": "lammps",
                                                      "SET": "inertial_number=0.001 seed=3"}), ["fit", "figures"])
     folder = run_spec.run_folder("paper", "lammps", {"inertial_number": 0.001})
     assert f"DATA_SET := {folder}\n" in text and "CHECK_ERROR" not in text
-    runs = next(line for line in text.splitlines() if line.startswith("DATA_RUNS := ")).split()[2:]
-    assert f"data/reference/{folder}/dem/theta180.h5" in runs and all((ROOT / r).is_file() for r in runs)
+    assert ".h5" not in text and "data/reference" not in text
     path = tmp_path / "goals.mk"
     targets.write_if_changed(path, text)
     before = path.stat().st_mtime_ns
@@ -178,14 +177,14 @@ def test_every_user_variable_has_a_reader_and_a_check_that_refuses_every_payload
 MAKEFILE_TEXT = (ROOT / "Makefile").read_text()
 OWN_VARIABLES = sorted((set(re.findall(r"^([A-Z_][A-Z0-9_]*) *:?=", MAKEFILE_TEXT, flags=re.MULTILINE))
                         | set(re.findall(r"\$\(([A-Z_][A-Z0-9_]*)\)", MAKEFILE_TEXT)))
-                       - set(READER) - {"MAKE", "MAKECMDGOALS", "MAKEFILE_LIST"})
+                       - set(READER) - {"MAKE", "MAKECMDGOALS", "MAKEFILE_LIST", "MAKEFLAGS"})
 GUARD = ("USER_VARIABLES",)
 
 
 def test_every_variable_of_the_makefiles_own_is_refused_on_the_command_line_and_ignored_in_the_environment(tmp_path):
     """Given on the command line, one line naming it (or ignored, for the guard's list, ``override``)
     and nothing runs; given in the environment, Make's own value is used and nothing runs either."""
-    assert {"FIT_DIR", "DATA_SET", "DATA_RUNS", "PY", "FIT_SUFFIX", "CHECK_ERROR", "SHELL"} <= set(OWN_VARIABLES)
+    assert {"FIT_DIR", "DATA_SET", "PY", "FIT_SUFFIX", "CHECK_ERROR", "SHELL", "MAKE_LETTERS"} <= set(OWN_VARIABLES)
     mark = tmp_path / "INJECTED"
     payload = f"$(shell touch {mark})"  # Make text: the one kind of value Make itself would run
     for variable in OWN_VARIABLES:
@@ -216,3 +215,63 @@ def test_no_stage_imports_the_front_door():
         if path.parent.name != "targets":
             assert not re.search(r"^\s*(from\s+\S*targets\s+import|import\s+\S*targets)", path.read_text(),
                                  flags=re.MULTILINE), path
+
+
+def test_make_e_is_refused_before_the_environment_reaches_any_of_the_makefiles_own_variables(tmp_path):
+    """Under -e (or MAKEFLAGS=e, or with other letters) the environment would replace every variable of the
+    Makefile's own: Make stops at once, in one line, and nothing of the environment runs."""
+    mark = tmp_path / "INJECTED"
+    payload = {v: f"$(shell touch {mark})" for v in OWN_VARIABLES if v != "SHELL"}
+    for flags, extra in ((["-e"], {}), ([], {"MAKEFLAGS": "e"}), ([], {"MAKEFLAGS": "ke"}), (["-ke"], {})):
+        said = subprocess.run(["make", *flags, "--no-print-directory", "runs", "fit", "-n", "PRESET=paper"], cwd=ROOT,
+                              capture_output=True, text=True, env={**os.environ, **payload, **extra})
+        assert said.returncode != 0 and "make -e (or MAKEFLAGS=e)" in said.stderr, (flags, said.stderr[-300:])
+        assert not mark.exists(), flags
+
+
+HOSTILE_NAMES = ("$(shell touch {mark})", "a:b", "a b", "a#b", "a;touch {mark}", "a$$b", "`touch {mark}`")
+
+
+@pytest.mark.parametrize("name", HOSTILE_NAMES)
+def test_a_run_files_name_never_reaches_make(tmp_path, name):
+    """A run file whose name or folder holds Make or shell syntax (every character Make treats specially) is a file
+    like any other: ``make -n fit`` runs nothing of it, writes none of it into ``goals.mk``, and a later ``make``
+    reads its include file as before."""
+    mark = tmp_path / "INJECTED"
+    name = name.format(mark=mark)
+    made = [ROOT / "results" / "tiny" / "dem" / f"{name}.h5", ROOT / "results" / f"tiny-{name}" / "dem" / "theta090.h5"]
+    try:
+        for path in made:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(b"not a run")
+        for _ in range(2):
+            said = subprocess.run(["make", "--no-print-directory", "-n", "fit", "PRESET=tiny"], cwd=ROOT,
+                                  capture_output=True, text=True, timeout=120)
+            assert said.returncode == 0, said.stderr[-400:]
+            assert not mark.exists()
+            assert name not in (ROOT / "results" / ".make" / "goals.mk").read_text()
+    finally:
+        for path in made:
+            path.unlink(missing_ok=True)
+        (ROOT / "results" / f"tiny-{name}" / "dem").rmdir() if (ROOT / "results" / f"tiny-{name}" / "dem").exists() \
+            else None
+        (ROOT / "results" / f"tiny-{name}").rmdir() if (ROOT / "results" / f"tiny-{name}").exists() else None
+
+
+@pytest.mark.parametrize("kind", ["fifo", "folder"])
+def test_a_run_file_that_is_not_a_regular_file_is_refused_in_one_line_naming_it(kind):
+    """A FIFO named like a run (whose reading would wait forever) or a folder of that name: ``make fit`` stops at the
+    fit's stamp in one line naming it, within seconds."""
+    path = ROOT / "results" / "tiny-notafile0" / "dem" / "theta045.h5"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        os.mkfifo(path) if kind == "fifo" else path.mkdir()
+        said = subprocess.run(["make", "--no-print-directory", "fit", "PRESET=tiny"],
+                              cwd=ROOT, capture_output=True, text=True, timeout=60)
+        assert said.returncode != 0
+        kind_said = "a FIFO" if kind == "fifo" else "a folder"
+        assert f"results/tiny-notafile0/dem/theta045.h5 is {kind_said}, not a regular file" in said.stderr
+    finally:
+        path.rmdir() if path.is_dir() else path.unlink(missing_ok=True)
+        path.parent.rmdir()
+        path.parent.parent.rmdir()
