@@ -39,6 +39,7 @@ from model.cli import printable
 from ..errors import DemFileError
 from ..io import atomic_path, h5_file
 from . import derived
+from .contacts import check_contacts
 from .reader import RunFileReader
 
 SCHEMA = "granular-backstress/dem-run"
@@ -304,7 +305,8 @@ def _header(reader: RunFileReader) -> tuple[dict, dict, DemSpec]:
 
 def load(path) -> DemRun:
     """Read a DEM run file (schema v1 to v4) through ``RunFileReader``, checked against the schema before any
-    sample is read (links, storage, types, shapes, units, size), then for finite values and whole cycles."""
+    sample is read (links, storage, types, shapes, units, size), then for finite values and whole cycles, and the
+    contact budget's values by their kinds (``pipeline.dataset.contacts``)."""
     with RunFileReader(path) as reader:
         path = reader.path
         prov, params, spec = _header(reader)
@@ -334,6 +336,8 @@ def load(path) -> DemRun:
     if "gamma_dot_nominal" not in params:
         raise DemFileError(f"{path}: the parameters lack gamma_dot_nominal")
     _check_raw(path, raw)
+    if contacts is not None:
+        check_contacts(path, contacts, raw["fabric"])
     grid = grid_samples(raw["strain"], spec)
     _check_cycles(path, raw, spec, grid)
     return DemRun(path, spec, params, prov, {k: v[grid] for k, v in raw.items()}, units, diameters, raw_all=raw,

@@ -82,10 +82,12 @@ class Stat:
             return cls(math.nan, None, 0)
         return cls(float(v.mean()), float(v.std(ddof=1) / math.sqrt(len(v))) if len(v) > 1 else None, len(v))
 
-    def text(self, digits: int = 3) -> str:
+    def text(self, digits: int = 3, of: int | None = None) -> str:
+        """``mean ± se``, and ``[n]`` where the mean used fewer than the ``of`` events of its group."""
         if not math.isfinite(self.mean):
-            return "–"
-        return f"{self.mean:+.{digits}f}" + (f" ± {self.se:.{digits}f}" if self.se is not None else "")
+            return "–" + (f" [{self.n}]" if of is not None and self.n != of else "")
+        return (f"{self.mean:+.{digits}f}" + (f" ± {self.se:.{digits}f}" if self.se is not None else "")
+                + (f" [{self.n}]" if of is not None and self.n != of else ""))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -353,7 +355,8 @@ def markdown(label: str, params_source: str, groups: list[BudgetGroup]) -> str:
              f"Eq. 13's terms with {params_source}. Rates per unit nominal strain of the shear fraction "
              "(-s_new.A.e2/a0) and the memory fraction (t.A.e2 over its value at the change), a0 the steady fabric "
              "before the change; mean ± standard error over the events (changes of direction, every cycle and "
-             "seed). `pipeline/studies/budget.py` defines every column.", ""]
+             "seed), [n] where a cell used n of them only (the others not resolved there). "
+             "`pipeline/studies/budget.py` defines every column.", ""]
     for g in groups:
         lines += [f"## {g.label} ({g.events} changes, {len(g.runs)} run(s))", ""]
         for comp in ("shear", "memory"):
@@ -365,7 +368,7 @@ def markdown(label: str, params_source: str, groups: list[BudgetGroup]) -> str:
             for w in g.windows:
                 r = getattr(w, comp)
                 lines.append(f"| {w.lo:g}–{w.hi:g} | " + " | ".join(
-                    r[n].text(2) for n in (*COLUMNS, "total", *EQ13, "eq13_total")) + " |")
+                    r[n].text(2, g.events) for n in (*COLUMNS, "total", *EQ13, "eq13_total")) + " |")
             lines.append("")
         comp = "memory" if g.windows[0].memory else "shear"
         lines += [f"The {comp} fraction at each window's end, and who holds it:", "",
@@ -374,11 +377,12 @@ def markdown(label: str, params_source: str, groups: list[BudgetGroup]) -> str:
                   "| loss rate × Λ(S) |", "|---|" + "---|" * 17]
         for w in g.windows:
             s = w.state
-            cells = [s[f"{comp}_{k}"].text(3) for k in ("A", "strong", "weak", *(f"survivors_{c}" for c in CLASSES))]
-            cells += [s[f"persistence_{k}"].text(3) for k in ("all", *CLASSES)]
-            cells += [s[f"force_{k}"].text(2) for k in CLASSES]
-            cells += [s["packing_rise"].text(4), s["loss_rate"].text(2), s["S"].text(3),
-                      s["loss_rate_times_lambda"].text(2)]
+            cells = [s[f"{comp}_{k}"].text(3, g.events)
+                     for k in ("A", "strong", "weak", *(f"survivors_{c}" for c in CLASSES))]
+            cells += [s[f"persistence_{k}"].text(3, g.events) for k in ("all", *CLASSES)]
+            cells += [s[f"force_{k}"].text(2, g.events) for k in CLASSES]
+            cells += [s["packing_rise"].text(4, g.events), s["loss_rate"].text(2, g.events), s["S"].text(3, g.events),
+                      s["loss_rate_times_lambda"].text(2, g.events)]
             lines.append(f"| {w.hi:g} | " + " | ".join(cells) + " |")
         lines.append("")
     return "\n".join(lines) + "\n"

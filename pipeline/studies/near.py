@@ -213,23 +213,25 @@ def markdown(groups: list[NearGroup]) -> str:
              "window's end, the contacts made over the window. Fed: the share of the contacts made whose pair was in "
              "the shell at the change. Gain: contacts made per near pair of the widest shell per unit strain; loss: "
              "contacts lost per contact per unit strain; in 8 bins of x = 2 (n.s)(n.e2) from -1 (most compressed by "
-             "the shear of the interval) to 1 (most stretched). `pipeline/studies/near.py` defines every column.", ""]
+             "the shear of the interval) to 1 (most stretched); [n] where a cell used n of the events only. "
+             "`pipeline/studies/near.py` defines every column.", ""]
     bins = " | ".join(f"{-1 + 2 * (b + 0.5) / LOAD_BINS:+.2f}" for b in range(LOAD_BINS))
     for g in groups:
         lines += [f"### {g.label} ({g.events} changes, {len(g.runs)} run(s)): {g.component}", "",
-                  "Before the change: " + "; ".join(f"{k} {v.text(3)}" for k, v in g.steady.items()) + ".", "",
+                  "Before the change: " + "; ".join(f"{k} {v.text(3, g.events)}" for k, v in g.steady.items())
+                  + ".", "",
                   "| strain after | " + " | ".join(FABRICS) + " | " + " | ".join(f"fed {k}" for k in
                                                                           g.windows[0].fed) + " | ΔΦ |",
                   "|---|" + "---|" * (len(FABRICS) + len(NEAR_GAPS) + 1)]
         for w in g.windows:
-            cells = [w.memory[k].text(3) for k in FABRICS] + [w.fed[k].text(3) for k in w.fed]
-            lines.append(f"| {w.lo:g}–{w.hi:g} | " + " | ".join(cells) + f" | {w.packing_rise.text(4)} |")
+            cells = [w.memory[k].text(3, g.events) for k in FABRICS] + [w.fed[k].text(3, g.events) for k in w.fed]
+            lines.append(f"| {w.lo:g}–{w.hi:g} | " + " | ".join(cells) + f" | {w.packing_rise.text(4, g.events)} |")
         for name, steady, attr in (("gain per near pair", g.steady_gain_per_near, "gain_per_near"),
                                    ("loss per contact", g.steady_loss_per_contact, "loss_per_contact")):
             lines += ["", f"The {name} per unit strain, by load x (bin centres):", "",
                       f"| strain after | {bins} |", "|---|" + "---|" * LOAD_BINS,
-                      "| before | " + " | ".join(s.text(1) for s in steady) + " |"]
-            lines += [f"| {w.lo:g}–{w.hi:g} | " + " | ".join(s.text(1) for s in getattr(w, attr)) + " |"
+                      "| before | " + " | ".join(s.text(1, g.events) for s in steady) + " |"]
+            lines += [f"| {w.lo:g}–{w.hi:g} | " + " | ".join(s.text(1, g.events) for s in getattr(w, attr)) + " |"
                       for w in g.windows]
         lines.append("")
     return "\n".join(lines) + "\n"
