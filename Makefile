@@ -1,6 +1,6 @@
 # Entry point. `make help` lists the targets. The pipeline is a DAG of files:
 #   results/<D>/dem/*.h5 -> results/<D>/fit/params.json -> results/<D>/compare/metrics.json -> results/<D>/report.md
-# (<D>: the data set's folder, from results/.make/goals.mk) and each step reruns only when what it reads changed.
+# (<D>: the data set's folder, from results/.make/goals/) and each step reruns only when what it reads changed.
 # the variables a user may set (below: each becomes text, checked in Python); this list and the guard after it cannot
 # be set from outside (override)
 override USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM STRESS \
@@ -29,8 +29,8 @@ MODEL_DIR := results/model
 
 # ---------------------------------------------------------------- the user's variables: text, checked in Python
 # Every variable a user may set becomes plain text that Make never expands again, and is exported; no recipe holds
-# one. Python checks the variables of the goals asked for into results/.make/goals.mk (one line naming a bad value,
-# which `check` stops on before anything is installed or run), with the data set's folder and runs that the file
+# one. Python checks the variables of the goals asked for into results/.make/goals/ (one line naming a bad value,
+# which `check` stops on before anything is installed or run), with the data set's folder and the fit's suffix that the file
 # rules of fit, compare and figures need; `python -m pipeline.targets TARGET` then runs the target's stages with
 # argument lists (`--plan TARGET` prints them).
 $(foreach v,$(USER_VARIABLES),$(eval override $(v) := $$(value $(v))))
@@ -44,15 +44,20 @@ STAGES := bench dem sweep runs sweep-status sweep-collect fit-bootstrap fit-jack
 	fit-profile fidelity fidelity-table profile-dem bench-dem bench-lammps-settings engines data-card versus cells jump \
 	stability models budget
 CHECKED_GOALS := $(filter $(STAGES) fit compare compare-seed figures,$(MAKECMDGOALS))
-# set by results/.make/goals.mk for a checked goal, empty otherwise: never taken from the environment. The file is
-# written before it is read (its goals are words of the list above), and holds checked names only
+# for a checked goal, Python writes results/.make/goals/{CHECK_ERROR,DATA_SET,FIT_SUFFIX} and a stamp of them, which
+# Make includes: where it changed, Make reads itself again with them. Each is read as text ($(file <...): never
+# expanded, so no name can run); empty otherwise, never taken from the environment
 CHECK_ERROR :=
 DATA_SET :=
 FIT_SUFFIX :=
 ifneq ($(CHECKED_GOALS),)
-CHECK_ERROR := $(shell python3 -m pipeline.targets makefile results/.make/goals.mk $(CHECKED_GOALS))
-include results/.make/goals.mk
+include results/.make/goals.stamp
+CHECK_ERROR := $(file <results/.make/goals/CHECK_ERROR)
+DATA_SET := $(file <results/.make/goals/DATA_SET)
+FIT_SUFFIX := $(file <results/.make/goals/FIT_SUFFIX)
 endif
+results/.make/goals.stamp: FORCE
+	@python3 -m pipeline.targets makefile $@ $(CHECKED_GOALS)
 check:
 	$(if $(CHECK_ERROR),$(error $(CHECK_ERROR)))
 # a goal whose variables are checked checks them first

@@ -21,6 +21,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from . import json_text
 from .equations import PHI_MAX
 from .laws import CODE, LAWS, law_parameters
 from .laws import DEFAULT as DEFAULT_LAW
@@ -207,13 +208,11 @@ class Params:
             return dict(pairs)
 
         try:
-            values = json.loads(text, object_pairs_hook=unique_keys)
-        except json.JSONDecodeError as exc:
-            raise ParameterError(f"{source}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+            values = json_text.loads(text, source, object_pairs_hook=unique_keys)
         except ParameterError:
             raise
-        except (ValueError, RecursionError) as exc:  # e.g. an integer of more than 4300 digits, deep nesting
-            raise ParameterError(f"{source}: not a parameter file ({str(exc).splitlines()[0][:80]})") from None
+        except ValueError as exc:  # not JSON, nested too deep, an integer of more than 4300 digits
+            raise ParameterError(f"{str(exc).splitlines()[0][:200]}: not a parameter file") from None
         if isinstance(values, dict):
             values.pop("metadata", None)
         return cls.from_dict(values, source)

@@ -8,7 +8,8 @@ controller and the in-situ sampling without the contact budget's tracking points
 without the near pairs' search, ``dem/core/neighbours.py``) and ``full`` (as in production, the contacts and near pairs
 tracked every ``contact_track_strain``). Unlike ``dem/tools/yade_bench.py`` the runs follow one another
 rather than restart from one kept state (LAMMPS reads a restart file back in one process only once, see
-``dem/lammps/scene.py``): each repeat shears on, in the same steady state.
+``dem/lammps/scene.py``): each repeat shears on, in the same steady state. Times are the process's CPU time (one
+rank, no threads: the steps/s of a core of its own, as untouched by other work on the machine as a time can be).
 """
 
 import dataclasses
@@ -43,9 +44,9 @@ def main():
                 lmp.command("unfix halt")
                 lmp.command("unfix control")
                 lmp.set_variable("tvy", "0.0")
-            tic = time.perf_counter()
+            tic = time.process_time()  # one rank: the CPU it spent, whatever else runs on the machine
             lmp.command(f"run {steps}")
-            times[mode].append(time.perf_counter() - tic)
+            times[mode].append(time.process_time() - tic)
             if mode == "bare":
                 lmp.command(f"fix control all python/invoke {every} end_of_step {lammps_scene.CONTROL}")
                 lmp.command(f"fix halt all halt {every} v_halte != 0 error continue message no")

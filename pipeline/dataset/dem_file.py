@@ -34,6 +34,7 @@ import numpy as np
 from dem.core.protocol import on_grid, sample_strains
 from dem.core.schema import contact_fields, contact_fields_of, sample_fields
 from dem.core.spec import LEGACY_ENGINE, DemSpec
+from model import json_text
 from model.cli import printable
 
 from ..errors import DemFileError
@@ -255,7 +256,13 @@ def _check_cycles(path: Path, raw: dict, spec: DemSpec, grid: np.ndarray) -> Non
 def sessions(provenance: dict) -> list[dict]:
     """A file's sessions from its ``/provenance`` attributes, oldest first."""
     text = provenance.get("sessions", "[]")
-    return json.loads(text) if isinstance(text, str) and text else []
+    if not isinstance(text, str) or not text:
+        return []
+    try:
+        found = json_text.loads(text, "its /provenance attribute 'sessions'")
+    except ValueError as exc:
+        raise DemFileError(str(exc)) from None
+    return found if isinstance(found, list) and all(isinstance(s, dict) for s in found) else []
 
 
 def cpu_seconds(parameters: dict, run_sessions: list[dict]) -> float:

@@ -11,12 +11,13 @@ file and the object.
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+from model import json_text
 
 from ..errors import DemFileError
 
@@ -30,18 +31,6 @@ MAX_CHUNKS = 65_536
 MAX_ATTRIBUTES, MAX_ATTRIBUTE_BYTES = 256, 1024 ** 2
 #: deepest nesting of a JSON attribute (a spec is two levels deep)
 MAX_JSON_DEPTH = 16
-
-
-def json_depth(text: str) -> int:
-    """The deepest nesting of brackets in a JSON text (those inside strings counted too: an upper bound)."""
-    depth = deepest = 0
-    for char in text:
-        if char in "[{":
-            depth += 1
-            deepest = max(deepest, depth)
-        elif char in "]}":
-            depth -= 1
-    return deepest
 
 
 class RunFileReader:
@@ -113,12 +102,10 @@ class RunFileReader:
         text = attrs.get(key)
         if not isinstance(text, str):
             self.refuse(f"{name} attribute {key!r}", "is missing or not text")
-        if json_depth(text) > MAX_JSON_DEPTH:
-            self.refuse(f"{name} attribute {key!r}", f"nests deeper than {MAX_JSON_DEPTH} levels")
         try:
-            return json.loads(text)
+            return json_text.loads(text, "it", MAX_JSON_DEPTH)
         except ValueError as exc:
-            self.refuse(f"{name} attribute {key!r}", f"is not JSON ({exc})")
+            self.refuse(f"{name} attribute {key!r}", str(exc).removeprefix("it "))
 
     def check_dataset(self, name: str, shape: tuple, unit: str | None):
         """The dataset ``name``, checked (storage, type, ``shape`` with None for any length, ``unit``) unread."""

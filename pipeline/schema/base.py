@@ -10,6 +10,8 @@ import types
 import typing
 from pathlib import Path
 
+from model import json_text
+
 from .. import io
 from ..errors import PipelineError
 from ..paths import ROOT, shown
@@ -19,11 +21,13 @@ def read_json_object(path: Path, what: str, make: str, kind: type = dict):
     """A JSON object (or ``kind``: a list of rows) from ``path``; missing, unreadable or of another kind is a
     one-line error naming the make target that writes it."""
     try:
-        data = json.loads(io.read_text(Path(path)))
+        data = json_text.loads(io.read_text(Path(path)), str(path))
     except FileNotFoundError:
         raise PipelineError(f"{path} not found: run `make {make}` first") from None
-    except (OSError, ValueError) as exc:
+    except OSError as exc:
         raise PipelineError(f"{path} is not readable JSON ({exc})") from None
+    except ValueError as exc:
+        raise PipelineError(f"{exc}: run `make {make}` again") from None
     if not isinstance(data, kind):
         raise PipelineError(f"{path} is not a {what} (not a JSON {'object' if kind is dict else 'list'})")
     return data
@@ -33,6 +37,8 @@ def _fields_of(cls, data: dict, path, what: str, renamed: dict | None = None) ->
     """``data``'s entries as ``cls``'s fields (``renamed``: file key -> field), the version checked first; a missing
     or unknown key is a one-line error naming the file."""
     version = data.get("schema_version", 1)
+    if not isinstance(version, int) or isinstance(version, bool):
+        raise PipelineError(f"{path}: schema_version {version!r} is not a whole number")
     if version != cls.VERSION:
         raise PipelineError(f"{path} is a {what} of version {version!r}; this code reads version {cls.VERSION}")
     renamed = renamed or {}

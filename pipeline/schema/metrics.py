@@ -5,6 +5,8 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import numpy as np
+
 import model
 
 from ..errors import PipelineError
@@ -276,7 +278,9 @@ def stamp_compare(f) -> None:
 
 def check_compare(f, path) -> None:
     """Refuse an open ``compare.h5`` of another schema or version (one written before versions is version 1)."""
-    schema, version = f.attrs.get("schema"), int(f.attrs.get("schema_version", 1))
+    schema, version = f.attrs.get("schema"), f.attrs.get("schema_version", 1)
+    if not isinstance(version, (int, np.integer)) or isinstance(version, (bool, np.bool_)):
+        raise PipelineError(f"{path}: schema_version {version!r} is not a whole number: run `make compare` again")
     if schema != COMPARE_SCHEMA or version != COMPARE_VERSION:
         raise PipelineError(f"{path} is not a comparison of this version (schema {schema!r}, version {version}): "
                             "run `make compare` again")

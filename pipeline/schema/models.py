@@ -7,6 +7,8 @@ import dataclasses
 import json
 from pathlib import Path
 
+from model import json_text
+
 from .. import io
 from ..errors import PipelineError
 from .base import MadeFrom, Record, read_json_object
@@ -179,7 +181,11 @@ def read_models_h5(path: Path, kind: str) -> list:
                 "made_from" not in f.attrs:
             raise PipelineError(f"{path}: not a models.h5 of version {MODELS_VERSION} that records what made it (run "
                                 "`make models`)")
-        MadeFrom.from_dict(json.loads(f.attrs["made_from"]), path).require_unchanged(f"{path} judged runs", "models")
+        try:
+            made_from = json_text.loads(f.attrs["made_from"], f"{path} attribute made_from")
+        except ValueError as exc:
+            raise PipelineError(f"{exc}: run `make models` again") from None
+        MadeFrom.from_dict(made_from, path).require_unchanged(f"{path} judged runs", "models")
     except PipelineError:
         f.close()
         raise

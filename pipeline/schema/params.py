@@ -4,10 +4,10 @@ fitted them under ``metadata``."""
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 
 import model
+from model import json_text
 
 from .. import io
 from ..errors import PipelineError
@@ -40,7 +40,7 @@ def read_params(path: Path) -> ParamsFile:
     """``params.json`` checked: the parameters (``model.Params.from_json``) and metadata of this version; else a
     one-line error."""
     params = io.read_params(path)
-    metadata = json.loads(io.read_text(Path(path))).get("metadata")
+    metadata = json_text.loads(io.read_text(Path(path)), str(path)).get("metadata")
     if metadata is not None and not isinstance(metadata, dict):
         raise PipelineError(f"{path}: metadata is not a JSON object")
     version = (metadata or {}).get("schema_version", 1)

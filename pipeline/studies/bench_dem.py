@@ -68,9 +68,9 @@ def budget_report(runs: list[dict], overrides: dict) -> str:
     search) against the same loop without."""
     setting = " ".join(f"{k}={v:g}" for k, v in overrides.items()) or "the presets' own values"
     lines = ["# The contact budget's cost (`make bench-dem ENGINES=lammps`)", "",
-             f"LAMMPS, one core, {setting}; interleaved repeats, best of each: the production loop with the contacts "
-             "and near pairs tracked every `contact_track_strain` (full), the same without the near pairs' search "
-             "(budget), and without tracking points (untracked).", "",
+             f"LAMMPS, one core, {setting}; CPU time, interleaved repeats, best of each: the production loop with the "
+             "contacts and near pairs tracked every `contact_track_strain` (full), the same without the near pairs' "
+             "search (budget), and without tracking points (untracked).", "",
              "| preset | grains | contact_track_strain | untracked steps/s | budget steps/s | full steps/s "
              "| full / budget | full / untracked |", "|---|---|---|---|---|---|---|---|"]
     for r in runs:

@@ -12,7 +12,7 @@ from pathlib import Path
 from ..errors import PipelineError
 from ..variables import Variables
 from .arguments import data_set_of
-from .goals import DATA_GOALS, fit_stamp_text, goals_makefile, write_if_changed
+from .goals import DATA_GOALS, fit_stamp_text, goal_values, write_goal_values, write_if_changed
 from .table import TARGETS, Call
 
 
@@ -45,11 +45,11 @@ def main(argv: list[str] | None = None, environ: Mapping[str, str] | None = None
     argv = sys.argv[1:] if argv is None else argv
     v = Variables(os.environ if environ is None else environ)
     if argv[:1] == ["makefile"] and len(argv) >= 2 and all(g in TARGETS or g in DATA_GOALS for g in argv[2:]):
-        # Make reads what this prints as CHECK_ERROR: nothing once the file is written, else one line why not
         try:
-            write_if_changed(Path(argv[1]), goals_makefile(v, argv[2:]))
-        except (OSError, PipelineError) as exc:
-            print(" ".join(f"cannot write {argv[1]}: {exc}".split()))
+            write_goal_values(Path(argv[1]), goal_values(v, argv[2:]))
+        except OSError as exc:
+            print(f"error: cannot write {argv[1]} ({exc.strerror or exc})", file=sys.stderr)
+            return 2
         return 0
     plan = argv[:1] == ["--plan"]
     rest = argv[1:] if plan else argv

@@ -1,8 +1,10 @@
-"""What Make reads before it runs anything: ``results/.make/goals.mk`` (the goals' variables checked; the data set's
-folder and run files for fit, compare and figures) and a fit's ``options.txt`` stamp."""
+"""What Make reads before it runs anything: ``results/.make/goals/`` (the goals' variables checked; the data set's
+folder and the fit's suffix for fit, compare and figures) and a fit's ``options.txt`` stamp."""
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import os
 from pathlib import Path
 
@@ -14,32 +16,52 @@ from .table import TARGETS, compare_seed
 DATA_GOALS = ("fit", "compare", "compare-seed", "figures")
 
 
-def goals_makefile(v: Variables, goals: list[str]) -> str:
-    """``results/.make/goals.mk``: CHECK_ERROR, the first bad value among the goals' variables (the Makefile's
-    ``check`` stops on it, in one line, before anything runs); else, for fit, compare and figures, the data set's
-    folder (DATA_SET) and the fit's suffix (FIT_SUFFIX), which their file rules need. No path found on disk is
-    written (the fit's ``options.txt`` stamps the runs): only these two names, checked against the folder pattern."""
+@dataclasses.dataclass(frozen=True)
+class GoalValues:
+    """What Make reads for the goals asked for (``results/.make/goals/``, each a file of plain text): the first bad
+    value among the goals' variables, in one line (``CHECK_ERROR``: the Makefile's ``check`` stops on it before
+    anything runs), and for fit, compare and figures the data set's folder and the fit's suffix, which their file
+    rules need. No path found on disk is among them (the fit's ``options.txt`` stamps the runs), and the two names are
+    checked against the folder pattern."""
+
+    CHECK_ERROR: str = ""
+    DATA_SET: str = ""
+    FIT_SUFFIX: str = ""
+
+    def stamp(self) -> str:
+        """The text of ``goals.stamp``, which Make includes: a digest of the values, so that it changes with them."""
+        digest = hashlib.sha256("\0".join(dataclasses.astuple(self)).encode()).hexdigest()[:16]
+        return f"# the goals' values in results/.make/goals/ (python -m pipeline.targets makefile): {digest}\n"
+
+
+def goal_values(v: Variables, goals: list[str]) -> GoalValues:
+    """The ``GoalValues`` of ``goals`` under the variables ``v``."""
     from ..paths import check_folder_name
 
-    lines = [f"# the goals {' '.join(goals)}, their variables checked (python -m pipeline.targets makefile)"]
     try:
         for goal in goals:
             if goal not in DATA_GOALS:
                 TARGETS[goal](v)
-        if set(goals) & set(DATA_GOALS):
-            fit_options_text(v)
-            data_args(v)
-            if "compare-seed" in goals:
-                compare_seed(v)
-            folder, suffix = data_set_of(v).folder, fit_suffix(v)
-            check_folder_name(folder, "data set")
-            if suffix:
-                check_folder_name(suffix.lstrip("-"), "fit suffix")
-            lines += [f"DATA_SET := {folder}", f"FIT_SUFFIX := {suffix}"]
+        if not set(goals) & set(DATA_GOALS):
+            return GoalValues()
+        fit_options_text(v)
+        data_args(v)
+        if "compare-seed" in goals:
+            compare_seed(v)
+        folder, suffix = data_set_of(v).folder, fit_suffix(v)
+        check_folder_name(folder, "data set")
+        if suffix:
+            check_folder_name(suffix.lstrip("-"), "fit suffix")
+        return GoalValues(DATA_SET=folder, FIT_SUFFIX=suffix)
     except PipelineError as exc:
-        text = " ".join(str(exc).split()).replace("$", "$$").replace("#", "\\#").rstrip("\\")
-        lines.append(f"CHECK_ERROR := {text}")
-    return "\n".join(lines) + "\n"
+        return GoalValues(CHECK_ERROR=" ".join(str(exc).split()))
+
+
+def write_goal_values(stamp: Path, values: GoalValues) -> None:
+    """Each value into ``<stamp's folder>/goals/<NAME>``, then the stamp (each rewritten only where it changed)."""
+    for field in dataclasses.fields(values):
+        write_if_changed(stamp.parent / "goals" / field.name, getattr(values, field.name))
+    write_if_changed(stamp, values.stamp())
 
 
 def fit_options_text(v: Variables) -> str:

@@ -126,7 +126,10 @@ def test_make_variables_are_checked_before_any_command(tmp_path, target, assignm
     name, _, value = assignment.partition("=")
     proc = make(tmp_path, target, f"{name}={value.replace(chr(92) + 'n', chr(10))}")
     assert_refused(proc, fragment)
-    assert [str(p) for p in listing(tmp_path)] == ["results", "results/.make", "results/.make/goals.mk"]
+    assert [str(p) for p in listing(tmp_path)] == ["results", "results/.make", "results/.make/goals",
+                                                   *(f"results/.make/goals/{v}" for v in sorted(
+                                                       ("CHECK_ERROR", "DATA_SET", "FIT_SUFFIX"))),
+                                                   "results/.make/goals.stamp"]
 
 
 @pytest.mark.slow
@@ -247,7 +250,7 @@ def params_file(folder, **changes):
     (lambda d: ["--theta", "90", "--params", str(write_bytes(d / "b.json", b" " * 70000))],
      "more than 65536 bytes"),
     (lambda d: ["--theta", "90", "--params", str(write_bytes(d / "b.json", b'{"C": 1' + b"0" * 5000 + b"}"))],
-     "not a parameter file (Exceeds the limit"),
+     "is not valid JSON (Exceeds the limit"),
     (lambda d: ["--theta", "90", "--params", str(write_bytes(d / "b.json", model.Params().to_json().replace(
         '"C": -5.6', '"C": 1' + "0" * 400).encode()))], "C=10000000000000000000... is too large"),
     (lambda d: ["--theta", "1e300"], "'1e300' must lie in [-180, 180] degrees"),

@@ -35,6 +35,11 @@ def base(tmp_path_factory):
         group = f.create_group("contacts")
         for key, info in contact_fields().items():
             group.create_dataset(key, data=np.zeros(schema_shape(info, n, 1))).attrs["unit"] = info["unit"]
+        kept = np.full((n, 3, 3), np.nan)  # the budget's identity: every change of A by kept contacts
+        kept[1:] = np.diff(f["raw/fabric"][()], axis=0)
+        group["budget_kept"][...] = kept
+        for term in ("made", "lost", "crossed"):
+            group[f"budget_{term}"][0] = np.nan
     with h5py.File(folder / "outside.h5", "w") as f:
         f["secret"] = np.arange(10.0)
     (folder / "outside.bin").write_bytes(b"\0" * (1 << 20))
@@ -162,7 +167,7 @@ def dense_attribute(f, size):
     (lambda f: declare(f, "/raw/strain", (MAX_CHUNKS + 1,), chunks=(1,)), f"more than {MAX_CHUNKS} chunks of (1,)"),
     (lambda f: f["provenance"].attrs.__setitem__("spec_json", "[" * 100_000 + "]" * 100_000),
      f"nests deeper than {MAX_JSON_DEPTH}"),
-    (lambda f: f["provenance"].attrs.__setitem__("spec_json", "{not json"), "is not JSON"),
+    (lambda f: f["provenance"].attrs.__setitem__("spec_json", "{not json"), "is not valid JSON"),
     (lambda f: f["provenance"].attrs.__setitem__("spec_json", 3.0), "is missing or not text"),
     (lambda f: dense_attribute(f, MAX_ATTRIBUTE_BYTES + 8), f"holds {MAX_ATTRIBUTE_BYTES + 8} bytes"),
     (lambda f: [f["parameters"].attrs.__setitem__(f"x{i}", i) for i in range(MAX_ATTRIBUTES + 1)],

@@ -96,7 +96,7 @@ def test_a_file_from_before_versions_reads_as_version_one_and_others_are_refused
     (tmp_path / "fit.json").write_text(json.dumps(fit_summary().to_dict()))
     assert schema.read_fit(tmp_path / "fit.json") == fit_summary()
     (tmp_path / "fit.json").write_text("{not json")
-    with pytest.raises(PipelineError, match="is not readable JSON"):
+    with pytest.raises(PipelineError, match="is not valid JSON"):
         schema.read_fit(tmp_path / "fit.json")
     with pytest.raises(PipelineError, match="not found: run `make fit` first"):
         schema.read_fit(tmp_path / "none.json")

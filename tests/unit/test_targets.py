@@ -38,21 +38,23 @@ def test_make_fit_hands_the_stage_the_data_set_and_the_fits_options(variables, w
     assert plan("fit", **variables) == [f"python -m pipeline.calibration {words}"]
 
 
-def test_the_include_file_names_the_data_sets_folder_and_no_path_found_on_disk(tmp_path):
-    text = targets.goals_makefile(targets.Variables({"PRESET": "paper", "ENGINE": "lammps",
-                                                     "SET": "inertial_number=0.001 seed=3"}), ["fit", "figures"])
+def test_the_goals_values_name_the_data_sets_folder_and_no_path_found_on_disk(tmp_path):
+    values = targets.goal_values(targets.Variables({"PRESET": "paper", "ENGINE": "lammps",
+                                                    "SET": "inertial_number=0.001 seed=3"}), ["fit", "figures"])
     folder = run_spec.run_folder("paper", "lammps", {"inertial_number": 0.001})
-    assert f"DATA_SET := {folder}\n" in text and "CHECK_ERROR" not in text
-    assert ".h5" not in text and "data/reference" not in text
-    path = tmp_path / "goals.mk"
-    targets.write_if_changed(path, text)
-    before = path.stat().st_mtime_ns
-    targets.write_if_changed(path, text)
-    assert path.stat().st_mtime_ns == before  # unchanged: Make does not read it again
+    assert values == targets.GoalValues(DATA_SET=folder)
+    stamp = tmp_path / "goals.stamp"
+    targets.write_goal_values(stamp, values)
+    assert (tmp_path / "goals" / "DATA_SET").read_text() == folder
+    before = stamp.stat().st_mtime_ns
+    targets.write_goal_values(stamp, values)
+    assert stamp.stat().st_mtime_ns == before  # unchanged: Make does not read itself again
+    targets.write_goal_values(stamp, targets.GoalValues(CHECK_ERROR="x"))
+    assert stamp.read_text() != values.stamp()  # changed with the values: Make reads itself again
 
 
 @pytest.mark.parametrize("goals, variables, message", [
-    (["dem"], {"THETA": "$(shell touch x) # y"}, "THETA='$$(shell touch x) \\# y' is not a number"),
+    (["dem"], {"THETA": "$(shell touch x) # y"}, "THETA='$(shell touch x) # y' is not a number"),
     (["fit"], {"WEIGHT": "angles;touch x"}, "WEIGHT='angles;touch x' is not runs or angles"),
     (["dem"], {"RANKS": "1\n2"}, "RANKS='1\\n2' holds a line break"),
     (["dem"], {"PRESET": "giant"}, "unknown preset 'giant'"),
@@ -63,10 +65,9 @@ def test_the_include_file_names_the_data_sets_folder_and_no_path_found_on_disk(t
     (["models"], {"LAWS": "elastic jump"}, "LAWS='elastic jump' is not a comma-separated list of names"),
 ])
 def test_a_bad_value_becomes_one_make_line_that_expands_to_the_text_given(goals, variables, message):
-    """CHECK_ERROR holds the message with ``$`` and ``#`` escaped, so that Make prints the value as given."""
-    text = targets.goals_makefile(targets.Variables(variables), goals)
-    error = next(line for line in text.splitlines() if line.startswith("CHECK_ERROR := "))
-    assert message in error and "DATA_SET" not in text
+    """CHECK_ERROR holds the message as given (Make reads it as text and never expands it)."""
+    values = targets.goal_values(targets.Variables(variables), goals)
+    assert message in values.CHECK_ERROR and "\n" not in values.CHECK_ERROR and values.DATA_SET == ""
 
 
 @pytest.mark.parametrize("target, variables, fragment", [
@@ -129,13 +130,14 @@ def test_the_targets_pass_their_options_and_folders():
         "python -m pipeline.studies.bench_dem --presets tiny --engines yade --out results/bench"]
 
 
-def test_the_include_file_is_written_by_the_standard_library_alone(tmp_path):
-    """Debian's python3 writes it before anything is installed (``-S``: no site packages)."""
-    path = tmp_path / "goals.mk"
+def test_the_goals_values_are_written_by_the_standard_library_alone(tmp_path):
+    """Debian's python3 writes them before anything is installed (``-S``: no site packages)."""
+    path = tmp_path / "goals.stamp"
     proc = subprocess.run([sys.executable, "-S", "-m", "pipeline.targets", "makefile", str(path), "dem", "fit"],
                           cwd=ROOT, capture_output=True, text=True, env={"PRESET": "reduced", "THETA": "90"})
     assert proc.returncode == 0, proc.stderr
-    assert "DATA_SET := reduced\n" in path.read_text() and "CHECK_ERROR" not in path.read_text()
+    assert (tmp_path / "goals" / "DATA_SET").read_text() == "reduced"
+    assert (tmp_path / "goals" / "CHECK_ERROR").read_text() == "" and path.read_text().startswith("#")
 
 
 #: a target that reads each user variable (every one the Makefile exports: ``USER_VARIABLES``)
@@ -168,9 +170,8 @@ def test_every_user_variable_has_a_reader_and_a_check_that_refuses_every_payload
             base.update(A="neighbor 0.2 bin", B="neigh_modify every 1")
         for payload in PAYLOADS:
             variables = targets.Variables({**base, name: payload})
-            text = targets.goals_makefile(variables, [target])
-            error = [line for line in text.splitlines() if line.startswith("CHECK_ERROR := ")]
-            assert len(error) == 1 and name in error[0], (name, payload[:30], text[-300:])
+            error = targets.goal_values(variables, [target]).CHECK_ERROR
+            assert name in error and "\n" not in error, (name, payload[:30], error[-300:])
 
 
 #: every variable the Makefile defines or reads that is not a user's (Make's own automatic ones aside)
@@ -235,7 +236,7 @@ HOSTILE_NAMES = ("$(shell touch {mark})", "a:b", "a b", "a#b", "a;touch {mark}",
 @pytest.mark.parametrize("name", HOSTILE_NAMES)
 def test_a_run_files_name_never_reaches_make(tmp_path, name):
     """A run file whose name or folder holds Make or shell syntax (every character Make treats specially) is a file
-    like any other: ``make -n fit`` runs nothing of it, writes none of it into ``goals.mk``, and a later ``make``
+    like any other: ``make -n fit`` runs nothing of it, writes none of it where Make reads, and a later ``make``
     reads its include file as before."""
     mark = tmp_path / "INJECTED"
     name = name.format(mark=mark)
@@ -249,7 +250,8 @@ def test_a_run_files_name_never_reaches_make(tmp_path, name):
                                   capture_output=True, text=True, timeout=120)
             assert said.returncode == 0, said.stderr[-400:]
             assert not mark.exists()
-            assert name not in (ROOT / "results" / ".make" / "goals.mk").read_text()
+            read = [ROOT / "results" / ".make" / "goals.stamp", *(ROOT / "results" / ".make" / "goals").iterdir()]
+            assert all(name not in p.read_text() for p in read)
     finally:
         for path in made:
             path.unlink(missing_ok=True)
