@@ -4,10 +4,12 @@ come from, after each change of direction (``make budget``, runs of file version
 For every change of direction, per protocol (the events pooled as in ``pipeline.studies.budget``):
 
 - the **memory** (or, for a reversal, the **shear** part) of the contact fabric A, of the near shells' fabrics
-  ``G_g`` (pairs within a gap g of touching, g/d = 0.01, 0.03, 0.1) and of the contacts made in each window, each in
-  units of its own steady value before the change (``x0 = -s_old.X.e2``; 1 at the change, 0 once the old direction is
-  forgotten; the shear part runs from -1 after a reversal to 1): does G hold the memory longer than A, and do the
-  contacts made carry G's memory (drawn from G) or none (made along D', as Eq. 13's input)?
+  ``G_g`` (pairs within a gap g of touching, g/d = 0.01, 0.03, 0.1) and of the contacts made in each window, all in
+  units of A's steady shear part before the change, ``a0 = -s_old.A.e2`` (A's memory: 1 at the change, 0 once the old
+  direction is forgotten; its shear part runs from -1 after a reversal to 1), beside each one's own steady value
+  before the change (``x0 / a0``, ``x0 = -s_old.X.e2``; a shell's is small, so its own fraction would be noise): does G
+  hold the memory longer than A, and do the contacts made carry the old direction (drawn from G) or none (made along
+  D', as Eq. 13's input)?
 - the share of the contacts made in each window whose pair was within gap g at the change (**fed** by the turn's near
   shell), and the packing fraction's rise since the change (does G's memory go with the compaction?);
 - the **gain and loss functions**: contacts made and lost per unit strain in 8 bins of the load
@@ -64,7 +66,7 @@ class NearGroup:
     runs: list[str]
     events: int
     component: str  # "memory" or, where the turn has no normal part, "shear"
-    steady: dict[str, Stat]  # before the change: each shell's x0 / A's, its pairs per region contact
+    steady: dict[str, Stat]  # before the change: each shell's and the contacts made's x0 / a0, its pairs per contact
     steady_gain_per_near: list[Stat]
     steady_loss_per_contact: list[Stat]
     windows: list[NearWindow]
@@ -76,12 +78,8 @@ def has_near(run) -> bool:
 
 
 def _fraction(X, ev: Event, part: int) -> np.ndarray:
-    """X's memory (part 1) or shear (part 0) fraction at the change and each sample after it, in units of its own
-    steady value before the change (NaN where that is nil)."""
-    x0 = ev.fraction0(X)
-    if not abs(x0) > 1e-12:
-        return np.full(len(ev.idx), np.nan)
-    return components(X[ev.idx], ev.s_new, ev.t, x0, ev.t_old)[part]
+    """X's memory (part 1) or shear (part 0) part at the change and each sample after it, in units of A's ``a0``."""
+    return components(X[ev.idx], ev.s_new, ev.t, ev.a0, ev.t_old)[part]
 
 
 def _weighted(fabric, count, rows) -> np.ndarray:
@@ -107,14 +105,15 @@ def near_event(run, ev: Event, part: int) -> dict:
     for key in ("made_count", "made_near_change", "made_by_load", "lost_by_load", "contacts_by_load",
                 "near_by_load", "made_fabric"):
         out[key] = c[key][idx]
-    out["made_x0"] = float(-model.shear_direction(ev.phi_old) @ _weighted(c["made_fabric"], c["made_count"],
-                                                                             ev.before) @ E2)
+    out["a0"] = ev.a0
     out["steady"] = {
         "gain": c["made_by_load"][ev.before].sum(axis=0), "loss": c["lost_by_load"][ev.before].sum(axis=0),
         "contacts": c["contacts_by_load"][ev.before].mean(axis=0),
         "near": c["near_by_load"][ev.before, GAIN_SHELL].mean(axis=0),
         "span": float(np.diff(raw["strain"][np.concatenate([ev.before, [ev.at]])]).sum()),
         "x0": [ev.fraction0(c["near_fabric"][:, k]) / ev.a0 for k in range(len(NEAR_GAPS))],
+        "made_x0": float(-model.shear_direction(ev.phi_old) @ _weighted(c["made_fabric"], c["made_count"], ev.before)
+                         @ E2) / ev.a0,
         "per_contact": [float(np.mean(c["near_count"][ev.before, k] / raw["contacts"][ev.before]))
                         for k in range(len(NEAR_GAPS))],
     }
@@ -132,12 +131,10 @@ def _at_end(e, key, hi, lo) -> float:
 
 
 def _made_memory(e, pick, ev_frame, part) -> float:
-    """The contacts made over the intervals ``pick``: their fabric's fraction in units of their steady one."""
+    """The contacts made over the intervals ``pick``: their fabric's part in units of A's ``a0``."""
     rows = np.flatnonzero(pick) + 1  # interval k ends at sample k + 1
-    if not abs(e["made_x0"]) > 1e-12:
-        return math.nan
     s_new, t, t_old = ev_frame
-    return float(components(_weighted(e["made_fabric"], e["made_count"], rows), s_new, t, e["made_x0"], t_old)[part])
+    return float(components(_weighted(e["made_fabric"], e["made_count"], rows), s_new, t, e["a0"], t_old)[part])
 
 
 def _rates(counts, population, span) -> np.ndarray:
@@ -190,8 +187,9 @@ def near_groups(runs: list) -> list[NearGroup]:
             continue
         steady = {}
         for k, g in enumerate(NEAR_GAPS):
-            steady[f"x0 G{g:g} / x0 A"] = Stat.of([e["steady"]["x0"][k] for e, _ in events])
+            steady[f"x0 G{g:g} / a0"] = Stat.of([e["steady"]["x0"][k] for e, _ in events])
             steady[f"G{g:g} pairs per contact"] = Stat.of([e["steady"]["per_contact"][k] for e, _ in events])
+        steady["x0 made / a0"] = Stat.of([e["steady"]["made_x0"] for e, _ in events])
         st = [e["steady"] for e, _ in events if e["steady"]["span"] > 0]
         groups.append(NearGroup(
             group_label(members[0]), theta, rotate_at, sorted({str(r.path) for r in members}), len(events),
@@ -209,10 +207,10 @@ def markdown(groups: list[NearGroup]) -> str:
     gaps = ", ".join(f"{g:g}" for g in NEAR_GAPS)
     lines = ["## Where the memory lives: the near pairs", "",
              f"Near shells: pairs within a gap g = {gaps} d of touching (`dem/core/neighbours.py`). Each fabric's "
-             "memory (shear part for a reversal) in units of its own steady value before the change: A and G_g at the "
-             "window's end, the contacts made over the window. Fed: the share of the contacts made whose pair was in "
-             "the shell at the change. Gain: contacts made per near pair of the widest shell per unit strain; loss: "
-             "contacts lost per contact per unit strain; in 8 bins of x = 2 (n.s)(n.e2) from -1 (most compressed by "
+             "memory (shear part for a reversal) in units of A's steady value before the change, a0 (each one's own "
+             "value then: x0 / a0): A and G_g at the window's end, the contacts made over the window. Fed: the share "
+             "of the contacts made whose pair was in the shell at the change. Gain: contacts made per near pair of "
+             "the widest shell per unit strain; loss: contacts lost per contact per unit strain; in 8 bins of x = 2 (n.s)(n.e2) from -1 (most compressed by "
              "the shear of the interval) to 1 (most stretched); [n] where a cell used n of the events only. "
              "`pipeline/studies/near.py` defines every column.", ""]
     bins = " | ".join(f"{-1 + 2 * (b + 0.5) / LOAD_BINS:+.2f}" for b in range(LOAD_BINS))

@@ -42,10 +42,11 @@ def test_shells_that_scale_the_fabric_hold_its_memory_and_the_known_gain_is_foun
     (group,) = near.near_groups([run])
     assert group.events == 4 and group.component == "memory"
     for k, g in enumerate(near.NEAR_GAPS):
-        assert group.steady[f"x0 G{g:g} / x0 A"].mean == pytest.approx(SCALE[k])
+        assert group.steady[f"x0 G{g:g} / a0"].mean == pytest.approx(SCALE[k])
+    assert group.steady["x0 made / a0"].mean == pytest.approx(1.0, abs=0.05)
     for w in group.windows[1:]:
-        for g in near.NEAR_GAPS:  # a shell proportional to A has A's memory, whatever its sign
-            assert w.memory[f"G{g:g}"].mean == pytest.approx(w.memory["A"].mean, abs=1e-9)
+        for k, g in enumerate(near.NEAR_GAPS):  # a shell proportional to A holds that share of A's memory
+            assert w.memory[f"G{g:g}"].mean == pytest.approx(SCALE[k] * w.memory["A"].mean, abs=1e-9)
         for k, g in enumerate(near.NEAR_GAPS):
             assert w.fed[f"G{g:g}"].mean == pytest.approx(FED[k], rel=1e-5)
         np.testing.assert_allclose([s.mean for s in w.gain_per_near], GAIN, rtol=1e-5)
