@@ -210,8 +210,9 @@ def markdown(groups: list[NearGroup]) -> str:
              "memory (shear part for a reversal) in units of A's steady value before the change, a0 (each one's own "
              "value then: x0 / a0): A and G_g at the window's end, the contacts made over the window. Fed: the share "
              "of the contacts made whose pair was in the shell at the change. Gain: contacts made per near pair of "
-             "the widest shell per unit strain; loss: contacts lost per contact per unit strain; in 8 bins of x = 2 (n.s)(n.e2) from -1 (most compressed by "
-             "the shear of the interval) to 1 (most stretched); [n] where a cell used n of the events only. "
+             "the widest shell per unit strain; loss: contacts lost per contact per unit strain; in 8 bins of "
+             "x = 2 (n.s)(n.e2) from -1 (most compressed by the shear of the interval) to 1 (most stretched); [n] "
+             "where a cell used n of the events only. "
              "`pipeline/studies/near.py` defines every column.", ""]
     bins = " | ".join(f"{-1 + 2 * (b + 0.5) / LOAD_BINS:+.2f}" for b in range(LOAD_BINS))
     for g in groups:
