@@ -10,7 +10,7 @@ import tempfile
 from pathlib import Path
 
 from .errors import PipelineError
-from .paths import RESULTS_DIR
+from .paths import DATA_DIR, RESULTS_DIR, shown
 
 
 @contextlib.contextmanager
@@ -45,6 +45,7 @@ def h5_file(path: Path):
 
     import h5py
 
+    check_destination(Path(path))
     buffer = bytes_io.BytesIO()
     with h5py.File(buffer, "w") as f:
         yield f
@@ -60,16 +61,29 @@ def write_bytes(path: Path, data) -> None:
         raise OSError(exc.errno, exc.strerror, str(path)) from None
 
 
-def check_output_path(path: Path) -> None:
-    """Refuse, in one line, an output that is a link or anything but a regular file (renaming onto a link replaces
-    the link, as ``/dev/stdout``), and one under ``results/`` where ``results`` is a link (the outputs would land
-    where it points, the committed ``data/`` perhaps)."""
-    if os.path.islink(path) or (os.path.lexists(path) and not path.is_file()):
-        raise PipelineError(f"{path} is a link or not a regular file: an output goes to a file of its own")
+def check_destination(path: Path) -> None:
+    """The one check of where every output lands, before anything is written: refused in one line where ``results``
+    is a link, where the path (every link on its way followed) lands inside the committed ``data/``, or where a path
+    under ``results/`` lands outside it (through a link below it)."""
     absolute = Path(os.path.abspath(path))
     if absolute.is_relative_to(RESULTS_DIR) and os.path.islink(RESULTS_DIR):
         raise PipelineError(f"{RESULTS_DIR} is a link (to {os.readlink(RESULTS_DIR)}): outputs go to a folder "
                             "of the project's own; remove the link")
+    resolved = absolute.resolve()
+    if resolved.is_relative_to(DATA_DIR.resolve()):
+        raise PipelineError(f"{path} lands in {shown(resolved)}: the committed data is never written (a link on the "
+                            "way leads there: remove it)")
+    if absolute.is_relative_to(RESULTS_DIR) and not resolved.is_relative_to(RESULTS_DIR):
+        raise PipelineError(f"{path} lands outside results/, in {resolved} (a link below results/ leads there: "
+                            "remove it)")
+
+
+def check_output_path(path: Path) -> None:
+    """Refuse, in one line, an output that is a link or anything but a regular file (renaming onto a link replaces
+    the link, as ``/dev/stdout``), and one that lands where no output goes (``check_destination``)."""
+    if os.path.islink(path) or (os.path.lexists(path) and not path.is_file()):
+        raise PipelineError(f"{path} is a link or not a regular file: an output goes to a file of its own")
+    check_destination(Path(path))
 
 
 @contextlib.contextmanager
@@ -175,6 +189,7 @@ def read_params(path: Path):
 def check_writable_dir(folder: Path) -> Path:
     """Check, before any long work and without creating anything, that ``folder`` can be made and written."""
     folder = Path(folder)
+    check_destination(folder)
     existing = next(p for p in (folder, *folder.parents) if p.exists())
     if not existing.is_dir():
         raise PipelineError(f"cannot write to {folder}: {existing} is a file, not a folder")

@@ -16,7 +16,8 @@ from .errors import PipelineError
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG_DIR = ROOT / "config"
 RESULTS_DIR = ROOT / "results"
-REFERENCE_DIR = ROOT / "data" / "reference"  # committed DEM runs: used where results/ has none
+DATA_DIR = ROOT / "data"  # committed: never written by a stage
+REFERENCE_DIR = DATA_DIR / "reference"  # committed DEM runs: used where results/ has none
 DATA_ROOTS = (RESULTS_DIR, REFERENCE_DIR)
 FIDELITY_LADDER = CONFIG_DIR / "fidelity.toml"  # the project's fidelity ladder (`make fidelity`)
 

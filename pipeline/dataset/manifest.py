@@ -96,17 +96,21 @@ def data_root(path: Path) -> Path | None:
 
 
 def check_committed(path: Path) -> None:
-    """Refuse a run file of a committed data folder that its manifest does not vouch for (see the module)."""
-    root = data_root(path)
+    """Refuse a run file of a committed data folder that its manifest does not vouch for (see the module), whether
+    it is read there or through a link elsewhere (the manifest checks the resolved path's folder)."""
+    if data_root(path) is not None and (path.is_symlink() or not path.is_file()):
+        raise DemFileError(f"{path} is not a regular file: a committed run file is one (restore it: git checkout)")
+    resolved = path.resolve()
+    root = data_root(resolved)
     if root is None:
         return
-    if path.is_symlink() or not path.is_file():
+    if not resolved.is_file():
         raise DemFileError(f"{path} is not a regular file: a committed run file is one (restore it: git checkout)")
-    name = path.relative_to(root).as_posix()
+    name = resolved.relative_to(root).as_posix()
     expected = read(root).get(name)
     if expected is None:
         raise DemFileError(f"{path} has no row in {root / MANIFEST}: a committed run file is listed there "
                            "(make data-card lists it)")
-    if sha256(path) != expected:
+    if sha256(resolved) != expected:
         raise DemFileError(f"{path} does not match its SHA-256 in {root / MANIFEST}: it was changed or damaged; "
                            "restore it (git checkout) or, if the change is meant, make data-card")

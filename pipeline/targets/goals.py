@@ -81,7 +81,13 @@ def fit_stamp_text(v: Variables) -> str:
 
 
 def write_if_changed(path: Path, text: str) -> None:
-    """Rewrite ``path`` (atomically) only when its text changes, so that Make sees it changed only then."""
+    """Rewrite ``path`` (atomically) only when its text changes, so that Make sees it changed only then; where it
+    lands is checked first (``pipeline.io.check_output_path``: a regular file, nowhere a link leads out of
+    ``results/`` or into ``data/``; its folder a folder, writable)."""
+    from ..io import check_output_path, check_writable_dir
+
+    check_output_path(path)
+    check_writable_dir(path.parent)
     if path.is_file() and path.read_text() == text:
         return
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,86 @@
+"""One write check for every writer (``pipeline.io.check_destination``): through a link below ``results/``, no
+output lands in the committed ``data/`` or outside ``results/``; and a committed run read through such a link is
+still held to its manifest."""
+
+import os
+from pathlib import Path
+
+import pytest
+
+import model
+from pipeline import io, targets
+from pipeline.dataset import manifest
+from pipeline.errors import DemFileError, PipelineError
+from pipeline.paths import REFERENCE_DIR, RESULTS_DIR
+
+#: every writer of the stages, each writing ``name`` below the folder it is given
+WRITERS = {
+    "write_text": lambda d: io.write_text(d / "x.md", "x"),
+    "write_json": lambda d: io.write_json(d / "x.json", {"x": 1}),
+    "write_table": lambda d: io.write_table(d, "x", {"x": 1}, "x"),
+    "write_params": lambda d: io.write_params(d / "params.json", model.PAPER),
+    "h5_file": lambda d: io.h5_file(d / "x.h5").__enter__(),
+    "check_writable_dir": lambda d: io.check_writable_dir(d / "fit"),
+    "write_if_changed (Make's stamps)": lambda d: targets.write_if_changed(d / "fit" / "options.txt", "x"),
+}
+
+
+@pytest.fixture
+def link(request, tmp_path):
+    """``results/zz-link-<case>`` -> the committed data set's folder, or a folder outside the project."""
+    where = REFERENCE_DIR / "reduced" if request.param == "data" else tmp_path
+    path = RESULTS_DIR / f"zz-link-{request.param}-{os.getpid()}"
+    RESULTS_DIR.mkdir(exist_ok=True)
+    path.symlink_to(where, target_is_directory=True)
+    yield path, where
+    path.unlink()
+
+
+@pytest.mark.parametrize("link", ["data", "outside"], indirect=True)
+@pytest.mark.parametrize("writer", WRITERS)
+def test_no_writer_writes_through_a_link_below_results(link, writer):
+    path, where = link
+    before = sorted(p.name for p in where.iterdir())
+    with pytest.raises(PipelineError) as caught:
+        WRITERS[writer](path)
+    said = str(caught.value)
+    assert "\n" not in said and ("the committed data is never written" in said or "lands outside results/" in said)
+    assert sorted(p.name for p in where.iterdir()) == before
+
+
+def test_a_committed_run_read_through_a_link_is_held_to_its_manifest(tmp_path):
+    """A data folder with a manifest, reached through ``results/<link>``: a changed file is refused as if read in
+    place."""
+    root = tmp_path / "committed"
+    run = root / "reduced" / "dem" / "theta090.h5"
+    run.parent.mkdir(parents=True)
+    run.write_bytes(b"the committed bytes")
+    manifest.write(root)
+    run.write_bytes(b"tampered bytes")
+    path = RESULTS_DIR / f"zz-link-manifest-{os.getpid()}"
+    path.symlink_to(root / "reduced", target_is_directory=True)
+    try:
+        with pytest.raises(DemFileError, match="does not match its SHA-256"):
+            manifest.check_committed(Path(path) / "dem" / "theta090.h5")
+    finally:
+        path.unlink()
+
+
+@pytest.mark.parametrize("shape", ["folder is a file", "file is a folder"])
+def test_an_output_folder_of_the_wrong_type_is_one_line_naming_it(tmp_path, shape):
+    folder = RESULTS_DIR / f"zz-wrong-{os.getpid()}"
+    try:
+        if shape == "folder is a file":
+            folder.write_text("")
+            expected = "is a file, not a folder"
+        else:
+            (folder / "options.txt").mkdir(parents=True)
+            expected = "is a link or not a regular file"
+        with pytest.raises(PipelineError, match=expected):
+            targets.write_if_changed(folder / "options.txt", "x")
+    finally:
+        if folder.is_dir():
+            (folder / "options.txt").rmdir()
+            folder.rmdir()
+        else:
+            folder.unlink()
