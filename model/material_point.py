@@ -35,7 +35,10 @@ FABRIC_TOL = 1e-8  # allowed asymmetry and trace of an input fabric (absolute)
 ROUNDOFF_STRETCHING = 1e-12  # |D'| up to this fraction of |L| is round-off: the point is stationary
 MAX_STEPS = 100_000  # integrator steps per point and update
 BOUNDS_SLACK = 1e-9  # round-off allowed beyond Eq. 8's eigenvalue bounds, as in ``model.predict``
-_BAD_A, _BAD_SYM, _BAD_TRACE, _BAD_PHI, _BAD_L, _BAD_DT, _BAD_BOUNDS = range(1, 8)
+_BAD_A, _BAD_SYM, _BAD_TRACE, _BAD_PHI, _BAD_L, _BAD_DT, _BAD_BOUNDS, _BAD_STEP = range(1, 9)
+#: the largest strain |D'| dt of one step: far past any transient (the fabric is steady within a strain of about 1),
+#: and below where the integrator's substeps run out (a strain of about 10^5 at the default tolerances)
+MAX_STEP_STRAIN = 1e4
 #: what a point's step may end in besides ``model.integrator``'s statuses: a state outside the physics
 TOO_DENSE, FABRIC_OUT_OF_BOUNDS = 101, 102
 OUTCOMES = {**integrator.STATUS_MESSAGES,
@@ -50,6 +53,7 @@ _PROBLEMS = {
     _BAD_L: "L[{i}] is not finite or too large: the sum of its squared entries is {value:.3g}",
     _BAD_DT: "dt[{i}]={value!r} must be finite and >= 0",
     _BAD_BOUNDS: "A[{i}] leaves the bounds of Eq. 8 (eigenvalues within -1/3..2/3; |A|^2 = {value:.4g})",
+    _BAD_STEP: f"dt[{{i}}] makes a step of strain |D'| dt = {{value:.3g}}, beyond {MAX_STEP_STRAIN:g}: split the step",
 }
 
 
@@ -121,6 +125,16 @@ def _check_inputs(A, phi, L, dt, fabric_tol):
     for i in range(dt.shape[0]):
         if not (math.isfinite(dt[i]) and dt[i] >= 0.0):
             return _BAD_DT, i, dt[i]
+    for i in range(max(L.shape[0], dt.shape[0])):
+        grad, d = L[i if L.shape[0] > 1 else 0], dt[i if dt.shape[0] > 1 else 0]
+        trace = (grad[0, 0] + grad[1, 1] + grad[2, 2]) / 3.0
+        norm2 = 0.0
+        for j in range(3):
+            for k in range(3):
+                dev = 0.5 * (grad[j, k] + grad[k, j]) - (trace if j == k else 0.0)
+                norm2 += dev * dev
+        if math.sqrt(norm2) * d > MAX_STEP_STRAIN:
+            return _BAD_STEP, i, math.sqrt(norm2) * d
     return 0, 0, 0.0
 
 
@@ -296,6 +310,8 @@ def _update_parallel(A, phi, X, L, dt, p, lam_ref, rtol, atol, scale, A_out, phi
 def _array(name: str, value, shapes: tuple[tuple, ...]) -> np.ndarray:
     """``value`` as a read-only C-contiguous float array of one of ``shapes`` (one layout, so the kernels
     compile once whatever the caller hands them); a one-line error otherwise."""
+    if np.iscomplexobj(value):
+        raise SolverError(f"{name} is complex: the model takes real numbers (its imaginary part would be dropped)")
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -375,8 +391,15 @@ def _law_state(law_state, params: Params, L: np.ndarray, phi: np.ndarray, n: int
 def update_inputs(result: Result, params: Params | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(A, phi, law_state) at each output of ``model.predict`` or ``model.integrate`` (``result``, run with
     ``params``) as ``update`` takes them: the fabric less the part the law holds beyond it under the acting D'
-    (``Result.D_dev``; kappa D'/|D'| of "jump", K of "elastic"), the packing fraction and the law's own state."""
+    (``Result.D_dev``; kappa D'/|D'| of "jump", K of "elastic"), the packing fraction and the law's own state. A
+    result made with other parameters than ``params`` (default Table 2) is refused in one line."""
+    if not isinstance(result, Result):
+        raise SolverError(f"update_inputs takes a model.Result (of model.predict or model.integrate), got "
+                          f"{type(result).__name__}")
     params = _params(params)
+    if result.params is not None and result.params != params:
+        raise SolverError(f"the result was made with other parameters ({result.params.variant}) than those given "
+                          f"({params.variant}): pass update_inputs(result, params=<the params of the run>)")
     own = result.law_state if result.law_state is not None else np.empty((len(result.strain), 0))
     if own.shape[1] != len(laws.state_names(params.variant)):
         raise SolverError(f"the result carries {own.shape[1]} law state variables, {params.variant!r} has "
@@ -427,9 +450,8 @@ def update(A, phi, L, dt, params: Params | None = None, out: Update | None = Non
     L = _array("L", L, ((3, 3), (n, 3, 3))).reshape(-1, 3, 3)
     dt = _array("dt", dt, ((), (n,))).reshape(-1)
     for name, value in (("rtol", rtol), ("atol", atol), ("s_ref", s_ref), ("fabric_tol", fabric_tol)):
-        if not (isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
-                and value > 0):
-            raise SolverError(f"{name}={value!r} must be a finite number > 0")
+        if not (isinstance(value, numbers.Real) and not isinstance(value, bool) and 0 < value < 1):
+            raise SolverError(f"{name}={value!r} must be a number in (0, 1)")
     rtol, atol, s_ref, fabric_tol = float(rtol), float(atol), float(s_ref), float(fabric_tol)
     if not (isinstance(threads, numbers.Integral) and not isinstance(threads, bool)
             and 1 <= threads <= numba.config.NUMBA_NUM_THREADS):

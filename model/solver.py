@@ -61,6 +61,7 @@ class Result:
         in 1/Phi; plain period iteration would need log(tol)/log(factor) periods for Phi.
     law_state : (n, k) the fabric law's own state (``model.laws``; k = 0 for most laws): with the fabric
         ``A`` at a strain, what ``integrate`` (``law_state0``) needs to go on from there.
+    params : the ``model.Params`` it was made with (``model.update_inputs`` refuses others).
     method, success, message.
     """
 
@@ -84,6 +85,7 @@ class Result:
     success: bool = True
     message: str = "integration successful"
     law_state: np.ndarray | None = None
+    params: Params | None = None
 
 
 def pack_fabric(A: np.ndarray) -> np.ndarray:
@@ -210,8 +212,9 @@ def _run(history, y0, p, strains, method, rtol, atol, s_ref, strain_step, max_st
     return y_out, y_end, stats
 
 
-def _assemble(history, strains, y_out, p, packing_fraction, stats, method, **extra) -> Result:
+def _assemble(history, strains, y_out, params, packing_fraction, stats, method, **extra) -> Result:
     n = y_out.shape[0]
+    p = params.as_array()
     packed = history.packed
     A, Dh, tau = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty((n, 3, 3))
     S, w_shear, w_vol, seg = np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.int64)
@@ -234,7 +237,7 @@ def _assemble(history, strains, y_out, p, packing_fraction, stats, method, **ext
     return Result(
         strain=strains, t=t, A=A, tau=tau, S=S, packing_fraction=phi, D_dev=packed.D_dev[seg] / history.shear_rate,
         w_shear=w_shear, w_vol=w_vol, w_total=w_shear + w_vol, law_state=y_out[:, integrator.N_STATE:].copy(),
-        nfev=int(stats[0]), nsteps=int(stats[1]), nrejected=int(stats[2]), method=method, **extra,
+        nfev=int(stats[0]), nsteps=int(stats[1]), nrejected=int(stats[2]), method=method, params=params, **extra,
     )
 
 
@@ -298,7 +301,7 @@ def integrate(
     laws.set_packing(y0, 1.0 / phi0, p)  # what the law holds of the packing is packing_fraction0
     y_out, _, stats = _run(history, y0, p, strains, method, rtol, atol, s_ref, strain_step, max_steps)
     phi = 1.0 / (np.exp(-y_out[:, integrator.G_INDEX]) / phi0 + y_out[:, integrator.V_INDEX])
-    return _assemble(history, strains, y_out, p, phi, stats, method)
+    return _assemble(history, strains, y_out, params, phi, stats, method)
 
 
 #: how still a fabric law's own state must be, chunk to chunk, for the steady state: its fast relaxation leaves
@@ -445,7 +448,7 @@ def _periodic(history, params, strains, rtol, atol, cycle_tol, max_periods, s_re
         raise SolverError(f"the packing fraction leaves (0, 1) over the cycle (Phi from {np.min(phi):.3g} to "
                           f"{np.max(phi):.3g}): {_packing_suspect(y_out, history, params)}")
     stats = np.array([nfev, nsteps, nrejected])
-    return _assemble(history, strains, y_out, p, phi, stats, "dop853", periods=periods,
+    return _assemble(history, strains, y_out, params, phi, stats, "dop853", periods=periods,
                      cycle_residual=residual, phi_contraction=contraction)
 
 

@@ -203,6 +203,8 @@ def mpi_command(ranks: int) -> list[str]:
             *(["--oversubscribe"] if ranks > (os.cpu_count() or 1) else [])]
 
 
+#: the seconds ``loopback_only`` waits for its trial ``unshare`` (it returns within milliseconds where it works)
+UNSHARE_WAIT = 10.0
 #: runs what follows its arguments with the loopback up, in the network namespace ``unshare -rn`` made
 LOOPBACK_UP = 'ip link set lo up && exec "$@"'
 
@@ -215,7 +217,12 @@ def loopback_only() -> list[str] | None:
     if unshare is None or ip is None:
         return None
     prefix = [unshare, "-rn", "/bin/sh", "-c", LOOPBACK_UP, "loopback-only"]
-    works = subprocess.run([*prefix, "true"], capture_output=True, timeout=30).returncode == 0
+    try:
+        works = subprocess.run([*prefix, "true"], capture_output=True, timeout=UNSHARE_WAIT).returncode == 0
+    except subprocess.TimeoutExpired:
+        print(f"note: `unshare -rn true` did not return within {UNSHARE_WAIT:g} s: running without a network "
+              "namespace of its own", file=sys.stderr)
+        return None
     return prefix if works else None
 
 

@@ -84,3 +84,22 @@ def test_an_output_folder_of_the_wrong_type_is_one_line_naming_it(tmp_path, shap
             folder.rmdir()
         else:
             folder.unlink()
+
+
+def test_an_unshare_that_hangs_is_waited_for_a_bounded_time_then_named_in_one_line(tmp_path, monkeypatch, capsys):
+    """An ``unshare`` that never returns (a stuck namespace setup): the launcher waits ``UNSHARE_WAIT``, says so in one
+    line and runs without a namespace of its own."""
+    from pipeline.runs import launch
+
+    fake = tmp_path / "unshare"
+    fake.write_text("#!/bin/sh\nexec sleep 600\n")
+    fake.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{tmp_path}:{os.environ['PATH']}")
+    monkeypatch.setattr(launch, "UNSHARE_WAIT", 0.5)
+    launch.loopback_only.cache_clear()
+    try:
+        assert launch.loopback_only() is None
+    finally:
+        launch.loopback_only.cache_clear()
+    said = capsys.readouterr().err.strip()
+    assert said.count("\n") == 0 and "did not return within 0.5 s" in said
