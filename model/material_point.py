@@ -377,6 +377,13 @@ def _law_state(law_state, params: Params, L: np.ndarray, phi: np.ndarray, n: int
         X = _array("law_state", law_state, ((n, own),))
         if not np.all(np.isfinite(X)):
             raise SolverError(f"law_state[{int(np.argmin(np.isfinite(X).all(axis=1)))}] is not finite")
+        names = laws.state_names(params.variant)
+        for k, (low, high) in enumerate(laws.state_bounds(params.variant)):
+            outside = (X[:, k] < low) | (X[:, k] > high)
+            if outside.any():
+                i = int(np.argmax(outside))
+                raise SolverError(f"law_state[{i}] has {names[k]}={X[i, k]!r} outside [{low:.4g}, {high:.4g}], the "
+                                  f"bounds the {params.variant} law declares")
         return X
     if not own:
         return _array("law_state", np.empty((n, 0)), ((n, 0),))

@@ -56,6 +56,8 @@ def first_existing(relative: Path, roots: tuple[Path, ...] = DATA_ROOTS) -> Path
 def regular_file(path: Path) -> Path:
     """``path``, refused in one line naming it unless it is a regular file (or a link to one): a folder, a FIFO (whose
     reading would wait forever), a socket or a device found where a file is looked for is not data."""
+    if path.is_symlink() and not path.exists():
+        raise PipelineError(f"{path} is a link that leads nowhere (or in a loop): remove or fix it")
     if not path.is_file():
         kind = ("a folder" if path.is_dir() else "a FIFO" if path.is_fifo() else "a socket" if path.is_socket()
                 else "a device" if path.is_block_device() or path.is_char_device() else "not a file")

@@ -14,7 +14,8 @@ parameter array ``p`` (``Params.as_array``: Eq. 13's parameters, the law's code,
   rates per unit |D'| t times ``scale`` (given Eq. 18's g and c2), ``state_fabric(y)`` the part of the fabric it
   holds beyond A (packed), ``set_packing(y, u)`` sets what it holds of the packing fraction 1/u where a history or
   step starts, ``start(Dh, phi, values)`` that part (3x3) and the state where a history starts, and optionally
-  ``STATE_TOLERANCE``, the material-point update's tolerance on each, in units of A's, and ``relaxing_part(v, Dh)``,
+  ``STATE_TOLERANCE``, the material-point update's tolerance on each, in units of A's, ``STATE_BOUNDS``, the range
+  each lies in (required: ``model.update`` refuses a state outside it), and ``relaxing_part(v, Dh)``,
   K:Dh over its relaxation rate for a part K of the fabric that relaxes fast (``model.stepper``);
 
 and for the independent reference (``model.reference``, plain numpy on 3x3 tensors) the same as
@@ -47,8 +48,8 @@ LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
 BASE = 8
 
 __all__ = ["BASE", "DEFAULT", "LAWS", "OWN", "Parameter", "extra_rate", "law_parameters", "offset",
-           "reference_parts", "relaxing_part", "removal", "set_packing", "start", "state_fabric", "state_names",
-           "state_rates", "state_tolerance"]
+           "reference_parts", "relaxing_part", "removal", "set_packing", "start", "state_bounds", "state_fabric",
+           "state_names", "state_rates", "state_tolerance"]
 
 
 def law_parameters(name: str) -> tuple[Parameter, ...]:
@@ -102,6 +103,14 @@ def state_tolerance(name: str) -> tuple[float, ...]:
     """Per own state variable, the material-point update's tolerance in units of A's (``model.stepper``): 1 unless
     the law declares ``STATE_TOLERANCE`` (a state whose local errors decay and do not add up step after step)."""
     return getattr(LAWS[name], "STATE_TOLERANCE", (1.0,) * len(state_names(name)))
+
+
+def state_bounds(name: str) -> tuple[tuple[float, float], ...]:
+    """Per own state variable, the closed range it lies in (``STATE_BOUNDS``; a law with a state declares them)."""
+    law = LAWS[name]
+    if state_names(name) and not hasattr(law, "STATE_BOUNDS"):
+        raise TypeError(f"the {name} law has a state but declares no STATE_BOUNDS")
+    return getattr(law, "STATE_BOUNDS", ())
 
 
 def start(name: str, Dh, values: dict, phi) -> tuple[np.ndarray, np.ndarray]:

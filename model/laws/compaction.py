@@ -33,6 +33,9 @@ PARAMETERS = (
 )
 #: the law's own state: 1/Phi and 1/Phi_r
 STATE = ("u", "u_ref")
+#: the bounds of each state variable (``model.update`` refuses a state outside them): 1/Phi of a packing fraction in
+#: (0, pi/(3 sqrt 2)), the densest packing of spheres
+STATE_BOUNDS = ((3 * math.sqrt(2) / math.pi, math.inf),) * len(STATE)
 #: where the law's state sits in the kernels' state (model.integrator: A, t, G, v before it) and its parameters in
 #: the parameter array (k, gamma_r); a law that combines it with another passes its own places
 FIRST = 8

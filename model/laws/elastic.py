@@ -30,6 +30,9 @@ STATE = ("K11", "K22", "K12", "K13", "K23")
 #: gamma_e and enters tau/p (Eq. 14) once, where A's and Phi's add up over the hundreds of updates of a cycle; at
 #: 1000 the update stays within 5e-8 of ``model.predict`` over whole cycles (``make bench``)
 STATE_TOLERANCE = (1000.0,) * len(STATE)
+#: the bounds of each state variable (``model.update`` refuses a state outside them): K relaxes to kappa D'/|D'| and
+#: turns with the material, so each of its components stays within kappa's range
+STATE_BOUNDS = ((PARAMETERS[0].low, PARAMETERS[0].high),) * len(STATE)
 #: where the law's state sits in the kernels' state (model.integrator: A, t, G, v before it) and its parameters in
 #: the parameter array (kappa, gamma_e); a law that combines it with another passes its own places
 FIRST = 8

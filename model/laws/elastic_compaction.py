@@ -24,6 +24,7 @@ PARAMETERS = elastic.PARAMETERS + compaction.PARAMETERS
 STATE = elastic.STATE + compaction.STATE
 #: the material-point update's tolerance on each (``model.laws.state_tolerance``)
 STATE_TOLERANCE = elastic.STATE_TOLERANCE + (1.0,) * len(compaction.STATE)
+STATE_BOUNDS = elastic.STATE_BOUNDS + compaction.STATE_BOUNDS
 #: where each part's state and parameters sit (``model.laws`` hands them to the two laws' kernels)
 ELASTIC_FIRST, ELASTIC_OWN = elastic.FIRST, OWN
 COMPACTION_FIRST, COMPACTION_OWN = elastic.FIRST + len(elastic.STATE), OWN + len(elastic.PARAMETERS)

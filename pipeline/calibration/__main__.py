@@ -71,6 +71,7 @@ def main(argv=None) -> int:
     if args.runs:
         reversals, cross, left_out = [load(p) for p in args.runs], (), ()
         out = args.out or preset_output(check_folder_name(args.preset or "custom"), "fit")
+        data_set = {"data_set": "runs given", "skip_cycles": 0}
     else:
         chosen = selection.from_arguments(args)
         print(f"runs: {chosen.label}")
@@ -78,8 +79,9 @@ def main(argv=None) -> int:
         out = args.out or preset_output(chosen.folder, fit_folder(
             args.angles, args.jackknife, fit_from=args.fit_from, stress=args.stress, weight=args.weight,
             variant=args.variant, skip_cycles=chosen.skip_cycles))
+        data_set = {"data_set": chosen.folder, "skip_cycles": chosen.skip_cycles}
     print(f"definitions: {settings.definitions.label()}")
-    report = fit(reversals, out, cross, left_out, **vars(settings))
+    report = fit(reversals, out, cross, left_out, data_set=data_set, **vars(settings))
     print_report(report, out)
     return 0
 

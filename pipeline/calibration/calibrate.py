@@ -282,10 +282,11 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
                                           {**dataclasses.asdict(settings), "refine": refine}))
 
 
-def write_arrays(path: Path, arrays: dict, per_run: list[dict], cross: list[dict]) -> None:
-    """fit.h5: the per-sample values behind the fit (alpha_i, beta_i, Y, C against S)."""
+def write_arrays(path: Path, arrays: dict, per_run: list[dict], cross: list[dict], made_from: str) -> None:
+    """fit.h5: the per-sample values behind the fit (alpha_i, beta_i, Y, C against S), stamped with the digest of
+    its fit's ``made_from`` (``fit.json``'s), so that a fit.h5 of another fit is told apart."""
     with io.h5_file(path) as f:
-        f.attrs.update(schema="granular-backstress/fit", schema_version=1)
+        f.attrs.update(schema="granular-backstress/fit", schema_version=1, made_from=made_from)
         for group, items, meta in (("reversal", arrays["reversal"], per_run),
                                    ("cross_check", arrays["cross_check"], cross)):
             for k, (values, info) in enumerate(zip(items, meta, strict=True)):
@@ -304,7 +305,7 @@ def write(cal: Calibration, out_dir: Path) -> None:
     names = ["fit.h5", "params.json", "fit.json"] + (["params_stepwise.json"] if cal.stepwise is not None else [])
     with io.atomic_paths(*(out_dir / n for n in names)) as temps:
         tmp = dict(zip(names, temps, strict=True))
-        write_arrays(tmp["fit.h5"], cal.arrays, cal.per_run, cal.cross_check)
+        write_arrays(tmp["fit.h5"], cal.arrays, cal.per_run, cal.cross_check, cal.made_from.digest())
         schema.write_params(tmp["params.json"], cal.params, cal.params_metadata())
         schema.write_fit(tmp["fit.json"], cal.summary())
         if cal.stepwise is not None:
@@ -314,12 +315,16 @@ def write(cal: Calibration, out_dir: Path) -> None:
 
 
 def fit(reversals: list, out_dir: Path, cross_runs: tuple = (), left_out: tuple = (), refine: bool = True,
-        **settings) -> dict:
+        data_set: dict | None = None, **settings) -> dict:
     """``calibrate`` with ``Settings(**settings)`` and ``write`` into ``out_dir`` (both checked first); returns
-    ``fit.json``'s dict."""
+    ``fit.json``'s dict. ``data_set`` (its folder and the cycles it skips) joins the options its ``made_from``
+    records, which the stages that read the fit check."""
     chosen = Settings(**settings)
     check_settings(chosen, reversals, tuple(cross_runs))
     io.check_writable_dir(out_dir)
     cal = calibrate(reversals, tuple(cross_runs), tuple(left_out), chosen, refine)
+    if data_set:
+        cal = dataclasses.replace(cal, made_from=schema.MadeFrom(cal.made_from.inputs,
+                                                                 {**cal.made_from.options, **data_set}))
     write(cal, out_dir)
     return cal.summary()

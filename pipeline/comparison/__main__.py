@@ -39,6 +39,13 @@ def main(argv=None) -> int:
     chosen = selection.from_arguments(args)
     params_file = args.params or preset_output(chosen.folder, "fit", "params.json")
     schema.check_fitted(params_file)
+    fit_json = Path(params_file).with_name("fit.json")
+    fit_digest = None
+    if fit_json.exists():  # a fit of ours: of this data set, these cycles (a set of one's own is taken as it is)
+        fit_made_from = schema.read_fit(fit_json).made_from
+        fit_made_from.require_same(str(fit_json), {"data_set": chosen.folder, "skip_cycles": chosen.skip_cycles},
+                                   f"fit PRESET={chosen.preset}")
+        fit_digest = fit_made_from.digest()
     fitted = io.read_params(params_file)
     definitions = fitted_in(params_file)
     print(f"reading the runs in the definitions {params_file.name} was fitted in: {definitions.label()}")
@@ -51,7 +58,8 @@ def main(argv=None) -> int:
     fit_h5 = smoothed_reversals(params_file, chosen.folder, definitions)
     label = chosen.label if args.seed is None else f"{chosen.label}, seed {args.seed}"
     made_from = schema.MadeFrom.of([params_file, *(r.path for r in (*runs, *others))],
-                                   {"definitions": definitions.label(), "seed": args.seed, "data_set": chosen.label})
+                                   {"definitions": definitions.label(), "seed": args.seed, "data_set": chosen.label,
+                                    "folder": chosen.folder, "skip_cycles": chosen.skip_cycles, "fit": fit_digest})
     compare(runs, {schema.TABLE2: model.Params(), schema.OUR_FIT: fitted}, fit_h5, out, chosen.preset, label, others,
             made_from)
     print(f"wrote {out / 'compare.h5'} and metrics.json")

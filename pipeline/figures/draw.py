@@ -12,12 +12,31 @@ from ..errors import PipelineError
 from . import cycles, laws, memory, profiles, report, reversal
 
 
+def check_fit_belongs(fit, fit_dir: Path, compared: schema.MadeFrom) -> None:
+    """Refuse, in one line, a ``fit.json`` or ``fit.h5`` that is not the fit the comparison read (``metrics.json``'s
+    ``made_from`` records its digest): another data set's, or another fit's copied beside it."""
+    recorded = compared.options.get("fit")
+    if fit is None:
+        return
+    if fit.made_from.digest() != recorded:
+        raise PipelineError(f"{fit_dir / 'fit.json'} is not the fit {fit_dir.parent.name}'s comparison read (another "
+                            "fit's, or another data set's): `make compare` remakes the comparison from it, `make fit` "
+                            "the fit")
+    fit_h5 = fit_dir / "fit.h5"
+    if fit_h5.exists():
+        with h5py.File(fit_h5, "r") as f:
+            stamp = f.attrs.get("made_from")
+        if stamp != recorded:
+            raise PipelineError(f"{fit_h5} is not the fit.json beside it's (another fit's): `make fit` remakes both")
+
+
 def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
     """Every figure and the report from the comparison and calibration outputs."""
     metrics = schema.read_metrics(compare_dir / "metrics.json")
     schema.check_compared(metrics, compare_dir / "metrics.json")
     io.check_writable_dir(out)
     fit = schema.read_fit(fit_dir / "fit.json") if (fit_dir / "fit.json").exists() else None
+    check_fit_belongs(fit, fit_dir, metrics.made_from)
     sets = metrics.param_sets.labelled()
     fitted, paper = metrics.param_sets.our_fit, metrics.param_sets.table2
     preset = metrics.preset

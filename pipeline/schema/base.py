@@ -196,6 +196,15 @@ class MadeFrom:
         return [name for name, digest in self.inputs.items()  # ROOT / an absolute path is that path
                 if not (ROOT / name).is_file() or sha256(ROOT / name) != digest]
 
+    def require_same(self, what: str, expected: dict, make: str) -> None:
+        """Refuse, in one line naming the product and the command that remakes it, a product made for another data
+        set or with other options than ``expected`` (its options' values by key; a key it lacks is a mismatch)."""
+        for key, value in expected.items():
+            got = self.options.get(key, "(not recorded)")
+            if got != value:
+                raise PipelineError(f"{what} was made for {key}={got!r}, not {value!r}: it is another's product; "
+                                    f"`make {make}` remakes it")
+
     def require_unchanged(self, what: str, make: str) -> None:
         """Refuse, in one line, a product whose inputs changed (``what`` names the product and what it did with
         them, ``make`` the target that remakes it)."""

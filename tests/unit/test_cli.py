@@ -42,10 +42,10 @@ def test_files_written_get_the_umasks_permissions(tmp_path, umask, mode):
 def test_params_file_round_trip(tmp_path):
     path = tmp_path / "p.json"
     assert main(["params", "--out", str(path)]) == 0
-    path.write_text(path.read_text().replace('"C": -5.6', '"C": -4.0'))
+    path.write_text(path.read_text().replace('"C": -5.6', '"C": -4.0').replace('"c1": 5.6', '"c1": 4.0'))
     out = tmp_path / "c.csv"
     assert main(["predict", "--theta", "180", "--params", str(path), "--times", "1.4", "--out", str(out)]) == 0
-    expected = predict(180, params=Params().replace(C=-4.0), times=[1.4])
+    expected = predict(180, params=Params().replace(C=-4.0, c1=4.0), times=[1.4])  # Eq. 19: c1 = -C
     assert pd.read_csv(out)["tau12"].iloc[0] == pytest.approx(expected.tau[0, 0, 1], rel=1e-10)
 
 

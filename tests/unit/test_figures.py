@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import re
 from types import SimpleNamespace
 
 import h5py
@@ -32,7 +33,8 @@ def compared(tmp_path_factory):
     rev3 = synthetic_run(tmp / "seed3", name="theta180", n_cycles=2, noise=0.005, seed=3)
     fit([rev], tmp / "fit", cross_runs=[other])
     sets = {"Table 2": model.Params(), "our fit": read_params(tmp / "fit" / "params.json")}
-    made_from = schema.MadeFrom.of([tmp / "fit" / "params.json", rev.path, other.path, rev3.path], {})
+    made_from = schema.MadeFrom.of([tmp / "fit" / "params.json", rev.path, other.path, rev3.path],
+                                   {"fit": schema.read_fit(tmp / "fit" / "fit.json").made_from.digest()})
     metrics = compare([rev, other], sets, tmp / "fit" / "fit.h5", tmp / "compare", "synthetic", other_seeds=(rev3,),
                       made_from=made_from)
     return tmp, metrics
@@ -413,7 +415,7 @@ def test_a_product_whose_inputs_changed_or_that_mixes_two_fits_is_refused(tmp_pa
     schema.check_fitted(params)  # as made: believed
     kept = params.read_text()
     edited = json.loads(kept)
-    edited["C"] = -4.0
+    edited["C"], edited["c1"] = -4.0, 4.0  # Eq. 19 holds: the check that refuses is the fit's own
     params.write_text(json.dumps(edited))
     with pytest.raises(PipelineError, match="does not hold the parameters fit.json beside it fitted"):
         schema.check_fitted(params)
@@ -434,8 +436,46 @@ def test_a_product_whose_inputs_changed_or_that_mixes_two_fits_is_refused(tmp_pa
     shutil.copy(tmp_path / "kept.h5", rev.path)
     schema.check_fitted(params)
     sets = {"Table 2": model.Params(), "our fit": read_params(params)}
-    compare([rev], sets, None, tmp_path / "compare", "synthetic", made_from=schema.MadeFrom.of([params, rev.path], {}))
-    edited["C"] = -4.5
+    compare([rev], sets, None, tmp_path / "compare", "synthetic", made_from=schema.MadeFrom.of(
+        [params, rev.path], {"fit": schema.read_fit(tmp_path / "fit" / "fit.json").made_from.digest()}))
+    edited["C"], edited["c1"] = -4.5, 4.5
     params.write_text(json.dumps(edited))  # a new fit after the comparison, which the figures would draw beside it
     with pytest.raises(PipelineError, match="compared files that have changed or gone since .*params.json"):
         draw(tmp_path / "compare", tmp_path / "fit", tmp_path / "out")
+
+
+def test_a_fit_copied_from_another_fit_is_refused_by_the_figures_in_one_line(compared, tmp_path):
+    """fit.json or fit.h5 of another fit beside the compared one (another data set's, copied in): the figures name
+    the foreign file and what remakes it; the same files, untouched, draw."""
+    import shutil
+
+    from pipeline.errors import PipelineError
+    from pipeline.figures.draw import check_fit_belongs
+
+    tmp, metrics = compared
+    ours = schema.read_fit(tmp / "fit" / "fit.json")
+    check_fit_belongs(ours, tmp / "fit", metrics.made_from)
+    rev = synthetic_run(tmp_path, name="theta180", n_cycles=2, noise=0.01, seed=7)
+    fit([rev], tmp_path / "other", data_set={"data_set": "another", "skip_cycles": 0})
+    theirs = schema.read_fit(tmp_path / "other" / "fit.json")
+    with pytest.raises(PipelineError, match="fit.json is not the fit .* comparison read"):
+        check_fit_belongs(theirs, tmp / "fit", metrics.made_from)
+    mixed = tmp_path / "mixed"
+    shutil.copytree(tmp / "fit", mixed)
+    shutil.copy(tmp_path / "other" / "fit.h5", mixed / "fit.h5")
+    with pytest.raises(PipelineError, match="fit.h5 is not the fit.json beside it's"):
+        check_fit_belongs(ours, mixed, metrics.made_from)
+
+
+@pytest.mark.parametrize("recorded, expected, said", [
+    ({"data_set": "reduced-lammps", "skip_cycles": 0}, {"data_set": "reduced", "skip_cycles": 0},
+     "was made for data_set='reduced-lammps', not 'reduced'"),
+    ({"data_set": "reduced", "skip_cycles": 1}, {"data_set": "reduced", "skip_cycles": 0},
+     "was made for skip_cycles=1, not 0"),
+    ({}, {"data_set": "reduced"}, "was made for data_set='(not recorded)'"),
+])
+def test_a_product_of_another_data_set_or_cycles_is_refused_naming_what_remakes_it(recorded, expected, said):
+    from pipeline.errors import PipelineError
+
+    with pytest.raises(PipelineError, match=re.escape(said) + ".*`make fit PRESET=reduced` remakes it"):
+        schema.MadeFrom({}, recorded).require_same("results/reduced/fit/fit.json", expected, "fit PRESET=reduced")

@@ -15,7 +15,7 @@ def test_defaults_are_table_2_and_section_5():
 
 
 def test_json_round_trip(tmp_path):
-    p = PAPER.replace(C=-4.0, b2=-350.0)
+    p = PAPER.replace(C=-4.0, c1=4.0, b2=-350.0)  # Eq. 19: c1 = -C
     path = tmp_path / "p.json"
     save_params(p, path)
     assert load_params(path) == p
