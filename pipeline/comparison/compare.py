@@ -30,7 +30,8 @@ def write_dem_cycle(g: h5py.Group, run, ratio: float, keys: tuple[str, ...]) -> 
 
 
 def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, preset: str,
-                     reversal_parts: list, memory_curves: list, other_seeds: tuple = (), others: list = ()) -> None:
+                     reversal_parts: list, memory_curves: list, other_seeds: tuple = (), others: list = (),
+                     made_from: str = "") -> None:
     """compare.h5: per run, the DEM cycle and every parameter set's model cycle, against strain in the fit's
     measure (``strain_measure``: the datasets keep the name ``strain_bulk``), and the DEM cycle of each of
     ``other_seeds`` of its protocol (``others``: their predictions, for their strain measure); per reversal run of
@@ -39,7 +40,7 @@ def write_compare_h5(path: Path, runs: list, predictions: list, sets: dict, pres
     against the strain after the change (the DEM's mean over cycles and its standard error, each parameter set's)."""
     with io.h5_file(path) as f:
         schema.stamp_compare(f)
-        f.attrs.update(preset=preset, strain_measure=runs[0].definitions.strain,
+        f.attrs.update(made_from=made_from, preset=preset, strain_measure=runs[0].definitions.strain,
                        param_sets=json.dumps({label: p.to_dict() for label, p in sets.items()}))
         for k, run in enumerate(runs):
             g = f.create_group(f"runs/{k:02d}")
@@ -131,7 +132,8 @@ def compare(runs: list, sets: dict, fit_h5: Path | None, out_dir: Path, preset: 
         result["relaxation"] = schema.Relaxation(len(parts), schema.Strains(*metrics.relaxation_strains(parts)),
                                                  by_cut[f"{metrics.RELAXATION_CUTS[0]:g}"].model, by_cut)
     with io.atomic_paths(out_dir / "compare.h5", out_dir / "metrics.json") as (h5, js):  # renamed together
-        write_compare_h5(h5, runs, predictions, sets, preset, parts, curves + more, other_seeds, others)
+        write_compare_h5(h5, runs, predictions, sets, preset, parts, curves + more, other_seeds, others,
+                         made_from.digest() if made_from is not None else "")
         found = schema.Metrics(**result, made_from=made_from)
         io.write_bytes(js, io.json_text(found.to_dict()).encode())
     return found

@@ -48,6 +48,9 @@ def draw(compare_dir: Path, fit_dir: Path, out: Path) -> list[Path]:
         raise PipelineError(f"cannot read {compare_dir / 'compare.h5'}: run `make compare` first ({exc})") from None
     with f:
         schema.check_compare(f, compare_dir / "compare.h5")
+        if f.attrs.get("made_from") != metrics.made_from.digest():
+            raise PipelineError(f"{compare_dir / 'compare.h5'} is not the metrics.json beside it's (another "
+                                "comparison's): `make compare` remakes both")
         runs = [f["runs"][k] for k in f["runs"]]
         default = [g for g in runs if g.attrs["default_rotation"]]
         rotated = [g for g in runs if not g.attrs["default_rotation"]]

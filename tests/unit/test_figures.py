@@ -479,3 +479,18 @@ def test_a_product_of_another_data_set_or_cycles_is_refused_naming_what_remakes_
 
     with pytest.raises(PipelineError, match=re.escape(said) + ".*`make fit PRESET=reduced` remakes it"):
         schema.MadeFrom({}, recorded).require_same("results/reduced/fit/fit.json", expected, "fit PRESET=reduced")
+
+
+def test_a_compare_h5_of_another_comparison_beside_metrics_json_is_refused(compared, tmp_path):
+    import shutil
+
+    from pipeline.errors import PipelineError
+    from pipeline.figures.draw import draw
+
+    tmp, metrics = compared
+    mixed = tmp_path / "compare"
+    shutil.copytree(tmp / "compare", mixed)
+    with h5py.File(mixed / "compare.h5", "r+") as f:  # as another comparison of the same runs writes it
+        f.attrs["made_from"] = "0" * 64
+    with pytest.raises(PipelineError, match="compare.h5 is not the metrics.json beside it's"):
+        draw(mixed, tmp / "fit", tmp_path / "out")
