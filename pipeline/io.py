@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import contextlib
+import functools
+import hashlib
 import json
 import os
 import stat
@@ -51,6 +53,22 @@ def h5_file(path: Path):
     with h5py.File(buffer, "w") as f:
         yield f
     write_bytes(path, buffer.getbuffer())
+
+
+def sha256(path: Path) -> str:
+    """The file's SHA-256, as 64 hex digits; read once per process while the file stays the same inode, size and
+    change time (a stage checks a file against the manifest and then records it: one read)."""
+    info = os.stat(path)
+    return _sha256(os.path.realpath(path), info.st_ino, info.st_size, info.st_mtime_ns, info.st_ctime_ns)
+
+
+@functools.lru_cache(maxsize=512)
+def _sha256(path: str, *_identity) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def write_bytes(path: Path, data) -> None:

@@ -17,7 +17,7 @@ from dem.core.spec import DemSpec
 
 from ..cli import Parser, one_line_errors
 from ..errors import DemFileError, PipelineError
-from ..io import atomic_path, write_bytes
+from ..io import atomic_path, sha256, write_bytes
 from ..paths import ROOT, globbed
 from . import drift, manifest
 from .dem_file import cpu_seconds, cpu_seconds_counted, load, run_provenance, sessions
@@ -51,7 +51,7 @@ def describe(path: Path, root: Path) -> dict:
             "sessions": len(runs), "ranks": sorted({int(s.get("ranks", 1)) for s in runs}) or [1],
             "commits": list(dict.fromkeys(c[:7] + ("-dirty" if c.endswith("-dirty") else "") for c in commits)),
             "finished": str(prov.get("finished", ""))[:10], "megabytes": path.stat().st_size / 1e6,
-            "sha256": manifest.sha256(path)[:SHA_DIGITS]}
+            "sha256": sha256(path)[:SHA_DIGITS]}
 
 
 def inventory(root: Path) -> str:

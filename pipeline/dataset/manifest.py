@@ -9,35 +9,16 @@ no row, a link or a changed file is a one-line error before the file is read.
 
 from __future__ import annotations
 
-import functools
-import hashlib
-import os
 import re
 from pathlib import Path
 
 from ..errors import DemFileError
-from ..io import atomic_path, write_bytes
+from ..io import atomic_path, sha256, write_bytes
 from ..paths import REFERENCE_DIR, globbed
 
 MANIFEST = "MANIFEST.sha256"
 #: a row: the digest, two spaces, a relative path of plain names (no ``.`` or ``..`` part, no leading ``/``)
 ROW = re.compile(r"([0-9a-f]{64})  ((?:[A-Za-z0-9_+-][A-Za-z0-9_.+-]*/)*[A-Za-z0-9_+-][A-Za-z0-9_.+-]*)")
-
-
-def sha256(path: Path) -> str:
-    """The file's SHA-256, as 64 hex digits; read once per process while the file stays the same inode, size and
-    change time (a stage checks a file against the manifest and then records it: one read)."""
-    info = os.stat(path)
-    return _sha256(os.path.realpath(path), info.st_ino, info.st_size, info.st_mtime_ns, info.st_ctime_ns)
-
-
-@functools.lru_cache(maxsize=512)
-def _sha256(path: str, *_identity) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def run_files(root: Path) -> list[Path]:

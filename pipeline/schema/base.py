@@ -169,9 +169,7 @@ class MadeFrom:
 
     @classmethod
     def of(cls, paths, options: dict) -> MadeFrom:
-        from ..dataset.manifest import sha256
-
-        return cls({shown(p): sha256(Path(p)) for p in paths}, dict(options))
+        return cls({shown(p): io.sha256(Path(p)) for p in paths}, dict(options))
 
     @classmethod
     def from_dict(cls, data, path) -> MadeFrom:
@@ -191,10 +189,8 @@ class MadeFrom:
 
     def stale(self) -> list[str]:
         """The inputs that are no longer what the product read (changed, or gone)."""
-        from ..dataset.manifest import sha256
-
         return [name for name, digest in self.inputs.items()  # ROOT / an absolute path is that path
-                if not (ROOT / name).is_file() or sha256(ROOT / name) != digest]
+                if not (ROOT / name).is_file() or io.sha256(ROOT / name) != digest]
 
     def require_same(self, what: str, expected: dict, make: str) -> None:
         """Refuse, in one line naming the product and the command that remakes it, a product made for another data

@@ -74,7 +74,7 @@ def fit_options_text(v: Variables) -> str:
 def fit_stamp_text(v: Variables) -> str:
     """``options.txt``: the options of ``make fit`` (``fit_options_text``) and the SHA-256 of every run file that
     may belong to its data set, so that a changed run remakes the fit whatever its file time says."""
-    from ..dataset.manifest import sha256
+    from ..io import sha256
     from ..paths import preset_files, shown
 
     return fit_options_text(v) + "".join(f"{sha256(p)}  {shown(p)}\n" for p in preset_files(data_set_of(v).preset))
