@@ -1,14 +1,11 @@
-# Entry point. `make help` lists the targets. The pipeline is a DAG of files:
-#   results/<D>/dem/*.h5 -> results/<D>/fit/params.json -> results/<D>/compare/metrics.json -> results/<D>/report.md
-# (<D>: the data set's folder, from results/.make/goals/) and each step reruns only when what it reads changed.
-# the variables a user may set (below: each becomes text, checked in Python); this list and the guard after it cannot
-# be set from outside (override)
+# Entry points (`make help`) and the DAG of files results/<D>/dem/*.h5 -> fit/params.json -> compare/metrics.json ->
+# report.md (<D>: the data set's folder, results/.make/goals/); a step reruns only when what it reads changed.
+# The variables a user may set (each becomes text, checked in Python); this list and the guards are `override`.
 override USER_VARIABLES := THETA PRESET ENGINE RANKS ROTATE_AT SET FRESH THREADS ALLOW_INERTIAL PRESETS ENGINES FIT_FROM STRESS \
 	WEIGHT ANGLES OVER BOOT STRAIN PHI THETAS ROTATE_ATS SEEDS LAUNCH SLURM JOBS MANY SWEEP SEED A B RUN_DIR VARIANT ACROSS \
 	LAWS SKIP_CYCLES CASES POINTS LADDER NAMES
-# any other variable given on the command line (the Makefile's own: PY, FIT_DIR, DATA_SET...) is refused by its name
-# alone, before Make expands anything: its value would run as Make text; and so is -e (MAKEFLAGS=e), under which the
-# environment's values would replace the Makefile's own
+# any other variable on the command line (PY, FIT_DIR, ...: its value would run as Make text) is refused by its name
+# before Make expands anything, and so is -e (MAKEFLAGS=e: the environment would replace the Makefile's own values)
 override NOT_USER_VARIABLES := $(strip $(foreach v,$(.VARIABLES),$(if $(filter command line,$(origin $(v))),$(if \
 	$(filter $(v),$(USER_VARIABLES)),,$(v)))))
 $(if $(NOT_USER_VARIABLES),$(error $(NOT_USER_VARIABLES): not a variable a user sets (those are: $(USER_VARIABLES))))
@@ -28,11 +25,7 @@ MODEL_THETAS := 030 060 090 120 150 180
 MODEL_DIR := results/model
 
 # ---------------------------------------------------------------- the user's variables: text, checked in Python
-# Every variable a user may set becomes plain text that Make never expands again, and is exported; no recipe holds
-# one. Python checks the variables of the goals asked for into results/.make/goals/ (one line naming a bad value,
-# which `check` stops on before anything is installed or run), with the data set's folder and the fit's suffix that the file
-# rules of fit, compare and figures need; `python -m pipeline.targets TARGET` then runs the target's stages with
-# argument lists (`--plan TARGET` prints them).
+# Each is exported as text Make never expands and no recipe holds; `python -m pipeline.targets` checks and uses them.
 $(foreach v,$(USER_VARIABLES),$(eval override $(v) := $$(value $(v))))
 export $(USER_VARIABLES)
 TARGETS := $(PY) -m pipeline.targets
@@ -44,9 +37,8 @@ STAGES := bench dem sweep runs sweep-status sweep-collect fit-bootstrap fit-jack
 	fit-profile fidelity fidelity-table profile-dem bench-dem bench-lammps-settings engines data-card versus cells jump \
 	stability models budget
 CHECKED_GOALS := $(filter $(STAGES) fit compare compare-seed figures,$(MAKECMDGOALS))
-# for a checked goal, Python writes results/.make/goals/{CHECK_ERROR,DATA_SET,FIT_SUFFIX} and a stamp of them, which
-# Make includes: where it changed, Make reads itself again with them. Each is read as text ($(file <...): never
-# expanded, so no name can run); empty otherwise, never taken from the environment
+# a checked goal's values (results/.make/goals/, read as text: $(file <) never expands) and their stamp, which Make
+# includes (it reads itself again where the values changed); empty otherwise, never from the environment
 CHECK_ERROR :=
 DATA_SET :=
 FIT_SUFFIX :=
@@ -60,18 +52,14 @@ results/.make/goals.stamp: FORCE
 	@python3 -m pipeline.targets makefile $@ $(CHECKED_GOALS)
 check:
 	$(if $(CHECK_ERROR),$(error $(CHECK_ERROR)))
-# a goal whose variables are checked checks them first
 $(CHECKED_GOALS): check
 system-venv system system-lammps system-slurm $(VENV_STAMP): | check
 
-# a fit and its comparison are named by the options that set their numbers (FIT_SUFFIX: the law, FIT_FROM, STRESS,
-# WEIGHT, SKIP_CYCLES where not the defaults; pipeline/calibration/naming.py), so that none replaces another's; the
-# default fit's report is the data set's, another's goes into its comparison's folder
+# a fit and its comparison are named by the options that set their numbers (pipeline/calibration/naming.py)
 FIT_DIR := results/$(DATA_SET)/fit$(FIT_SUFFIX)
 COMPARE_DIR := results/$(DATA_SET)/compare$(FIT_SUFFIX)
 REPORT := $(if $(FIT_SUFFIX),$(COMPARE_DIR),results/$(DATA_SET))/report.md
-# every writer renames its outputs into place when they are complete: an interrupted step keeps the previous set,
-# which Make must not delete either
+# every writer renames its complete outputs into place: an interrupted step keeps the previous set, Make too
 .PRECIOUS: $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 $(COMPARE_DIR)/metrics.json \
 	$(COMPARE_DIR)/compare.h5 $(REPORT)
 DATASET_CODE := $(filter-out pipeline/variables.py,$(wildcard pipeline/*.py pipeline/dataset/*.py model/*.py \
@@ -91,16 +79,12 @@ demo: system venv model-cycles demo-dem ## set up everything, then run the pipel
 # ---------------------------------------------------------------- tests and lint
 test: system system-lammps system-slurm venv lint ## lint, then every test (the real Yade and LAMMPS, a real one-node SLURM): what CI runs
 	$(PY) -m pytest -q --durations=40
-
 test-unit: venv ## the fast unit tests (no Yade, LAMMPS or SLURM, nothing marked slow): under a minute of CPU
 	$(PY) -m pytest -q tests/unit -m "not slow and not yade and not lammps and not slurm"
-
 test-yade: system system-lammps venv ## the tests that run the real Yade (and LAMMPS)
 	$(PY) -m pytest -q tests/integration
-
 test-cluster: system system-slurm venv ## a sweep on a real one-node SLURM cluster started on this machine
 	$(PY) -m pytest -q tests/cluster
-
 lint: venv ## ruff over the whole project
 	$(PY) -m ruff check .
 
@@ -108,27 +92,22 @@ bench: system $(LAMMPS_IF_ASKED) venv ## benchmarks: model numerics, the materia
 
 # ---------------------------------------------------------------- set-up
 venv: $(VENV_STAMP) ## the project virtualenv from pyproject.toml
-
 $(VENV_STAMP): pyproject.toml | system-venv
 	python3 -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[dev]'
 	touch $@
-
 system-venv: ## Debian's python3-venv, for the project's virtualenv (apt-get; a fresh Debian has no ensurepip)
 	@if python3 -c 'import ensurepip' 2>/dev/null; then echo "venv support present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) python3-venv; fi
-
 system-lammps: ## Debian's LAMMPS for Debian's python3 (apt-get: lammps, python3-lammps, liblammps-dev, OpenMPI, mpi4py, scipy, iproute2)
 	@if /usr/bin/python3 -c 'import mpi4py, scipy, lammps; lammps.lammps(cmdargs=["-log", "none", "-screen", "none"]).close()' \
 	  2>/dev/null && command -v ip >/dev/null && command -v unshare >/dev/null; then echo "lammps present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) lammps python3-lammps liblammps-dev openmpi-bin python3-mpi4py \
 	  python3-scipy iproute2 util-linux; fi
-
 system-slurm: ## Debian's slurm-wlm and munge, for the cluster test (apt-get)
 	@if command -v slurmctld >/dev/null && command -v munged >/dev/null; then echo "slurm and munge present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) slurm-wlm munge; fi
-
 system: system-venv ## Debian's Yade and scipy (apt-get); the scenes need numpy, scipy and yade in Debian's python3
 	@if command -v yade >/dev/null && /usr/bin/python3 -c 'import scipy' 2>/dev/null; then echo "yade present"; else \
 	  $(SUDO) apt-get update -qq && $(APT_INSTALL) yade python3-scipy; fi
@@ -162,7 +141,6 @@ $(STAGES): check
 	$(TARGETS) $@
 
 model-cycles: $(foreach t,$(MODEL_THETAS),$(MODEL_DIR)/theta$(t).csv) ## model cycles for the paper's six angles (Table 2)
-
 $(MODEL_DIR)/theta%.csv: $(VENV_STAMP) model/*.py
 	$(PY) -m model predict --theta $* --out $@
 
@@ -175,8 +153,7 @@ demo-dem-%: | $(VENV_STAMP)
 
 # ---------------------------------------------------------------- the data set's files: fit -> compare -> figures
 fit: $(FIT_DIR)/params.json ## calibrate on the data set's runs [PRESET=...] [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] [VARIANT=loading] [SKIP_CYCLES=1] -> results/<data set>/fit[-<options>]/
-# the options of the last fit and the SHA-256 of its data set's runs: other options or a changed, added or removed run
-# make a new fit and comparison (the runs' paths never reach Make)
+# the fit's options and its runs' SHA-256: other options or a changed, added or removed run remake fit and comparison
 $(FIT_DIR)/options.txt: FORCE
 	@python3 -m pipeline.targets fit-options $@
 
@@ -185,7 +162,6 @@ $(FIT_DIR)/params.json $(FIT_DIR)/fit.json $(FIT_DIR)/fit.h5 &: $(VENV_STAMP) $(
 	$(TARGETS) fit
 
 compare: $(COMPARE_DIR)/metrics.json ## the model against the data set's runs -> results/<data set>/compare/
-
 $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 &: $(FIT_DIR)/params.json $(FIT_DIR)/fit.h5 \
 		$(FIT_DIR)/options.txt $(DATASET_CODE) $(wildcard pipeline/comparison/*.py)
 	$(TARGETS) compare
@@ -194,7 +170,6 @@ compare-seed: check $(FIT_DIR)/params.json ## another seed's runs against the mo
 	$(TARGETS) $@
 
 figures: $(REPORT) ## Figs. 3-9 and report.md -> results/<data set>/figures/, report.md (another law's or option's: in its compare-<...>/)
-
 $(REPORT): $(COMPARE_DIR)/metrics.json $(COMPARE_DIR)/compare.h5 $(FIT_DIR)/fit.json \
 		$(FIT_DIR)/fit.h5 $(wildcard pipeline/figures/*.py $(FIT_DIR)/fit_from.json)
 	$(TARGETS) figures
