@@ -11,21 +11,17 @@
 from __future__ import annotations
 
 import sys
-from pathlib import Path
-
-import model
 
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
 from ..dataset.dem_file import load
-from ..dataset.options import add_definition_arguments, definitions_from
+from ..dataset.options import definitions_from
 from ..errors import CalibrationError
 from ..paths import check_folder_name, preset_output
-from . import global_fit
-from .calibrate import JACKKNIFE_OVER, Settings, fit, parse_hold
+from .calibrate import Settings, fit, parse_hold
 from .inputs import runs_of
 from .naming import fit_folder
-from .options import add_weight_argument
+from .options import add_fit_arguments
 from .text import print_report
 
 
@@ -33,33 +29,7 @@ from .text import print_report
 def main(argv=None) -> int:
     parser = Parser(prog="python -m pipeline.calibration", description=__doc__.splitlines()[0])
     selection.add_arguments(parser, "preset whose runs to fit")
-    parser.add_argument("--runs", nargs="*", type=Path, help="reversal DEM files to fit instead of the preset's")
-    parser.add_argument("--window", type=float, default=0.05, help="Savitzky-Golay window in strain (default 0.05)")
-    parser.add_argument("--out", type=Path, help="output folder (default results/<preset>/fit)")
-    add_definition_arguments(parser)
-    parser.add_argument("--hold", action="append", default=[], metavar="NAME=VALUE",
-                        help="hold a flow-rule or fabric parameter at VALUE instead of fitting it (repeatable)")
-    parser.add_argument("--jackknife", nargs="?", const="seeds", default="", choices=JACKKNIFE_OVER,
-                        help="also refit leaving out one reversal seed (seeds, the default; needs 3 or more) or one "
-                             "angle with all its runs (angles; needs 3 or more) at a time; the outputs go to "
-                             "results/<data set>/fit-jackknife-<over>[-from<STRAIN>][-<stress>]/")
-    parser.add_argument("--fit-from", type=float, default=0.0, metavar="STRAIN",
-                        help="restart the model from the DEM's state this far past each change of direction and "
-                             "fit what follows (nominal strain, a multiple of the sampling step; default 0: all)")
-    parser.add_argument("--persistence-exponent", type=float, default=0.75, metavar="K",
-                        help="k of Lambda = S^k (Eq. 12), held (default 3/4, the paper's)")
-    parser.add_argument("--stress", default=global_fit.STRESS_DEFAULT, choices=sorted(global_fit.STRESS_FITS),
-                        help="the components of tau/p fitted: shear (12, 32: tau:D'; the paper's, default) or all "
-                             "(the diagonal too, which carries normal-stress differences the model does not give)")
-    add_weight_argument(parser)
-    parser.add_argument("--variant", default=model.params.DEFAULT_VARIANT, choices=list(model.params.VARIANTS),
-                        help="the fabric law fitted: rk2025 (Eq. 13, default) or a variant beyond it (docs/model.md); "
-                             "its added parameters are fitted with the others")
-    parser.add_argument("--angles", nargs="+", type=float, metavar="THETA",
-                        help="fit only the data set's runs at these angles (degrees, 180 among them); the outputs "
-                             "go to results/<data set>/fit-angles-<thetas>[-from<STRAIN>][-<stress>]/")
-    parser.add_argument("--bootstrap", type=int, metavar="N",
-                        help="also refit N >= 2 resamplings of the cycles (bootstrap standard deviations)")
+    add_fit_arguments(parser)
     args = parser.parse_args(argv)
     if args.bootstrap is not None and args.bootstrap < 2:
         raise CalibrationError(f"bootstrap={args.bootstrap}: a bootstrap needs at least 2 resamples")
