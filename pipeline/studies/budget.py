@@ -415,8 +415,8 @@ def eq13_params(chosen, path: Path | None) -> tuple[model.Params, str]:
         if params.variant != model.params.DEFAULT_VARIANT:
             raise PipelineError(f"--params {path}: law {params.variant}, not Eq. 13's ({model.params.DEFAULT_VARIANT})")
         return params, f"the parameters of {path}"
-    from ..calibration.model_selection.inputs import read
-    from ..calibration.model_selection.judge import fit
+    from ..model_selection.inputs import read
+    from ..model_selection.judge import fit
 
     fitted, _ = fit(read(chosen), model.params.DEFAULT_VARIANT, "all", "runs")
     return fitted.params, f"Eq. 13 fitted on every run of {chosen.label} (as `make models`)"

@@ -191,7 +191,7 @@ TARGETS: dict[str, Callable[[Variables], list[Call]]] = {
     "data-card": lambda v: [Call("pipeline.dataset.card")],
     "jump": lambda v: [Call("pipeline.studies.jump")],
     "budget": lambda v: [Call("pipeline.studies.budget", data_args(v))],
-    "models": lambda v: [Call("pipeline.calibration.model_selection", (*data_args(v), *across_args(v), *laws_args(v))),
+    "models": lambda v: [Call("pipeline.model_selection", (*data_args(v), *across_args(v), *laws_args(v))),
                          Call("pipeline.figures.models", data_args(v))],
     "stability": lambda v: [Call("pipeline.studies.stability", tuple(
         ["--cases", ",".join(v.names("CASES"))] if v.names("CASES") else []))],

@@ -335,7 +335,7 @@ def test_the_lammps_settings_benchmark_refuses(tmp_path, folder, extra, fragment
 # ---------------------------------------------------------------- an empty path is no path
 @pytest.mark.parametrize("module, argv", [
     ("pipeline.calibration", ["--preset", "reduced", "--out", ""]),
-    ("pipeline.calibration.model_selection", ["--preset", "reduced", "--out", " "]),
+    ("pipeline.model_selection", ["--preset", "reduced", "--out", " "]),
     ("pipeline.figures", ["--preset", "reduced", "--out", ""]),
     ("pipeline.runs", ["run", "--theta", "90", "--preset", "tiny", "--results", ""]),
     ("pipeline.studies.bench_update", ["--out", ""]),

@@ -9,9 +9,9 @@ import pytest
 import model
 from pipeline import schema
 from pipeline.calibration import global_fit
-from pipeline.calibration.model_selection import curves, inputs, judge, scores, splits, text
 from pipeline.dataset.derived import PAPER_DEFINITIONS
 from pipeline.errors import CalibrationError, PipelineError
+from pipeline.model_selection import curves, inputs, judge, scores, splits, text
 from tests.helpers import synthetic_run
 
 

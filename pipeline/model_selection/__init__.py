@@ -1,7 +1,7 @@
 """``make models``: every fabric law (``model.params.VARIANTS``) fitted as ``make fit`` fits, and judged by the runs
 it was not fitted on.
 
-``python -m pipeline.calibration.model_selection [--preset P] [--engine E] [--set K=V] [--across P[:E]|none ...]
+``python -m pipeline.model_selection [--preset P] [--engine E] [--set K=V] [--across P[:E]|none ...]
 [--laws L,...] [--out DIR]``. For each variant, the global fit (``calibration.global_fit``: the same definitions,
 noise model and weights as ``make fit``; the dilatancy is not fitted, Phi is not scored) on
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ...schema import Judgement, LawScore
+from ..schema import Judgement, LawScore
 from .scores import BEYOND_NOISE_Z
 
 

@@ -1,4 +1,4 @@
-"""``python -m pipeline.calibration.model_selection``: ``make models`` (see the package's text)."""
+"""``python -m pipeline.model_selection``: ``make models`` (see the package's text)."""
 
 from __future__ import annotations
 
@@ -8,12 +8,12 @@ from pathlib import Path
 
 import model
 
-from ... import io, schema
-from ...cli import Parser, one_line_errors
-from ...dataset import selection
-from ...errors import CalibrationError
-from ...paths import preset_output
-from .. import global_fit
+from .. import io, schema
+from ..calibration import global_fit
+from ..cli import Parser, one_line_errors
+from ..dataset import selection
+from ..errors import CalibrationError
+from ..paths import preset_output
 from .curves import curves
 from .inputs import law_list, other_data_sets, read
 from .judge import judge
@@ -24,7 +24,7 @@ from .text import markdown
 
 @one_line_errors
 def main(argv=None) -> int:
-    parser = Parser(prog="python -m pipeline.calibration.model_selection",
+    parser = Parser(prog="python -m pipeline.model_selection",
                     description=sys.modules[__package__].__doc__.splitlines()[0])
     selection.add_arguments(parser, "preset whose runs judge the variants")
     parser.add_argument("--across", action="append", default=[], metavar="PRESET[:ENGINE]",
@@ -72,7 +72,7 @@ def main(argv=None) -> int:
         schema.write_models_h5(h5, curves(runs, results), made_from)
     for r in results:
         io.write_params(out / f"params-{r.variant}.json", model.Params.from_dict(r.params),
-                        {"fit": "global (pipeline.calibration.model_selection: every run of the default protocol)",
+                        {"fit": "global (pipeline.model_selection: every run of the default protocol)",
                          "misfit": r.misfit})
     print("\n".join(j.line() for j in judgements))
     print(f"wrote {out / 'models.md'}, models.json, models.h5 and params-<variant>.json")

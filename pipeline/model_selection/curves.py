@@ -7,8 +7,8 @@ import numpy as np
 
 import model
 
-from ...comparison import metrics
-from ...schema import LawScore
+from ..comparison import metrics
+from ..schema import LawScore
 
 #: strain after a reversal over which the figure follows the jump
 JUMP_SPAN = 0.05

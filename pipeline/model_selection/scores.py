@@ -8,11 +8,11 @@ import numpy as np
 
 import model
 
-from ...comparison import metrics
-from ...schema import HeldOut, Judgement, LawScore
-from .. import covariance, global_fit
-from ..fit_cycle import FitCycle
-from ..noise import COMPONENTS
+from ..calibration import covariance, global_fit
+from ..calibration.fit_cycle import FitCycle
+from ..calibration.noise import COMPONENTS
+from ..comparison import metrics
+from ..schema import HeldOut, Judgement, LawScore
 from .splits import protocol
 
 #: a held-out difference "beyond the noise": the drop in chi^2 over this many standard deviations of what the noise

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...errors import CalibrationError
-from ...schema import AcrossScore, LawScore, SplitScore
-from .. import global_fit
-from ..definitions import own_reversal
+from ..calibration import global_fit
+from ..calibration.definitions import own_reversal
+from ..errors import CalibrationError
+from ..schema import AcrossScore, LawScore, SplitScore
 from .scores import held_out, information, not_predicted, pooled
 from .splits import splits
 

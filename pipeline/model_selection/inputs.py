@@ -7,10 +7,10 @@ import argparse
 
 import model
 
-from ...dataset import selection
-from ...dataset.derived import PAPER_DEFINITIONS
-from ...dataset.lookup import every_seed
-from ...errors import CalibrationError
+from ..dataset import selection
+from ..dataset.derived import PAPER_DEFINITIONS
+from ..dataset.lookup import every_seed
+from ..errors import CalibrationError
 
 
 def read(chosen) -> list:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ...errors import CalibrationError
+from ..errors import CalibrationError
 
 #: the angles ``LeaveAnglesOut`` fits (the reversal among them); it predicts the others and Fig. 7's turns
 TRAIN_ANGLES = (180.0, 30.0, 60.0, 90.0)
