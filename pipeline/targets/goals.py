@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import os
+import time
 from pathlib import Path
 
 from ..errors import PipelineError
@@ -58,10 +59,18 @@ def goal_values(v: Variables, goals: list[str]) -> GoalValues:
 
 
 def write_goal_values(stamp: Path, values: GoalValues) -> None:
-    """Each value into ``<stamp's folder>/goals/<NAME>``, then the stamp (each rewritten only where it changed)."""
+    """Each value into ``<stamp's folder>/goals/<NAME>``, then the stamp (each rewritten only where it changed). Where
+    a value's file held anything else (an older value, or one edited by hand), the stamp changes too, so that Make
+    reads itself again with the values written."""
+    changed = False
     for field in dataclasses.fields(values):
-        write_if_changed(stamp.parent / "goals" / field.name, getattr(values, field.name))
-    write_if_changed(stamp, values.stamp())
+        path = stamp.parent / "goals" / field.name
+        changed |= not (path.is_file() and path.read_text() == getattr(values, field.name))
+        write_if_changed(path, getattr(values, field.name))
+    text = values.stamp()
+    if changed and stamp.is_file() and stamp.read_text() == text:
+        text += f"# rewritten at {time.time_ns()}\n"
+    write_if_changed(stamp, text)
 
 
 def fit_options_text(v: Variables) -> str:
