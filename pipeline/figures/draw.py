@@ -20,8 +20,8 @@ def check_fit_belongs(fit, fit_dir: Path, compared: schema.MadeFrom) -> None:
         return
     if fit.made_from.digest() != recorded:
         raise PipelineError(f"{fit_dir / 'fit.json'} is not the fit {fit_dir.parent.name}'s comparison read (another "
-                            "fit's, or another data set's): `make compare` remakes the comparison from it, `make fit` "
-                            "the fit")
+                            "fit's, or another data set's): `make fit compare` remakes them from the data set's "
+                            "runs")
     fit_h5 = fit_dir / "fit.h5"
     if fit_h5.exists():
         with h5py.File(fit_h5, "r") as f:
