@@ -382,8 +382,8 @@ def _law_state(law_state, params: Params, L: np.ndarray, phi: np.ndarray, n: int
             outside = (X[:, k] < low) | (X[:, k] > high)
             if outside.any():
                 i = int(np.argmax(outside))
-                raise SolverError(f"law_state[{i}] has {names[k]}={float(X[i, k])!r} outside [{low:.4g}, {high:.4g}], the "
-                                  f"bounds the {params.variant} law declares")
+                raise SolverError(f"law_state[{i}] has {names[k]}={float(X[i, k])!r} outside [{low:.4g}, "
+                                  f"{high:.4g}], the bounds the {params.variant} law declares")
         return X
     if not own:
         return _array("law_state", np.empty((n, 0)), ((n, 0),))
