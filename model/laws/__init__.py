@@ -47,7 +47,8 @@ LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
 #: the kernels' state before a law's own (``model.integrator``: A packed, t, G, v)
 BASE = 8
 
-__all__ = ["BASE", "DEFAULT", "LAWS", "OWN", "Parameter", "extra_rate", "law_parameters", "offset",
+__all__ = ["BASE", "DECLARED", "DEFAULT", "LAWS", "OWN", "Parameter", "declared", "examples", "extra_rate",
+           "law_parameters", "offset",
            "reference_parts", "relaxing_part", "removal", "set_packing", "start", "state_bounds", "state_fabric",
            "state_names", "state_rates", "state_tolerance"]
 
@@ -103,6 +104,32 @@ def state_tolerance(name: str) -> tuple[float, ...]:
     """Per own state variable, the material-point update's tolerance in units of A's (``model.stepper``): 1 unless
     the law declares ``STATE_TOLERANCE`` (a state whose local errors decay and do not add up step after step)."""
     return getattr(LAWS[name], "STATE_TOLERANCE", (1.0,) * len(state_names(name)))
+
+
+#: what every law declares beside its parts: the sets its checks run with, the fit's and the benchmark's set, and
+#: whether it leaves a reversal to Eq. 13 (``examples``)
+DECLARED = ("EXAMPLES", "FIT_EXAMPLE", "SPEED_EXAMPLE", "LEAVES_A_REVERSAL")
+
+
+def examples() -> list[tuple[str, str, dict]]:
+    """(example name, law, its own parameters) of every registered law's ``EXAMPLES``, in the registry's order, Eq.
+    13's neutral set first; a law that declares none (or not ``DECLARED``) is a ``TypeError``: the checks would skip
+    it."""
+    out = []
+    for name, law in LAWS.items():
+        missing = [key for key in DECLARED if not hasattr(law, key)]
+        if missing or not law.EXAMPLES:
+            raise TypeError(f"the {name} law declares no {', '.join(missing) or 'EXAMPLES'}: every law is checked "
+                            "with its own parameter sets")
+        out += [(example, name, dict(values)) for example, values in law.EXAMPLES.items()]
+    return out
+
+
+def declared(name: str, key: str):
+    """Law ``name``'s declaration ``key`` (one of ``DECLARED``)."""
+    if key not in DECLARED:
+        raise KeyError(f"{key} is not a law's declaration ({', '.join(DECLARED)})")
+    return getattr(LAWS[name], key)
 
 
 def state_bounds(name: str) -> tuple[tuple[float, float], ...]:

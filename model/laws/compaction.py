@@ -31,6 +31,14 @@ PARAMETERS = (
     Parameter("compaction_strain", 0.5, 0.5, 0.01, 5.0, "gamma_r: the nominal shear strain over which the recent "
               "past follows the packing"),
 )
+#: the parameter sets every check of the registry runs this law with (``tests/unit/test_variants.py``), by name
+EXAMPLES = {"compaction-slow": {"compaction_gain": 100.0, "compaction_strain": 0.5},
+            "compaction-fast": {"compaction_gain": 400.0, "compaction_strain": 0.05}}
+#: the set the fit recovers from synthetic runs (``tests/unit/test_models.py``) and the one ``make bench`` times
+FIT_EXAMPLE = {"compaction_gain": 100.0, "compaction_strain": 0.3}
+SPEED_EXAMPLE = {"compaction_gain": 190.0, "compaction_strain": 0.8}
+#: whether the law changes nothing in a reversal (where A stays in the plane of D')
+LEAVES_A_REVERSAL = True
 #: the law's own state: 1/Phi and 1/Phi_r
 STATE = ("u", "u_ref")
 #: the bounds of each state variable (``model.update`` refuses a state outside them): 1/Phi of a packing fraction in

@@ -24,6 +24,14 @@ PARAMETERS = (
               "elastically"),
     Parameter("elastic_strain", 0.005, 0.005, 1e-4, 0.1, "gamma_e: the nominal shear strain over which it follows"),
 )
+#: the parameter sets every check of the registry runs this law with (``tests/unit/test_variants.py``), by name
+EXAMPLES = {"elastic-": {"elastic_fabric": -0.013, "elastic_strain": 0.005},
+            "elastic+": {"elastic_fabric": 0.02, "elastic_strain": 0.02}}
+#: the set the fit recovers from synthetic runs (``tests/unit/test_models.py``) and the one ``make bench`` times
+FIT_EXAMPLE = {"elastic_fabric": -0.013, "elastic_strain": 0.01}
+SPEED_EXAMPLE = {"elastic_fabric": -0.035, "elastic_strain": 0.01}
+#: whether the law changes nothing in a reversal (where A stays in the plane of D')
+LEAVES_A_REVERSAL = False
 #: the law's own state: K packed (11, 22, 12, 13, 23)
 STATE = ("K11", "K22", "K12", "K13", "K23")
 #: the material-point update's tolerance on K, in units of A's (``model.stepper``): an error in K decays over

@@ -20,6 +20,14 @@ NAME = "elastic_compaction"
 #: the laws it joins, whose parameters it owns in this order
 JOINS = (elastic.NAME, compaction.NAME)
 PARAMETERS = elastic.PARAMETERS + compaction.PARAMETERS
+#: the parameter sets every check of the registry runs this law with (``tests/unit/test_variants.py``), by name
+EXAMPLES = {"elastic_compaction": {"elastic_fabric": -0.013, "elastic_strain": 0.01, "compaction_gain": 190.0,
+                                   "compaction_strain": 0.8}}
+#: the set the fit recovers from synthetic runs (``tests/unit/test_models.py``) and the one ``make bench`` times
+FIT_EXAMPLE = {**elastic.FIT_EXAMPLE, **compaction.FIT_EXAMPLE}
+SPEED_EXAMPLE = {**elastic.SPEED_EXAMPLE, **compaction.SPEED_EXAMPLE}
+#: whether the law changes nothing in a reversal (where A stays in the plane of D')
+LEAVES_A_REVERSAL = False
 #: the law's own state: K packed, then 1/Phi and 1/Phi_r
 STATE = elastic.STATE + compaction.STATE
 #: the material-point update's tolerance on each (``model.laws.state_tolerance``)

@@ -14,6 +14,13 @@ from .parameter import OWN, Parameter
 NAME = "loading"
 PARAMETERS = (Parameter("chi", 0.0, 0.0, -0.5, 0.7, "the removal of a part of A that D' does not load, less by this "
                         "fraction"),)
+#: the parameter sets every check of the registry runs this law with (``tests/unit/test_variants.py``), by name
+EXAMPLES = {"loading+": {"chi": 0.4}, "loading-": {"chi": -0.3}}
+#: the set the fit recovers from synthetic runs (``tests/unit/test_models.py``) and the one ``make bench`` times
+FIT_EXAMPLE = {"chi": 0.35}
+SPEED_EXAMPLE = {"chi": 0.45}
+#: whether the law changes nothing in a reversal (where A stays in the plane of D')
+LEAVES_A_REVERSAL = True
 CHI = OWN
 
 

@@ -14,6 +14,14 @@ PARAMETERS = (
     Parameter("memory_share", 0.0, 0.5, 0.0, 1.0, "the share of the part D' does not load taken from beta2's removal"),
     Parameter("memory_rate", 0.0, 5.0, 0.0, 1e3, "... and removed instead at this rate per unit |D'| t"),
 )
+#: the parameter sets every check of the registry runs this law with (``tests/unit/test_variants.py``), by name
+EXAMPLES = {"memory-slow": {"memory_share": 1.0, "memory_rate": 3.0},
+            "memory-half-fast": {"memory_share": 0.5, "memory_rate": 40.0}}
+#: the set the fit recovers from synthetic runs (``tests/unit/test_models.py``) and the one ``make bench`` times
+FIT_EXAMPLE = {"memory_share": 0.6, "memory_rate": 8.0}
+SPEED_EXAMPLE = {"memory_share": 0.45, "memory_rate": 5.0}
+#: whether the law changes nothing in a reversal (where A stays in the plane of D')
+LEAVES_A_REVERSAL = True
 SHARE, RATE = OWN, OWN + 1
 
 

@@ -3,3 +3,8 @@ its parts are the registry's defaults."""
 
 NAME = "rk2025"
 PARAMETERS = ()
+#: Eq. 13 is the reference the others reduce to: checked as each law's neutral set, timed as the baseline
+EXAMPLES = {"rk2025": {}}
+FIT_EXAMPLE = {}
+SPEED_EXAMPLE = {}
+LEAVES_A_REVERSAL = True

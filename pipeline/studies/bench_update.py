@@ -23,7 +23,19 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from model import PAPER, History, Params, Segment, Update, integrate, periodic_cycle, predict, update, update_inputs
+from model import (
+    PAPER,
+    History,
+    Params,
+    Segment,
+    Update,
+    integrate,
+    laws,
+    periodic_cycle,
+    predict,
+    update,
+    update_inputs,
+)
 from model.material_point import DEFAULT_RTOL
 
 from ..cli import Parser
@@ -35,13 +47,7 @@ RTOLS = (1e-4, 1e-6, DEFAULT_RTOL, 1e-10)
 ACCURACY_ANGLES = (90.0, 180.0)
 SPEED_ANGLE = 90.0
 #: each variant timed beside Eq. 13, at parameters where its added terms act (about the paper cell's fits)
-VARIANT_PARAMS = (PAPER, Params(variant="loading", chi=0.45),
-                  Params(variant="memory", memory_share=0.45, memory_rate=5.0),
-                  Params(variant="jump", jump_fabric=-0.013),
-                  Params(variant="elastic", elastic_fabric=-0.035, elastic_strain=0.01),
-                  Params(variant="compaction", compaction_gain=190.0, compaction_strain=0.8),
-                  Params(variant="elastic_compaction", elastic_fabric=-0.035, elastic_strain=0.01,
-                         compaction_gain=190.0, compaction_strain=0.8))
+VARIANT_PARAMS = tuple(Params(variant=law, **laws.declared(law, "SPEED_EXAMPLE")) for law in laws.LAWS)
 
 
 def cycle_steps(theta: float, params: Params = PAPER):

@@ -2,6 +2,7 @@
 where its parameters take their neutral values; nothing outside the registry asks which law it is."""
 
 import re
+import types
 from pathlib import Path
 
 import numpy as np
@@ -62,3 +63,17 @@ def test_no_module_of_the_model_but_the_registry_asks_which_law_it_is():
     for path in sorted(MODEL.glob("*.py")):
         code = "\n".join(line.split("#")[0] for line in path.read_text().splitlines())
         assert not asking.search(code), f"{path.name} asks which law it is"
+
+
+def test_every_law_declares_the_sets_it_is_checked_with_and_one_without_fails(monkeypatch):
+    """The registry's checks take each law's declared examples; a law registered without them stops the suite."""
+    for name in model.laws.LAWS:
+        for key in model.laws.DECLARED:
+            assert model.laws.declared(name, key) is not None
+    for _, law, values in model.laws.examples():
+        assert set(values) <= {q.name for q in model.laws.law_parameters(law)}
+        model.Params(variant=law, **values)  # each a valid set
+    bare = types.SimpleNamespace(NAME="bare", PARAMETERS=())
+    monkeypatch.setitem(model.laws.LAWS, "bare", bare)
+    with pytest.raises(TypeError, match="the bare law declares no EXAMPLES, FIT_EXAMPLE"):
+        model.laws.examples()

@@ -91,11 +91,8 @@ def test_a_law_that_cannot_be_fitted_on_a_splits_runs_predicts_none_of_its_held_
 #: (integrated length, sample_strain (1 + 2 sum rho); an AR(1) of 0.05 here, integrated 0.1) and with tau/p's at
 #: -0.57 to -0.66
 DEM_NOISE = {"correlation_strain": 0.05, "a_tau_correlation": -0.6}
-#: each law's added parameters, as the recovery test sets them
-BOTH = {"elastic_fabric": -0.013, "elastic_strain": 0.01, "compaction_gain": 100.0, "compaction_strain": 0.3}
-ADDED = {"loading": {"chi": 0.35}, "memory": {"memory_share": 0.6, "memory_rate": 8.0}, "jump": {"jump_fabric": -0.013},
-         "elastic": {"elastic_fabric": -0.013, "elastic_strain": 0.01},
-         "compaction": {"compaction_gain": 100.0, "compaction_strain": 0.3}, "elastic_compaction": BOTH}
+#: each law's added parameters, as the recovery test sets them (each law declares its ``FIT_EXAMPLE``)
+ADDED = {law: model.laws.declared(law, "FIT_EXAMPLE") for law in model.laws.LAWS if law != model.laws.DEFAULT}
 
 
 @pytest.mark.slow

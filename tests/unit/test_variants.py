@@ -12,21 +12,14 @@ from model.solver import _fabric as solver_fabric
 from pipeline.paths import ROOT
 from tests.unit.test_model_properties import ANGLES, random_rotation
 
-#: one parameter set per variant and sign of its added parameters, Table 2's otherwise
-VARIANT_SETS = [Params(variant="loading", chi=0.4), Params(variant="loading", chi=-0.3),
-                Params(variant="memory", memory_share=1.0, memory_rate=3.0),
-                Params(variant="memory", memory_share=0.5, memory_rate=40.0),
-                Params(variant="jump", jump_fabric=-0.013), Params(variant="jump", jump_fabric=0.02),
-                Params(variant="elastic", elastic_fabric=-0.013, elastic_strain=0.005),
-                Params(variant="elastic", elastic_fabric=0.02, elastic_strain=0.02),
-                Params(variant="compaction", compaction_gain=100.0, compaction_strain=0.5),
-                Params(variant="compaction", compaction_gain=400.0, compaction_strain=0.05),
-                Params(variant="elastic_compaction", elastic_fabric=-0.013, elastic_strain=0.01, compaction_gain=190.0,
-                       compaction_strain=0.8)]
-IDS = ["loading+", "loading-", "memory-slow", "memory-half-fast", "jump-", "jump+", "elastic-", "elastic+",
-       "compaction-slow", "compaction-fast", "elastic_compaction"]
-#: the variants that change nothing in a reversal, where A stays in the plane of D'
-LEAVE_A_REVERSAL = ("loading", "memory", "compaction")
+#: every registered law's declared parameter sets (``model.laws.examples``; Eq. 13's neutral set aside): a law added
+#: to the registry is checked here with no list to edit, and one that declares none fails at collection
+EXAMPLES = [(example, Params(variant=law, **values)) for example, law, values in model.laws.examples()
+            if law != model.laws.DEFAULT]
+VARIANT_SETS = [params for _, params in EXAMPLES]
+IDS = [example for example, _ in EXAMPLES]
+#: the variants that change nothing in a reversal, where A stays in the plane of D' (each law declares it)
+LEAVE_A_REVERSAL = tuple(law for law in model.laws.LAWS if model.laws.declared(law, "LEAVES_A_REVERSAL"))
 #: the law's own state that is a tensor (K packed, named K11 ... K23), turned with the material; the rest are scalars
 K_NAMES = ("K11", "K22", "K12", "K13", "K23")
 
