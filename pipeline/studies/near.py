@@ -91,50 +91,80 @@ def _weighted(fabric, count, rows) -> np.ndarray:
     return np.einsum("k,kij->ij", w[keep], fabric[rows][keep]) / w[keep].sum()
 
 
-def near_event(run, ev: Event, part: int) -> dict:
-    """Per sample after one change: the strain since it, the intervals' strains, A's and each G_g's fraction, the
-    packing's rise, and the per-interval counts (made, made fed by each shell, made and lost by load, the region's
-    contacts and near pairs by load); the made contacts' steady fabric before the change."""
+@dataclasses.dataclass(frozen=True)
+class NearSteady:
+    """The steady state before a change: the gain and loss by load summed over the samples before it (``gain``,
+    ``loss``) and the mean populations they are rates of (``contacts``, ``near``: the widest shell's pairs) over the
+    strain ``span``; each shell's and the contacts made's shear part over A's (``x0``, ``made_x0``), and each shell's
+    pairs per region contact."""
+
+    gain: np.ndarray
+    loss: np.ndarray
+    contacts: np.ndarray
+    near: np.ndarray
+    span: float
+    x0: np.ndarray
+    made_x0: float
+    per_contact: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class NearEvent:
+    """One change of direction, per sample from the change on (``gamma`` the strain since it; the interval k ends at
+    sample k + 1): the fractions (``fractions``: ``FABRICS`` but the contacts made, in units of A's ``a0``), the
+    packing's rise, the samples' counts and the contacts made's fabric; its frame and its steady state before."""
+
+    gamma: np.ndarray
+    step: np.ndarray
+    tol: float
+    fractions: dict[str, np.ndarray]
+    packing: np.ndarray
+    made_count: np.ndarray
+    made_near_change: np.ndarray
+    made_by_load: np.ndarray
+    lost_by_load: np.ndarray
+    contacts_by_load: np.ndarray
+    near_by_load: np.ndarray
+    made_fabric: np.ndarray
+    frame: tuple
+    a0: float
+    steady: NearSteady
+
+    def within(self, lo: float, hi: float) -> np.ndarray:
+        """The samples ending an interval after the change within (lo, hi]."""
+        pick = (self.gamma[1:] > lo + self.tol) & (self.gamma[1:] <= hi + self.tol)
+        return np.flatnonzero(pick) + 1
+
+    def at_end(self, values: np.ndarray, lo: float, hi: float) -> float:
+        """``values`` at the sample nearest ``hi`` (NaN where none lies within a quarter of the window)."""
+        k = int(np.argmin(np.abs(self.gamma - hi)))
+        return float(values[k]) if abs(self.gamma[k] - hi) <= 0.25 * (hi - lo) + 1e-9 else math.nan
+
+    def made_memory(self, rows: np.ndarray, part: int) -> float:
+        """The contacts made at ``rows``: their fabric's part in units of A's ``a0``."""
+        s_new, t, t_old = self.frame
+        return float(components(_weighted(self.made_fabric, self.made_count, rows), s_new, t, self.a0, t_old)[part])
+
+
+def near_event(run, ev: Event, part: int) -> NearEvent:
+    """The ``NearEvent`` of one change of ``run`` (``budget.find_event``)."""
     raw, c = run.raw_all, run.contacts
-    idx = ev.idx
-    out = {"gamma": raw["strain"][idx] - raw["strain"][ev.at], "step": np.diff(raw["strain"][idx]), "tol": ev.tol,
-           "A": _fraction(raw["fabric"], ev, part),
-           "packing": raw["packing_fraction"][idx] - raw["packing_fraction"][ev.before].mean()}
-    for k, g in enumerate(NEAR_GAPS):
-        out[f"G{g:g}"] = _fraction(c["near_fabric"][:, k], ev, part)
-    for key in ("made_count", "made_near_change", "made_by_load", "lost_by_load", "contacts_by_load",
-                "near_by_load", "made_fabric"):
-        out[key] = c[key][idx]
-    out["a0"] = ev.a0
-    out["steady"] = {
-        "gain": c["made_by_load"][ev.before].sum(axis=0), "loss": c["lost_by_load"][ev.before].sum(axis=0),
-        "contacts": c["contacts_by_load"][ev.before].mean(axis=0),
-        "near": c["near_by_load"][ev.before, GAIN_SHELL].mean(axis=0),
-        "span": float(np.diff(raw["strain"][np.concatenate([ev.before, [ev.at]])]).sum()),
-        "x0": [ev.fraction0(c["near_fabric"][:, k]) / ev.a0 for k in range(len(NEAR_GAPS))],
-        "made_x0": float(-model.shear_direction(ev.phi_old) @ _weighted(c["made_fabric"], c["made_count"], ev.before)
-                         @ E2) / ev.a0,
-        "per_contact": [float(np.mean(c["near_count"][ev.before, k] / raw["contacts"][ev.before]))
-                        for k in range(len(NEAR_GAPS))],
-    }
-    return out
-
-
-def _in(e, lo, hi) -> np.ndarray:
-    """The intervals after the change that end within (lo, hi]."""
-    return (e["gamma"][1:] > lo + e["tol"]) & (e["gamma"][1:] <= hi + e["tol"])
-
-
-def _at_end(e, key, hi, lo) -> float:
-    k = int(np.argmin(np.abs(e["gamma"] - hi)))
-    return float(e[key][k]) if abs(e["gamma"][k] - hi) <= 0.25 * (hi - lo) + 1e-9 else math.nan
-
-
-def _made_memory(e, pick, ev_frame, part) -> float:
-    """The contacts made over the intervals ``pick``: their fabric's part in units of A's ``a0``."""
-    rows = np.flatnonzero(pick) + 1  # interval k ends at sample k + 1
-    s_new, t, t_old = ev_frame
-    return float(components(_weighted(e["made_fabric"], e["made_count"], rows), s_new, t, e["a0"], t_old)[part])
+    idx, before = ev.idx, ev.before
+    fractions = {"A": _fraction(raw["fabric"], ev, part)}
+    fractions |= {f"G{g:g}": _fraction(c["near_fabric"][:, k], ev, part) for k, g in enumerate(NEAR_GAPS)}
+    made0 = _weighted(c["made_fabric"], c["made_count"], before)
+    steady = NearSteady(
+        c["made_by_load"][before].sum(axis=0), c["lost_by_load"][before].sum(axis=0),
+        c["contacts_by_load"][before].mean(axis=0), c["near_by_load"][before, GAIN_SHELL].mean(axis=0),
+        float(np.diff(raw["strain"][np.concatenate([before, [ev.at]])]).sum()),
+        np.array([ev.fraction0(c["near_fabric"][:, k]) / ev.a0 for k in range(len(NEAR_GAPS))]),
+        float(-model.shear_direction(ev.phi_old) @ made0 @ E2) / ev.a0,
+        np.mean(c["near_count"][before] / raw["contacts"][before, None], axis=0))
+    return NearEvent(
+        raw["strain"][idx] - raw["strain"][ev.at], np.diff(raw["strain"][idx]), ev.tol, fractions,
+        raw["packing_fraction"][idx] - raw["packing_fraction"][before].mean(), c["made_count"][idx],
+        c["made_near_change"][idx], c["made_by_load"][idx], c["lost_by_load"][idx], c["contacts_by_load"][idx],
+        c["near_by_load"][idx], c["made_fabric"][idx], (ev.s_new, ev.t, ev.t_old), ev.a0, steady)
 
 
 def _rates(counts, population, span) -> np.ndarray:
@@ -143,25 +173,21 @@ def _rates(counts, population, span) -> np.ndarray:
         return np.where(population > 0, counts / (population * span), np.nan)
 
 
-def window(events, lo, hi, part) -> NearWindow:
-    memory = {key: Stat.of([_at_end(e, key, hi, lo) for e, _ in events]) for key in FABRICS[:-1]}
-    memory["made"] = Stat.of([_made_memory(e, _in(e, lo, hi), frame, part) for e, frame in events
-                              if _in(e, lo, hi).any()])
-    fed, gain, loss = {}, [], []
-    for k, g in enumerate(NEAR_GAPS):
-        fed[f"G{g:g}"] = Stat.of([e["made_near_change"][1:][_in(e, lo, hi), k].sum()
-                                  / max(e["made_count"][1:][_in(e, lo, hi)].sum(), 1) for e, _ in events
-                                  if e["made_count"][1:][_in(e, lo, hi)].sum() > 0])
-    for e, _ in events:
-        pick = _in(e, lo, hi)
-        span = e["step"][pick].sum()
+def window(events: list[NearEvent], lo: float, hi: float, part: int) -> NearWindow:
+    memory = {key: Stat.of([e.at_end(e.fractions[key], lo, hi) for e in events]) for key in FABRICS[:-1]}
+    memory["made"] = Stat.of([e.made_memory(e.within(lo, hi), part) for e in events if len(e.within(lo, hi))])
+    fed = {f"G{g:g}": Stat.of([e.made_near_change[e.within(lo, hi), k].sum() / e.made_count[e.within(lo, hi)].sum()
+                               for e in events if e.made_count[e.within(lo, hi)].sum() > 0])
+           for k, g in enumerate(NEAR_GAPS)}
+    gain, loss = [], []
+    for e in events:
+        rows = e.within(lo, hi)
+        span = e.step[rows - 1].sum()
         if not span > 0.5 * (hi - lo):
             continue
-        rows = np.flatnonzero(pick) + 1
-        gain.append(_rates(e["made_by_load"][rows].sum(axis=0), e["near_by_load"][rows, GAIN_SHELL].mean(axis=0),
-                           span))
-        loss.append(_rates(e["lost_by_load"][rows].sum(axis=0), e["contacts_by_load"][rows].mean(axis=0), span))
-    return NearWindow(lo, hi, memory, fed, Stat.of([_at_end(e, "packing", hi, lo) for e, _ in events]),
+        gain.append(_rates(e.made_by_load[rows].sum(axis=0), e.near_by_load[rows, GAIN_SHELL].mean(axis=0), span))
+        loss.append(_rates(e.lost_by_load[rows].sum(axis=0), e.contacts_by_load[rows].mean(axis=0), span))
+    return NearWindow(lo, hi, memory, fed, Stat.of([e.at_end(e.packing, lo, hi) for e in events]),
                       _per_bin(gain), _per_bin(loss))
 
 
@@ -181,21 +207,20 @@ def near_groups(runs: list) -> list[NearGroup]:
     groups = []
     for (theta, rotate_at), members in sorted(by_protocol.items(), key=lambda kv: (-kv[0][0], kv[0][1])):
         part = 1 if abs(math.sin(math.radians(theta))) >= MEMORY_MIN_SIN else 0
-        events = [(near_event(run, ev, part), (ev.s_new, ev.t, ev.t_old)) for run in members
-                  for ev in run_events(run)]
+        events = [near_event(run, ev, part) for run in members for ev in run_events(run)]
         if not events:
             continue
         steady = {}
         for k, g in enumerate(NEAR_GAPS):
-            steady[f"x0 G{g:g} / a0"] = Stat.of([e["steady"]["x0"][k] for e, _ in events])
-            steady[f"G{g:g} pairs per contact"] = Stat.of([e["steady"]["per_contact"][k] for e, _ in events])
-        steady["x0 made / a0"] = Stat.of([e["steady"]["made_x0"] for e, _ in events])
-        st = [e["steady"] for e, _ in events if e["steady"]["span"] > 0]
+            steady[f"x0 G{g:g} / a0"] = Stat.of([e.steady.x0[k] for e in events])
+            steady[f"G{g:g} pairs per contact"] = Stat.of([e.steady.per_contact[k] for e in events])
+        steady["x0 made / a0"] = Stat.of([e.steady.made_x0 for e in events])
+        st = [e.steady for e in events if e.steady.span > 0]
         groups.append(NearGroup(
             group_label(members[0]), theta, rotate_at, sorted({str(r.path) for r in members}), len(events),
             ("shear", "memory")[part], steady,
-            _per_bin([_rates(s["gain"], s["near"], s["span"]) for s in st]),
-            _per_bin([_rates(s["loss"], s["contacts"], s["span"]) for s in st]),
+            _per_bin([_rates(s.gain, s.near, s.span) for s in st]),
+            _per_bin([_rates(s.loss, s.contacts, s.span) for s in st]),
             [window(events, lo, hi, part) for lo, hi in WINDOWS]))
     return groups
 
