@@ -103,6 +103,38 @@ def _read(kind, value, path):
         raise PipelineError(str(exc)) from None
 
 
+def _plain(hint, value) -> bool:
+    """Whether a plain JSON ``value`` is of the annotation ``hint`` (float, int, str, bool, ``X | None``, ``list[X]``,
+    ``tuple``, ``dict[str, X]``, bare ``list`` or ``dict``); an annotation it does not know passes."""
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        return any(_plain(a, value) for a in args)
+    if hint is type(None):
+        return value is None
+    if hint is bool:
+        return isinstance(value, bool)
+    if hint is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if hint is float:
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    if hint is str:
+        return isinstance(value, str)
+    if hint in (list, tuple) or origin in (list, tuple):
+        return isinstance(value, list) and (origin is not list or not args or all(_plain(args[0], v) for v in value))
+    if hint is dict or origin is dict:
+        return isinstance(value, dict) and (not args or all(isinstance(k, str) and _plain(args[1], v)
+                                                            for k, v in value.items()))
+    return True
+
+
+@functools.cache
+def plain(cls) -> dict:
+    """The fields of the record class ``cls`` that hold plain JSON values, with their annotations."""
+    hints = typing.get_type_hints(cls)
+    records = nested(cls)
+    return {f.name: hints[f.name] for f in dataclasses.fields(cls) if f.name not in records}
+
+
 def _written(value):
     """``value`` as a file holds it: a record (or parameters) as its JSON object, in lists and mappings too."""
     if hasattr(value, "to_dict"):
@@ -139,6 +171,10 @@ class Record:
         fields = _fields_of(cls, data, path, cls.WHAT, cls.RENAMED)
         for name, kind in nested(cls).items():
             fields[name] = _read(kind, fields.get(name), f"{path}: {name}")
+        for name, hint in plain(cls).items():
+            if name in fields and not _plain(hint, fields[name]):
+                raise PipelineError(f"{path}: {name}={str(fields[name])[:40]!r} is not of its type "
+                                    f"({getattr(hint, '__name__', None) or str(hint).replace('typing.', '')})")
         try:
             return cls(**fields)
         except ValueError as exc:  # a record that checks its values (``Definitions``)

@@ -71,3 +71,17 @@ def test_hdf5_attributes_holding_json_are_bounded_too(tmp_path):
         f.attrs.update(schema=schema.metrics.COMPARE_SCHEMA, schema_version="abc")
         with pytest.raises(PipelineError, match="'abc' is not a whole number"):
             check_compare(f, tmp_path / "compare.h5")
+
+
+@pytest.mark.parametrize("field, value", [("fit_from", "abc"), ("fit_from", True), ("notes", "one note"),
+                                          ("notes", [1, 2])])
+def test_a_plain_field_of_another_type_is_one_line_naming_it(tmp_path, field, value):
+    """Fields that hold plain values are checked against their annotation where the file is read."""
+    from tests.helpers import fit_summary
+
+    data = fit_summary().to_dict()
+    where = data["options"] if field == "fit_from" else data
+    where[field] = value
+    path = write(tmp_path / "fit.json", json.dumps(data))
+    with pytest.raises(PipelineError, match=f"{field}=.* is not of its type"):
+        schema.read_fit(path)
