@@ -11,7 +11,6 @@ the new shear loads them.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -21,6 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .. import schema  # noqa: E402
 from ..cli import Parser, one_line_errors  # noqa: E402
 from ..errors import PipelineError  # noqa: E402
 from ..paths import preset_output  # noqa: E402
@@ -72,7 +72,11 @@ def draw(folder: Path) -> Path:
     source = folder / "budget.json"
     if not source.is_file():
         raise PipelineError(f"no {source}: run make budget first")
-    return plot(json.loads(source.read_text()), folder / "budget.png")
+    record = schema.read_json_object(source, "contact budget", "budget")
+    if "made_from" not in record:
+        raise PipelineError(f"{source} does not record what made it (an older budget): make budget again")
+    schema.MadeFrom.from_dict(record["made_from"], source).require_unchanged(f"{source} read runs", "budget")
+    return plot(record, folder / "budget.png")
 
 
 @one_line_errors

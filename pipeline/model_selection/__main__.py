@@ -12,6 +12,7 @@ from .. import io, schema
 from ..calibration import global_fit
 from ..cli import Parser, one_line_errors
 from ..dataset import selection
+from ..dataset.derived import PAPER_DEFINITIONS
 from ..errors import CalibrationError
 from ..paths import preset_output
 from .curves import curves
@@ -63,7 +64,8 @@ def main(argv=None) -> int:
             print(f"models: {v} not fitted on every run ({exc}): left out", flush=True)
     judgements = judged(results)
     made_from = schema.MadeFrom.of([r.path for r in (*runs, *(r for rs in others.values() for r in rs))],
-                                   {"laws": variants, "across": list(others), "stress": stress, "weight": weight})
+                                   {"laws": variants, "across": list(others), "stress": stress, "weight": weight,
+                                    "data_set": chosen.folder, "definitions": PAPER_DEFINITIONS.label()})
     summary = schema.ModelsSummary(chosen.folder, stress, weight, list(TRAIN_ANGLES), BEYOND_NOISE_Z, results,
                                    not_fitted, judgements, made_from.to_dict())
     with io.atomic_paths(*(out / n for n in ("models.json", "models.md", "models.h5"))) as (js, md, h5):

@@ -480,9 +480,13 @@ def main(argv=None) -> int:
     from . import near
 
     shells = near.near_groups(runs)
+    from .. import schema
+
+    made_from = schema.MadeFrom.of([r.path for r in runs], {"data_set": chosen.folder, "params_source": source})
     record = {"schema_version": 2, "data_set": chosen.folder, "params": params.to_dict(), "params_source": source,
               "windows": [list(w) for w in WINDOWS], "groups": [dataclasses.asdict(g) for g in groups],
-              "near_windows": [list(w) for w in near.WINDOWS], "near": [dataclasses.asdict(g) for g in shells]}
+              "near_windows": [list(w) for w in near.WINDOWS], "near": [dataclasses.asdict(g) for g in shells],
+              "made_from": made_from.to_dict()}
     io.write_json(out / "budget.json", record)
     io.write_text(out / "budget.md", markdown(chosen.label, source, groups) + near.markdown(shells))
     from ..figures import budget as figure
