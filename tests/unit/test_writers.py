@@ -103,3 +103,21 @@ def test_an_unshare_that_hangs_is_waited_for_a_bounded_time_then_named_in_one_li
         launch.loopback_only.cache_clear()
     said = capsys.readouterr().err.strip()
     assert said.count("\n") == 0 and "did not return within 0.5 s" in said
+
+
+def test_a_read_only_output_folder_is_one_line_naming_it(tmp_path):
+    """A folder on a read-only mount (a user and mount namespace of the test's own: ``unshare -rm``, as the launcher's
+    network namespace), where root too cannot write: the fit's stamp is refused in one line naming the folder."""
+    import subprocess
+    import sys
+
+    folder = tmp_path / "ro"
+    (folder / "fit").mkdir(parents=True)
+    stamp = folder / "fit" / "options.txt"
+    script = (f"mount --bind {folder} {folder} && mount -o remount,bind,ro {folder} && "
+              f"exec {sys.executable} -m pipeline.targets fit-options {stamp}")
+    proc = subprocess.run(["unshare", "-rm", "sh", "-c", script], capture_output=True, text=True, timeout=60,
+                          cwd=Path(__file__).resolve().parents[2], env={**os.environ, "PRESET": "reduced"})
+    said = proc.stderr.strip()
+    assert proc.returncode == 2 and said.count("\n") == 0 and f"{folder / 'fit'} is not writable" in said, said
+    assert not stamp.exists()
