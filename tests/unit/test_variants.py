@@ -183,7 +183,8 @@ def test_objective_under_a_rotation_that_varies_in_time(params):
     sets (a tensor K turned by the spin through its Jaumann rate; scalars of the packing kept)."""
     differences = []
     for steps in (40, 80):
-        (base, Q, (phi, own, _)), (spun, _, (_, _, L_spun)) = stepped(params, steps, False), stepped(params, steps, True)
+        base, Q, (phi, own, _) = stepped(params, steps, False)
+        spun, _, (_, _, L_spun) = stepped(params, steps, True)
         # tau/p at the end of a step is Eq. 14 on the end state under that step's D': for the spun motion, the turned
         # state under the spun step's L (its own, update at dt = 0)
         turned = update(Q @ base[0] @ Q.T[None], phi, L_spun, 0.0, params=params,
