@@ -58,6 +58,7 @@ def test_a_committed_run_read_through_a_link_is_held_to_its_manifest(tmp_path):
     manifest.write(root)
     run.write_bytes(b"tampered bytes")
     path = RESULTS_DIR / f"zz-link-manifest-{os.getpid()}"
+    RESULTS_DIR.mkdir(exist_ok=True)
     path.symlink_to(root / "reduced", target_is_directory=True)
     try:
         with pytest.raises(DemFileError, match="does not match its SHA-256"):
@@ -69,6 +70,7 @@ def test_a_committed_run_read_through_a_link_is_held_to_its_manifest(tmp_path):
 @pytest.mark.parametrize("shape", ["folder is a file", "file is a folder"])
 def test_an_output_folder_of_the_wrong_type_is_one_line_naming_it(tmp_path, shape):
     folder = RESULTS_DIR / f"zz-wrong-{os.getpid()}"
+    RESULTS_DIR.mkdir(exist_ok=True)
     try:
         if shape == "folder is a file":
             folder.write_text("")
