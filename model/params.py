@@ -217,31 +217,33 @@ class Params:
             values.pop("metadata", None)
         params = cls.from_dict(values, source)
         worst = params.least_work_rate()
-        if worst.work_rate < -SECOND_LAW_SLACK:
+        if worst is not None and worst.work_rate < -SECOND_LAW_SLACK:
             raise ParameterError(f"{source}: breaks the second law (Eq. 19): sigma:D / (p |D'|) = "
                                  f"{worst.work_rate:.3g} < 0 at S = {worst.S:.3g}, A:D'/|D'| = {worst.x:.3g} "
                                  f"(Y(S) = {worst.Y:.3g}, C + c1 = {params.C + params.c1:.3g}; Eq. 19 asks c1 = -C "
                                  "and Y >= 0)")
         return params
 
-    def least_work_rate(self) -> WorkRate:
+    def least_work_rate(self) -> WorkRate | None:
         """The least work rate sigma:D / (p |D'|) = Y(S) + (C + c1)(A:D'/|D'| + kappa) + c2(S)(Phi_c - Phi + c3)
-        (Sec. 5) over the states the model reaches: S in [0, 2 A_s] and |A| <= A_s, A_s = a1/a2 the magnitude of Eq.
-        13's steady fabric (S = 0 there; a reversal from it gives S = 2 A_s), within Eq. 8's largest |A| = sqrt(2/3)
-        (the bound itself where Eq. 13 has no steady fabric, a2 <= 0); kappa the law's constant part of the fabric
-        (``model.laws`` offset); Phi <= Phi_c + c3 (Eq. 19's condition on the state: c2's term is then >= 0 and
-        left out). At a given S, A:D'/|D'| = |A| - S lies in [-S/2, A_s - S]. It does not cover a law's own state's
-        transient part of the fabric (the "elastic" K) nor a fabric beyond the steady magnitude."""
+        (Sec. 5) over the states the model reaches: S up to the largest S and |A| up to the largest |A| of the
+        reversal's periodic cycle (the largest turn: S peaks right after it), at a given S A:D'/|D'| = |A| - S in
+        [-S/2, |A|max - S]; kappa the law's constant part of the fabric (``model.laws`` offset); Phi <= Phi_c + c3
+        (Eq. 19's condition on the state: c2's term is then >= 0 and left out). None where the reversal cannot be
+        predicted (its own error says why). It does not cover a law's own state's transient part of the fabric
+        (the "elastic" K), nor states beyond what the reversal's cycle reaches."""
         from .laws import offset
+        from .solver import SolverError, predict
 
-        bound = math.sqrt(2.0 / 3.0)
-        steady = min(abs(self.a1) / self.a2, bound) if self.a2 > 0 else bound
-        S = np.linspace(0.0, 2.0 * steady, 401)
+        try:
+            cycle = predict(180.0, params=self)
+        except SolverError:
+            return None
+        reach = float(np.max(np.sqrt(np.einsum("nij,nij->n", cycle.A, cycle.A))))
+        S = np.linspace(0.0, min(float(np.max(cycle.S)), 2.0 * reach), 401)
         Y = self.n + self.m * S
-        slope = self.C + self.c1
-        kappa = float(offset(self.as_array()))
-        ends = np.stack([-S / 2, steady - S])
-        rate = Y + slope * (ends + kappa)
+        ends = np.stack([-S / 2, reach - S])
+        rate = Y + (self.C + self.c1) * (ends + float(offset(self.as_array())))
         k, i = np.unravel_index(int(np.argmin(rate)), rate.shape)
         return WorkRate(float(rate[k, i]), float(S[i]), float(ends[k, i]), float(Y[i]))
 

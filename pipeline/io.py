@@ -16,20 +16,21 @@ from .paths import DATA_DIR, RESULTS_DIR, shown
 
 
 @contextlib.contextmanager
-def atomic_path(path: Path, card: bool = False):
+def atomic_path(path: Path, committed: bool = False):
     """Yield a temporary path beside ``path`` (same suffix); renamed onto ``path`` on success, removed on error.
-    ``card``: the data card's own writers (``make data-card``), the one writer of the committed ``data/``."""
-    with atomic_paths(path, card=card) as (tmp,):
+    ``committed``: a writer of the committed ``data/`` (the data card's table and manifest, the fidelity ladder's run
+    summaries), the only ones that may write there."""
+    with atomic_paths(path, committed=committed) as (tmp,):
         yield tmp
 
 
 @contextlib.contextmanager
-def atomic_paths(*paths: Path, card: bool = False):
+def atomic_paths(*paths: Path, committed: bool = False):
     """Temporary paths beside each of ``paths``, renamed onto them together once the block succeeds: a set of
     outputs appears complete, or the previous set stays (an interrupt or an error removes the temporaries)."""
     stack = contextlib.ExitStack()
     with stack:
-        temps = [stack.enter_context(_temporary(Path(p), card)) for p in paths]
+        temps = [stack.enter_context(_temporary(Path(p), committed)) for p in paths]
         yield temps
         for tmp in temps:
             _sync(tmp)  # on disk before the renames: a crash leaves the old set or the new one
@@ -80,17 +81,17 @@ def write_bytes(path: Path, data) -> None:
         raise OSError(exc.errno, exc.strerror, str(path)) from None
 
 
-def check_destination(path: Path, card: bool = False) -> None:
+def check_destination(path: Path, committed: bool = False) -> None:
     """The one check of where every output lands, before anything is written: refused in one line where ``results``
     is a link, where the path (every link on its way followed) lands inside the committed ``data/`` (but for the data
-    card's own writers, ``card``: its table and manifest), or where a path under ``results/`` lands outside it
+    card's and the fidelity summaries' writers, ``committed``), or where a path under ``results/`` lands outside it
     (through a link below it)."""
     absolute = Path(os.path.abspath(path))
     if absolute.is_relative_to(RESULTS_DIR) and os.path.islink(RESULTS_DIR):
         raise PipelineError(f"{RESULTS_DIR} is a link (to {os.readlink(RESULTS_DIR)}): outputs go to a folder "
                             "of the project's own; remove the link")
     resolved = absolute.resolve()
-    if resolved.is_relative_to(DATA_DIR.resolve()) and not card:
+    if resolved.is_relative_to(DATA_DIR.resolve()) and not committed:
         raise PipelineError(f"{path} lands in {shown(resolved)}: the committed data is never written (a link on the "
                             "way leads there: remove it)")
     if absolute.is_relative_to(RESULTS_DIR) and not resolved.is_relative_to(RESULTS_DIR):
@@ -98,19 +99,19 @@ def check_destination(path: Path, card: bool = False) -> None:
                             "remove it)")
 
 
-def check_output_path(path: Path, card: bool = False) -> None:
+def check_output_path(path: Path, committed: bool = False) -> None:
     """Refuse, in one line, an output that is a link or anything but a regular file (renaming onto a link replaces
     the link, as ``/dev/stdout``), and one that lands where no output goes (``check_destination``)."""
     if os.path.islink(path) or (os.path.lexists(path) and not path.is_file()):
         raise PipelineError(f"{path} is a link or not a regular file: an output goes to a file of its own")
-    check_destination(Path(path), card)
+    check_destination(Path(path), committed)
 
 
 @contextlib.contextmanager
-def _temporary(path: Path, card: bool = False):
+def _temporary(path: Path, committed: bool = False):
     """A hidden temporary beside ``path``, unique to this call (several writers of one path never share it),
     with ``path``'s suffix."""
-    check_output_path(path, card)
+    check_output_path(path, committed)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.tmp", suffix=path.suffix)
     os.fchmod(fd, 0o666 & ~_UMASK)  # the file a plain open() would make, not mkstemp's owner-only one
@@ -139,8 +140,8 @@ def _sync(path: Path) -> None:
         os.close(fd)
 
 
-def write_text(path: Path, text: str) -> Path:
-    with atomic_path(path) as tmp:
+def write_text(path: Path, text: str, committed: bool = False) -> Path:
+    with atomic_path(path, committed=committed) as tmp:
         write_bytes(tmp, text.encode("utf-8"))
     return Path(path)
 
@@ -150,8 +151,8 @@ def json_text(data) -> str:
     return json.dumps(data, indent=1, sort_keys=True) + "\n"
 
 
-def write_json(path: Path, data) -> Path:
-    return write_text(path, json_text(data))
+def write_json(path: Path, data, committed: bool = False) -> Path:
+    return write_text(path, json_text(data), committed)
 
 
 def write_table(out: Path, stem: str, data, markdown: str) -> Path:

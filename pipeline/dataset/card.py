@@ -130,7 +130,7 @@ def main(argv=None) -> int:
             return 1
         print(f"{card_path}: the inventory and {manifest.MANIFEST} match the files")
         return 0
-    with atomic_path(card_path, card=True) as tmp:
+    with atomic_path(card_path, committed=True) as tmp:
         write_bytes(tmp, updated.encode())
     listed = manifest.write(args.root)
     print(f"wrote the inventory of {listed} runs into {card_path}, their SHA-256 into {args.root / manifest.MANIFEST}")

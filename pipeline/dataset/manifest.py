@@ -49,7 +49,7 @@ def read(root: Path) -> dict[str, str]:
 def write(root: Path) -> int:
     """Write ``root``'s manifest from its run files (atomically); how many it lists."""
     files = run_files(root)
-    with atomic_path(root / MANIFEST, card=True) as tmp:
+    with atomic_path(root / MANIFEST, committed=True) as tmp:
         write_bytes(tmp, "".join(f"{sha256(p)}  {p.relative_to(root).as_posix()}\n" for p in files).encode("ascii"))
     return len(files)
 

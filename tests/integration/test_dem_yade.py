@@ -61,7 +61,7 @@ def test_tiny_run_end_to_end_into_hdf5(tiny_run):
     assert all(unit for unit in run_file.units.values())
     assert run_file.units["raw/stress_contact"] == "p" and run_file.units["raw/time"] == "d*sqrt(rho/p)"
     with __import__("h5py").File(run_file.path) as f:  # raw, contacts and provenance only: nothing derived is stored
-        assert set(f) == {"provenance", "parameters", "raw", "contacts"} and f.attrs["schema_version"] == 3
+        assert set(f) == {"provenance", "parameters", "raw", "contacts"} and f.attrs["schema_version"] == 4
     A = run_file.series["A"]
     np.testing.assert_allclose(np.trace(A, axis1=1, axis2=2), 0, atol=1e-12)
     np.testing.assert_allclose(A, np.swapaxes(A, 1, 2), atol=1e-15)

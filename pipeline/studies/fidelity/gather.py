@@ -37,7 +37,7 @@ def summaries(rungs: list, summary_dir: Path = ladder.SUMMARY_DIR, roots: tuple 
                 cache[r.relative] = json.loads(path.read_text())  # an older version, its run not at hand
             elif (dem := ladder.dem_file(r, roots)) is not None:
                 cache[r.relative] = summarize(load(dem))
-                io.write_json(path, cache[r.relative])
+                io.write_json(path, cache[r.relative], committed=True)
                 done += 1
                 rate = done / (time.time() - tic)
                 print(f"summarised {r.relative} ({done}/{len(todo)}, {rate:.2f} runs/s)", flush=True)
@@ -56,7 +56,7 @@ def top_summaries(paths: list[Path], summary_dir: Path = ladder.SUMMARY_DIR) -> 
         found = _current(target)
         if found is None:
             found = summarize(load(path))
-            io.write_json(target, found)
+            io.write_json(target, found, committed=True)
             print(f"summarised {path.parts[-3]}/{path.stem} (the top rung)", flush=True)
         out.append(found)
     return out
