@@ -41,33 +41,29 @@ def run(calls: list[Call]) -> int:
     return 0
 
 
+def stamp(name: str, write) -> int:
+    """``write(Path(name))``, one of the files Make reads (the goals' values, a fit's stamp); a refusal or a folder
+    that cannot take it is one line and exit status 2."""
+    try:
+        write(Path(name))
+    except PipelineError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"error: cannot write {name} ({exc.strerror or exc}): make its folder a writable folder", file=sys.stderr)
+        return 2
+    return 0
+
+
 def main(argv: list[str] | None = None, environ: Mapping[str, str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     v = Variables(os.environ if environ is None else environ)
     if argv[:1] == ["makefile"] and len(argv) >= 2 and all(g in TARGETS or g in DATA_GOALS for g in argv[2:]):
-        try:
-            write_goal_values(Path(argv[1]), goal_values(v, argv[2:]))
-        except PipelineError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
-        except OSError as exc:
-            print(f"error: cannot write {argv[1]} ({exc.strerror or exc}): make its folder a writable folder",
-                  file=sys.stderr)
-            return 2
-        return 0
+        return stamp(argv[1], lambda path: write_goal_values(path, goal_values(v, argv[2:])))
     plan = argv[:1] == ["--plan"]
     rest = argv[1:] if plan else argv
     if rest[:1] == ["fit-options"] and len(rest) == 2:
-        try:
-            write_if_changed(Path(rest[1]), fit_stamp_text(v))
-        except PipelineError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
-        except OSError as exc:
-            print(f"error: cannot write {rest[1]} ({exc.strerror or exc}): make its folder a writable folder",
-                  file=sys.stderr)
-            return 2
-        return 0
+        return stamp(rest[1], lambda path: write_if_changed(path, fit_stamp_text(v)))
     if len(rest) != 1 or rest[0] not in TARGETS:
         print(f"usage: python -m pipeline.targets [--plan] TARGET (one of {', '.join(TARGETS)}), or makefile FILE "
               "[GOAL ...]", file=sys.stderr)
