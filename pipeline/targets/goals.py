@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import os
 import time
 from pathlib import Path
 
@@ -93,13 +92,11 @@ def write_if_changed(path: Path, text: str) -> None:
     """Rewrite ``path`` (atomically) only when its text changes, so that Make sees it changed only then; where it
     lands is checked first (``pipeline.io.check_output_path``: a regular file, nowhere a link leads out of
     ``results/`` or into ``data/``; its folder a folder, writable)."""
-    from ..io import check_output_path, check_writable_dir
+    from ..io import atomic_path, check_output_path, check_writable_dir
 
     check_output_path(path)
     check_writable_dir(path.parent)
     if path.is_file() and path.read_text() == text:
         return
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:  # a temporary of its own: two makes at once never share one
+        tmp.write_text(text)

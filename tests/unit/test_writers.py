@@ -123,3 +123,26 @@ def test_a_read_only_output_folder_is_one_line_naming_it(tmp_path):
     said = proc.stderr.strip()
     assert proc.returncode == 2 and said.count("\n") == 0 and f"{folder / 'fit'} is not writable" in said, said
     assert not stamp.exists()
+
+
+def _write_goals_many_times(folder: str) -> None:
+    for i in range(40):
+        targets.write_goal_values(Path(folder) / "goals.stamp", targets.GoalValues(DATA_SET=f"d{i % 2}"))
+
+
+def test_two_makes_at_once_write_the_goals_without_tripping_on_each_other():
+    """Two ``make`` in one checkout (two runs, one per core) write ``results/.make/goals/`` at once: each writer's
+    temporary is its own, so neither finds its temporary taken by the other."""
+    import multiprocessing
+
+    folder = RESULTS_DIR / f"zz-goals-{os.getpid()}"
+    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        with multiprocessing.get_context("fork").Pool(3) as pool:
+            pool.map(_write_goals_many_times, [str(folder)] * 6)
+        assert (folder / "goals" / "DATA_SET").read_text() in {"d0", "d1"}
+        assert not [p for p in folder.rglob("*") if ".tmp" in p.name]
+    finally:
+        import shutil
+
+        shutil.rmtree(folder)
