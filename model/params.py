@@ -34,10 +34,10 @@ class ParameterError(ValueError):
 #: the largest c2_exponent: S**10 at the smallest S of a flow (about 0.01) is still far above underflow
 C2_EXPONENT_MAX = 10.0
 #: the fabric laws by name -> the parameters each owns beyond Eq. 13 (``model.laws``, the registry)
-VARIANTS = {name: tuple(q.name for q in law.PARAMETERS) for name, law in LAWS.items()}
+VARIANTS = {name: tuple(q.name for q in law.parameters) for name, law in LAWS.items()}
 DEFAULT_VARIANT = DEFAULT_LAW
 #: the closed range of every law's own parameters (each law's declaration)
-EXTRA_RANGES = {q.name: (q.low, q.high) for law in LAWS.values() for q in law.PARAMETERS}
+EXTRA_RANGES = {q.name: (q.low, q.high) for law in LAWS.values() for q in law.parameters}
 
 
 @dataclass(frozen=True, init=False)
@@ -270,4 +270,4 @@ def table2_value(name: str) -> float:
     Eq. 13): what "Table 2" means for any law's parameter set."""
     if name in Params.names():
         return getattr(PAPER, name)
-    return next(q.neutral for law in LAWS.values() for q in law.PARAMETERS if q.name == name)
+    return next(q.neutral for law in LAWS.values() for q in law.parameters if q.name == name)

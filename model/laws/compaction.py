@@ -44,9 +44,6 @@ STATE = ("u", "u_ref")
 #: the bounds of each state variable (``model.update`` refuses a state outside them): 1/Phi of a packing fraction in
 #: (0, pi/(3 sqrt 2)), the densest packing of spheres
 STATE_BOUNDS = ((3 * math.sqrt(2) / math.pi, math.inf),) * len(STATE)
-#: where the law's state sits in the kernels' state (model.integrator: A, t, G, v before it) and its parameters in
-#: the parameter array (k, gamma_r); a law that combines it with another passes its own places
-FIRST = 8
 
 
 @jit
@@ -64,7 +61,7 @@ def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, first, 
 
 
 @jit
-def state_rates(y, p, g, c2, out, scale, first, own):
+def state_rates(y, Dh, Wn, p, g, c2, out, scale, first, own):
     """du/d(|D'| t) (Eq. 18: -g u + c2, g and c2 as ``model.equations.fabric_rates`` gives them) and du_r/d(|D'| t),
     times ``scale``, into ``out[first:first + 2]``."""
     u, u_ref = y[first], y[first + 1]
@@ -73,7 +70,7 @@ def state_rates(y, p, g, c2, out, scale, first, own):
 
 
 @jit
-def set_packing(y, u, first):
+def set_packing(y, u, first, own):
     """The state's u where a history or a step starts at the packing fraction 1/u."""
     y[first] = u
 

@@ -41,13 +41,10 @@ STATE_TOLERANCE = (1000.0,) * len(STATE)
 #: the bounds of each state variable (``model.update`` refuses a state outside them): K relaxes to kappa D'/|D'| and
 #: turns with the material, so each of its components stays within kappa's range
 STATE_BOUNDS = ((PARAMETERS[0].low, PARAMETERS[0].high),) * len(STATE)
-#: where the law's state sits in the kernels' state (model.integrator: A, t, G, v before it) and its parameters in
-#: the parameter array (kappa, gamma_e); a law that combines it with another passes its own places
-FIRST = 8
 
 
 @jit
-def state_rates(y, Dh, Wn, p, out, scale, first, own):
+def state_rates(y, Dh, Wn, p, g, c2, out, scale, first, own):
     """dK/d(|D'| t) times ``scale`` into ``out[first:first + 5]``: the relaxation and the Jaumann spin."""
     k11, k22, k12, k13, k23 = y[first], y[first + 1], y[first + 2], y[first + 3], y[first + 4]
     s11, s22, s12, s13, s23 = spin_rate(Wn[0], Wn[1], Wn[2], k11, k22, k12, k13, k23)
@@ -70,7 +67,7 @@ def relaxing_part(v, Dh, p, first, own):
 
 
 @jit
-def state_fabric(y, first):
+def state_fabric(y, p, first, own):
     """K, the part of the fabric the state holds beyond A, packed (11, 22, 12, 13, 23)."""
     return y[first], y[first + 1], y[first + 2], y[first + 3], y[first + 4]
 

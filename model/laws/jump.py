@@ -2,7 +2,7 @@
 (which follows Eq. 13) plus kappa D'/|D'| (``docs/model.md``). kappa = 0 is Eq. 13."""
 
 from ..jit import jit
-from .parameter import OWN, Parameter
+from .parameter import Parameter
 
 NAME = "jump"
 PARAMETERS = (Parameter("jump_fabric", 0.0, 0.0, -0.1, 0.1, "the fabric is the state A plus this times D'/|D'|"),)
@@ -13,12 +13,12 @@ FIT_EXAMPLE = {"jump_fabric": -0.013}
 SPEED_EXAMPLE = {"jump_fabric": -0.013}
 #: whether the law changes nothing in a reversal (where A stays in the plane of D')
 LEAVES_A_REVERSAL = False
-KAPPA = OWN
 
 
 @jit
-def offset(p):
-    return p[KAPPA]
+def offset(p, s, q):
+    """kappa, at ``p[q]``."""
+    return p[q]
 
 
 def reference_offset(values):

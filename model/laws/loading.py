@@ -9,7 +9,7 @@ them by the factors 1, 1 - chi and 1 - 4 chi / 3. chi = 0 is Eq. 13; A stays bou
 import numpy as np
 
 from ..jit import jit
-from .parameter import OWN, Parameter
+from .parameter import Parameter
 
 NAME = "loading"
 PARAMETERS = (Parameter("chi", 0.0, 0.0, -0.5, 0.7, "the removal of a part of A that D' does not load, less by this "
@@ -21,7 +21,6 @@ FIT_EXAMPLE = {"chi": 0.35}
 SPEED_EXAMPLE = {"chi": 0.45}
 #: whether the law changes nothing in a reversal (where A stays in the plane of D')
 LEAVES_A_REVERSAL = True
-CHI = OWN
 
 
 @jit
@@ -33,8 +32,8 @@ def stretching_square(d11, d22, d33, d12, d13, d23):
 
 
 @jit
-def removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
-    """R = A - 2 chi (A - Q), packed (11, 22, 12, 13, 23)."""
+def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, s, q):
+    """R = A - 2 chi (A - Q), packed (11, 22, 12, 13, 23); chi at ``p[q]``."""
     a33 = -a11 - a22
     e11, e22, e33, e12, e13, e23 = stretching_square(d11, d22, d33, d12, d13, d23)
     x = a11 * e11 + a22 * e22 + a33 * e33 + 2.0 * (a12 * e12 + a13 * e13 + a23 * e23)
@@ -43,12 +42,12 @@ def removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
     q12 = e11 * a12 + e12 * a22 + e13 * a23 + a11 * e12 + a12 * e22 + a13 * e23
     q13 = e11 * a13 + e12 * a23 + e13 * a33 + a11 * e13 + a12 * e23 + a13 * e33
     q23 = e12 * a13 + e22 * a23 + e23 * a33 + a12 * e13 + a22 * e23 + a23 * e33
-    f = 2.0 * p[CHI]
+    f = 2.0 * p[q]
     return (a11 - f * (a11 - q11), a22 - f * (a22 - q22), a12 - f * (a12 - q12), a13 - f * (a13 - q13),
             a23 - f * (a23 - q23))
 
 
-def reference_removal(A, Dh, values):
+def reference_removal(A, Dh, values, X, phi):
     """R on 3x3 tensors (plain numpy)."""
     E = Dh @ Dh
     Q = E @ A + A @ E

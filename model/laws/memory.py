@@ -7,7 +7,7 @@ is taken out of beta2's removal in the share ``memory_share`` and removed instea
 import numpy as np
 
 from ..jit import jit
-from .parameter import OWN, Parameter
+from .parameter import Parameter
 
 NAME = "memory"
 PARAMETERS = (
@@ -22,7 +22,6 @@ FIT_EXAMPLE = {"memory_share": 0.6, "memory_rate": 8.0}
 SPEED_EXAMPLE = {"memory_share": 0.45, "memory_rate": 5.0}
 #: whether the law changes nothing in a reversal (where A stays in the plane of D')
 LEAVES_A_REVERSAL = True
-SHARE, RATE = OWN, OWN + 1
 
 
 @jit
@@ -56,17 +55,17 @@ def neutral_part(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23):
 
 
 @jit
-def removal(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
-    """A - memory_share N."""
-    share = p[SHARE]
+def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, s, q):
+    """A - memory_share N (memory_share, memory_rate at ``p[q]``, ``p[q + 1]``)."""
+    share = p[q]
     q11, q22, q12, q13, q23 = neutral_part(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
     return a11 - share * q11, a22 - share * q22, a12 - share * q12, a13 - share * q13, a23 - share * q23
 
 
 @jit
-def extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
+def extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, s, q):
     """-memory_share memory_rate N."""
-    rate = p[SHARE] * p[RATE]
+    rate = p[q] * p[q + 1]
     q11, q22, q12, q13, q23 = neutral_part(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
     return -(rate * q11), -(rate * q22), -(rate * q12), -(rate * q13), -(rate * q23)
 
@@ -78,7 +77,7 @@ def reference_neutral(A, Dh):
     return A - (M - np.trace(M) * np.eye(3) / 3)
 
 
-def reference_removal(A, Dh, values):
+def reference_removal(A, Dh, values, X, phi):
     return A - values["memory_share"] * reference_neutral(A, Dh)
 
 

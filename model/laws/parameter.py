@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 
-#: where a law's own parameters start in the model's parameter array (after Eq. 13's thirteen and the law's code)
-OWN = 14
-
 
 @dataclasses.dataclass(frozen=True)
 class Parameter:

@@ -10,6 +10,7 @@ import pytest
 
 import model
 from model import Params, laws, periodic_cycle, predict
+from model.laws.law import make_law
 from model.solver import _fabric, _initial_state
 
 MODEL = Path(model.__file__).parent
@@ -20,7 +21,7 @@ def test_every_law_declares_parameters_in_range_whose_neutral_values_are_eq13(na
     """Bit for bit for a law without a state of its own; to the integrator's tolerance for one with (its state,
     which holds no part of the fabric, joins the step size control)."""
     own = laws.law_parameters(name)
-    joined = getattr(laws.LAWS[name], "JOINS", ())  # a law joining two owns both laws' parameters, no other
+    joined = laws.LAWS[name].joins  # a law joining two owns both laws' parameters, no other
     assert (len(own) <= 2 if not joined else own == sum((laws.law_parameters(j) for j in joined), ()))
     assert len({q.name for q in own}) == len(own)
     tolerance = laws.state_tolerance(name)  # the update's tolerance on each state variable, never tighter than A's
@@ -65,8 +66,9 @@ def test_no_module_of_the_model_but_the_registry_asks_which_law_it_is():
         assert not asking.search(code), f"{path.name} asks which law it is"
 
 
-def test_every_law_declares_the_sets_it_is_checked_with_and_one_without_fails(monkeypatch):
-    """The registry's checks take each law's declared examples; a law registered without them stops the suite."""
+def test_every_law_declares_the_sets_it_is_checked_with_and_one_without_fails():
+    """The registry's checks take each law's declared examples; a law module without them is refused where the
+    registry is made, so the suite stops at its import."""
     for name in model.laws.LAWS:
         for key in model.laws.DECLARED:
             assert model.laws.declared(name, key) is not None
@@ -74,6 +76,27 @@ def test_every_law_declares_the_sets_it_is_checked_with_and_one_without_fails(mo
         assert set(values) <= {q.name for q in model.laws.law_parameters(law)}
         model.Params(variant=law, **values)  # each a valid set
     bare = types.SimpleNamespace(NAME="bare", PARAMETERS=())
-    monkeypatch.setitem(model.laws.LAWS, "bare", bare)
     with pytest.raises(TypeError, match="the bare law declares no EXAMPLES, FIT_EXAMPLE"):
-        model.laws.examples()
+        make_law(bare, 7, dict(model.laws.LAWS))
+    stateful = types.SimpleNamespace(NAME="stateful", PARAMETERS=(), STATE=("x",), EXAMPLES={"s": {}},
+                                     FIT_EXAMPLE={}, SPEED_EXAMPLE={}, LEAVES_A_REVERSAL=True)
+    with pytest.raises(TypeError, match="the stateful law declares no STATE_BOUNDS"):
+        make_law(stateful, 7, dict(model.laws.LAWS))
+
+
+def test_a_joined_law_is_placed_from_its_parts_and_two_owners_of_one_part_are_refused():
+    """``elastic_compaction``: the elastic part's state and parameters first, the compaction part's right after them;
+    the parameter array's law code sits just before the first law parameter. Joining two laws that both remove is
+    refused in one line."""
+    law = model.laws.LAWS["elastic_compaction"]
+    elastic, compaction = law.parts
+    assert (elastic.state_at, elastic.params_at) == (model.laws.BASE, model.laws.OWN)
+    assert compaction.state_at == model.laws.BASE + len(model.laws.state_names("elastic"))
+    assert compaction.params_at == model.laws.OWN + len(model.laws.law_parameters("elastic"))
+    p = Params(variant="elastic_compaction", compaction_gain=123.0).as_array()
+    assert p[model.laws.OWN - 1] == law.code and p[compaction.params_at] == 123.0
+    assert model.laws.OWN == len(Params.names()) + 1
+    both = types.SimpleNamespace(NAME="both", JOINS=("loading", "memory"), EXAMPLES={"b": {}}, FIT_EXAMPLE={},
+                                 SPEED_EXAMPLE={}, LEAVES_A_REVERSAL=True)
+    with pytest.raises(TypeError, match="joins two parts that each define removal"):
+        make_law(both, 7, dict(model.laws.LAWS))

@@ -104,7 +104,7 @@ def test_the_fit_recovers_a_variants_known_parameters(tmp_path, variant):
     (``docs/results/models.md``)."""
     added = ADDED[variant]
     truth = model.Params(variant=variant, a2=0.3, b2=-40.0, **added)
-    for noise in (0.0,) if hasattr(model.laws.LAWS[variant], "JOINS") else (0.0, 0.003):
+    for noise in (0.0,) if model.laws.LAWS[variant].joins else (0.0, 0.003):
         runs = [synthetic_run(tmp_path, theta=t, name=f"t{int(t)}-{noise}", n_cycles=3, noise=noise, seed=int(t),
                               params=truth, **(DEM_NOISE if noise else {})).with_definitions(PAPER_DEFINITIONS)
                 for t in (180.0, 150.0, 120.0, 90.0)]
