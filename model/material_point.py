@@ -390,7 +390,8 @@ def _law_state(law_state, params: Params, L: np.ndarray, phi: np.ndarray, n: int
     D = 0.5 * (L + np.swapaxes(L, 1, 2))
     D = D - np.trace(D, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
     norm = np.sqrt(np.sum(D * D, axis=(1, 2)))[:, None, None]
-    Dh = np.divide(D, norm, out=np.zeros_like(D), where=norm > 0)
+    scale = np.sqrt(np.sum(L * L, axis=(1, 2)))[:, None, None]  # a stationary point's D' is round-off: no direction
+    Dh = np.divide(D, norm, out=np.zeros_like(D), where=norm > ROUNDOFF_STRETCHING * scale)
     _, X = laws.start(params.variant, Dh, params.law_dict(), phi)
     return _array("law_state", np.broadcast_to(X, (n, own)), ((n, own),))  # the layout of a given one
 
