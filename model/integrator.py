@@ -27,7 +27,7 @@ from scipy.integrate._ivp import dop853_coefficients as _dop
 
 from . import laws
 from .equations import C1, C3, PHI_C, C, dilatancy_c2, fabric_rates, observables_into
-from .jit import jit
+from .jit import inline, jit
 
 N_STATE = laws.BASE  # A packed (5), t, G, v; a fabric law's own state follows (model.laws)
 ROUNDOFF = 1e-13  # relative time difference treated as equal (segment ends vs output times)
@@ -180,7 +180,7 @@ def _shrunk(h, err):
     return h * max(0.2, 0.9 * err ** (-1.0 / 8.0)) if math.isfinite(err) else 0.2 * h
 
 
-@jit
+@inline
 def _stage_state(tableau, s, y, h, K, ytmp):
     """ytmp = y + h sum_j a_sj K[j], where stage s >= 1 of an explicit Runge-Kutta step of size h from y is taken."""
     for i in range(y.shape[0]):

@@ -6,3 +6,6 @@ where Python's would raise ZeroDivisionError out of a compiled kernel."""
 import numba
 
 jit = numba.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")
+#: the same, inlined where it is called (numba IR): the stepper's small per-stage functions, whose calls with a dozen
+#: arguments cost the material-point update about a quarter of its rate (``docs/results/material-point.md``)
+inline = numba.njit(cache=True, fastmath=False, nogil=True, error_model="numpy", inline="always")

@@ -31,6 +31,7 @@ from scipy.integrate._ivp.rk import RK45
 from . import laws
 from .equations import C1, hardening_variable, jit, persistence
 from .integrator import G_INDEX, NOT_FINITE, STEP_UNDERFLOW, SUCCESS, T_INDEX, TOO_MANY_STEPS, _rhs_s, _stage_state
+from .jit import inline
 
 OVERSHOOT = 1.02  # a step aims this far past the end in t; most updates then take one step
 NEAR_END = 0.9  # an end this close to the step's end is taken from the interpolant without a defect check
@@ -57,7 +58,7 @@ CK_E = CK_B - np.array([2825 / 27648, 0, 18575 / 48384, 13525 / 55296, 277 / 143
 ERROR_EXPONENT = -1.0 / 5.0
 
 
-@jit
+@inline
 def _rhs(y, Dh, Wn, rate, p, lam_ref, out):
     """dy/ds as ``model.integrator``'s, with G's place holding H = G + c1 K:Dh / c (``laws.relaxing_part``; 0 but for
     a law whose state holds a fast-relaxing part K of the fabric). Eq. 18's g carries c1 K:Dh, which after a change
@@ -67,14 +68,14 @@ def _rhs(y, Dh, Wn, rate, p, lam_ref, out):
     out[G_INDEX] += p[C1] * laws.relaxing_part(out, Dh, p)
 
 
-@jit
+@inline
 def _stage(tableau, s, y, h, Dh, Wn, rate, p, lam_ref, K, ytmp):
     """Stage s >= 1 of an explicit Runge-Kutta step of size h from y: K[s] = f(y + h sum_j a_sj K[j])."""
     _stage_state(tableau, s, y, h, K, ytmp)
     _rhs(ytmp, Dh, Wn, rate, p, lam_ref, K[s])
 
 
-@jit
+@inline
 def _combine(weights, y, h, K, out):
     """out = y + h sum_j weights_j K[j]."""
     for i in range(y.shape[0]):
@@ -84,7 +85,7 @@ def _combine(weights, y, h, K, out):
         out[i] = y[i] + h * acc
 
 
-@jit
+@inline
 def _error_norm(weights, y, y_new, K, h, rtol, atol, scale):
     """RMS over the components of the embedded error estimate h sum_j weights_j K[j], scaled by
     scale_i (atol + rtol max(|y|, |y_new|))."""
@@ -118,7 +119,7 @@ def _interpolant(K, Q):
             Q[r, i] = acc
 
 
-@jit
+@inline
 def _value_slope(Q, y, h, x, i):
     """Component i of the interpolant at fraction x of the step, and its slope d/ds."""
     value = 0.0
