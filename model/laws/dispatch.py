@@ -1,12 +1,13 @@
-"""The compiled dispatch over the registry, generated from its laws (``model.laws.law``): for each kind of part,
-a chain that numba builds while it types the kernels, one link per law, each calling the parts that law's record
-places (its ``Part``s, at their ``state_at`` and ``params_at``). No law is named here; a law added to the registry is
-dispatched to without an edit.
+"""The compiled dispatch over the registry, generated from its laws (``model.laws.law``): for each kind of part, a
+balanced tree of comparisons on the law's code that numba builds while it types the kernels, each leaf calling the
+parts that law's record places (its ``Part``s, at their ``state_at`` and ``params_at``). No law is named here; a law
+added to the registry is dispatched to without an edit.
 
 ``generated(kind, laws, neutral)`` gives a function ``f(code, args)`` for compiled code: law ``code``'s part(s) of
-``kind`` called with ``*args, s, q``, or ``neutral(args)`` (Eq. 13's part) where the law defines none. The chain
-compares the law's code once per link (seven integer comparisons at most); the kernels that call it cache as any
-other (``model.kernel_cache`` keys them by the sources of every law).
+``kind`` called with ``*args, s, q``, or ``neutral(args)`` (Eq. 13's part) where the law defines none. Each level of
+the tree is a call that hands the arguments on, so the tree is balanced (three levels for seven laws): a chain of one
+link per law cost the laws at its end half their update rate (``docs/results/material-point.md``). The kernels that
+call it cache as any other (``model.kernel_cache`` keys them by the sources of every law).
 """
 
 from __future__ import annotations
@@ -48,29 +49,31 @@ def _law_call(law: Law, kind: str, neutral):
 def generated(kind: str, laws: tuple[Law, ...], neutral):
     """``f(code, args)`` for compiled code: ``kind`` of the law whose code is ``code`` (see the module)."""
 
-    def from_law(k, code, args):
+    def from_laws(lo, hi, code, args):
         raise NotImplementedError("compiled code only")
 
-    @overload(from_law, prefer_literal=True)
-    def _from_law(k, code, args):
-        if not isinstance(k, types.IntegerLiteral):
+    @overload(from_laws, prefer_literal=True)
+    def _from_laws(lo, hi, code, args):
+        if not (isinstance(lo, types.IntegerLiteral) and isinstance(hi, types.IntegerLiteral)):
             return None
-        here = k.literal_value
-        if here == len(laws):
-            return lambda k, code, args: neutral(args)
-        call, after = _law_call(laws[here], kind, neutral), here + 1
+        first, end = lo.literal_value, hi.literal_value
+        if end - first == 1:
+            call = _law_call(laws[first], kind, neutral)
+            return lambda lo, hi, code, args: call(args)
+        middle = (first + end) // 2
 
-        def chain(k, code, args):
-            if code == here:
-                return call(args)
-            return from_law(after, code, args)
-        return chain
+        def split(lo, hi, code, args):
+            if code < middle:
+                return from_laws(first, middle, code, args)
+            return from_laws(middle, end, code, args)
+        return split
 
     def dispatch(code, args):
         raise NotImplementedError("compiled code only")
 
     @overload(dispatch)
     def _dispatch(code, args):
-        return lambda code, args: from_law(0, code, args)
+        count = len(laws)
+        return lambda code, args: from_laws(0, count, code, args)
 
     return dispatch
