@@ -35,6 +35,7 @@ import numpy as np
 from ..jit import jit
 from . import compaction, dispatch, elastic, elastic_compaction, jump, loading, memory, rk2025
 from .law import BASE, DECLARED, OWN, Law, ReferenceParts, make_law
+from .law import reference_parts as _reference_parts
 from .parameter import Parameter
 
 
@@ -102,9 +103,7 @@ def start(name: str, Dh, values: dict, phi) -> tuple[np.ndarray, np.ndarray]:
 
 def reference_parts(name: str, values: dict) -> ReferenceParts:
     """Law ``name``'s reference parts with its own parameters ``values`` (Eq. 13's where it leaves one out)."""
-    from .law import reference_parts as parts_of
-
-    return parts_of(LAWS[name], values)
+    return _reference_parts(LAWS[name], values)
 
 
 @jit

@@ -33,10 +33,10 @@ def _law_call(law: Law, kind: str, neutral):
     parts = law.defining(kind)
     if not parts:
         return neutral
+    chain = _call(parts[0], kind)
     if kind in ONE:
-        return _call(parts[0], kind)
-    chain = link(lambda args: None)
-    for part in parts:
+        return chain
+    for part in parts[1:]:
         one, before = _call(part, kind), chain
 
         def both(args, one=one, before=before):
