@@ -2,8 +2,11 @@
 
 numba checks a cached kernel against its own module's file only, so a kernel that inlines a function of another
 module (``integrator.dop853`` calls ``equations.fabric_rates``) would be loaded stale after that module changed.
-Keyed by a digest of every source of the package, a changed source gets fresh kernels. A damaged cache (a truncated
-or overwritten file) is removed with a warning and the kernels compile again (``rebuilding_when_damaged``).
+Keyed by a digest of every source of the package, a changed source gets fresh kernels. Inside that folder a kernel's
+place is its module's path within the package (``InPackageLocator``), not the module's path on the disk, so a copy
+of the package with the same sources (another checkout, a test's copy of the project) reads the same kernels. A
+damaged cache (a truncated or overwritten file) is removed with a warning and the kernels compile again
+(``rebuilding_when_damaged``).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import warnings
 from pathlib import Path
 
 import numba
+from numba.core import caching
 
 PACKAGE = Path(__file__).resolve().parent
 
@@ -39,15 +43,39 @@ def folder(folder: Path = PACKAGE) -> str:
     return os.path.join(base, f"numba-{source_digest(folder)}")
 
 
+class InPackageLocator(caching.UserProvidedCacheLocator):
+    """numba's locator under its cache folder, at the module's folder within this package (``model``, ``model/laws``)
+    where numba's own takes a digest of the module's absolute folder. numba still checks each kernel against a digest
+    of its module's contents."""
+
+    def __init__(self, py_func, py_file):
+        super().__init__(py_func, py_file)
+        within = Path(py_file).resolve().parent.relative_to(PACKAGE.parent)
+        self._cache_path = os.path.join(os.path.abspath(numba.config.CACHE_DIR), *within.parts)
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if not Path(py_file).resolve().is_relative_to(PACKAGE):
+            return None
+        return super().from_function(py_func, py_file)
+
+
+#: numba's locators, ours first (``NUMBA_CACHE_LOCATOR_CLASSES``'s form: a class by its module path, or numba's own
+#: by name)
+LOCATORS = ",".join([f"{__name__}.{InPackageLocator.__name__}",
+                     *(c.__name__ for c in caching.CacheImpl._locator_classes)])
+
+
 @contextlib.contextmanager
 def keyed_by_sources():
-    """Kernels compiled (decorated) inside this block cache in ``folder()``; numba's setting is restored after."""
-    before = numba.config.CACHE_DIR
-    numba.config.CACHE_DIR = folder()
+    """Kernels compiled (decorated) inside this block cache in ``folder()``, placed by ``InPackageLocator``; numba's
+    settings are restored after."""
+    before = numba.config.CACHE_DIR, numba.config.CACHE_LOCATOR_CLASSES
+    numba.config.CACHE_DIR, numba.config.CACHE_LOCATOR_CLASSES = folder(), LOCATORS
     try:
         yield
     finally:
-        numba.config.CACHE_DIR = before
+        numba.config.CACHE_DIR, numba.config.CACHE_LOCATOR_CLASSES = before
 
 
 def _raised_by_the_cache(exc: BaseException) -> bool:

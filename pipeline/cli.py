@@ -1,6 +1,7 @@
 """What every pipeline command line shares: argparse with one-line errors."""
 
 import argparse
+import time
 from pathlib import Path
 
 from model.cli import printable
@@ -11,6 +12,23 @@ def given_path(text: str) -> Path:
     if not text.strip():
         raise argparse.ArgumentTypeError(f"{text!r} is empty: give a path")
     return Path(text)
+
+
+class Progress:
+    """A long loop's report, timed from the making: ``progress(done, total)`` prints ``label done/total (percent),
+    rate, ETA``; ``step()`` counts one more of ``total``."""
+
+    def __init__(self, label: str, total: int = 0, unit: str = "fits"):
+        self.label, self.total, self.unit, self.done, self._began = label, total, unit, 0, time.monotonic()
+
+    def __call__(self, done: int, total: int) -> None:
+        self.done, self.total = done, total
+        rate = done / max(time.monotonic() - self._began, 1e-9)
+        print(f"{self.label} {done}/{total} ({done / total:.0%}), {rate:.2f} {self.unit}/s, "
+              f"ETA {(total - done) / rate:.0f} s", flush=True)
+
+    def step(self) -> None:
+        self(self.done + 1, self.total)
 
 
 class Parser(argparse.ArgumentParser):

@@ -11,13 +11,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import model
 
 from .. import choices, io, schema
+from ..cli import Progress
 from ..dataset.derived import PAPER_DEFINITIONS, Definitions
 from ..errors import CalibrationError
 from ..schema import FitSummary
@@ -193,17 +193,6 @@ def jackknife_groups(over: str, reversals: list, cross_runs: tuple) -> dict[str,
     return groups
 
 
-def _progress(label: str):
-    tic = time.time()
-
-    def report(done, total):
-        rate = done / max(time.time() - tic, 1e-9)
-        print(f"{label} {done}/{total} ({done / total:.0%}), {rate:.2f} fits/s, ETA {(total - done) / rate:.0f} s",
-              flush=True)
-
-    return report
-
-
 def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), settings: Settings = Settings(),
               refine: bool = True) -> Calibration:
     """Calibrate from ``reversals``, cross-check on ``cross_runs`` (other angles, Sec. 3.3) and refine globally
@@ -238,16 +227,16 @@ def calibrate(reversals: list, cross_runs: tuple = (), left_out: tuple = (), set
                                     settings.stress, settings.weight)
         if settings.bootstrap:
             boot = dataclasses.replace(
-                resampling.bootstrap(data, noise, refined, settings.bootstrap, progress=_progress("bootstrap")),
+                resampling.bootstrap(data, noise, refined, settings.bootstrap, progress=Progress("bootstrap")),
                 stepwise=stepwise_bootstrap(reversals, settings.bootstrap, window))
         if settings.jackknife:
             jack = resampling.jackknife(data, jackknife_groups(settings.jackknife, reversals, cross_runs), refined,
-                                        noise, progress=_progress("jackknife"), weight=settings.weight,
+                                        noise, progress=Progress("jackknife"), weight=settings.weight,
                                         over=settings.jackknife)
         angles = jackknife_groups("angles", reversals, cross_runs) if identifiable.misfit_noted else {}
         if len(angles) >= 3:  # the model misses the runs: the noise's ± would mislead
             spread = jack if settings.jackknife == "angles" else resampling.jackknife(
-                data, angles, refined, noise, progress=_progress("the model misses the runs: refit without angle"),
+                data, angles, refined, noise, progress=Progress("the model misses the runs: refit without angle"),
                 weight=settings.weight)
             identifiable = dataclasses.replace(identifiable,
                                                spread_over_angles=identifiability.spread_over_angles(spread))

@@ -17,14 +17,13 @@ from __future__ import annotations
 
 import dataclasses
 import sys
-import time
 
 import numpy as np
 
 import model
 
 from .. import io
-from ..cli import Parser, one_line_errors
+from ..cli import Parser, Progress, one_line_errors
 from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS
 from ..dataset.lookup import fit_runs
@@ -116,15 +115,8 @@ def main(argv=None) -> int:
         raise PipelineError(f"no run of {chosen.label}")
     data, noise = global_fit.prepare(runs, weight=args.weight)
     best = global_fit.refine(data, model.Params(), noise=noise)
-    tic = time.time()
-
-    def progress(done, total):
-        rate = done / (time.time() - tic)
-        print(f"profile {done}/{total} ({done / total:.0%}), {rate:.2f} fits/s, ETA {(total - done) / rate:.0f} s",
-              flush=True)
-
     result = {"definitions": dataclasses.asdict(definitions), "weight": args.weight,
-              **profiles(data, best, args.points, args.span, progress, names)}
+              **profiles(data, best, args.points, args.span, Progress("profile"), names)}
     stem = "profiles" if definitions == PAPER_DEFINITIONS else f"profiles-{definitions.slug()}"
     name = stem + "".join(f"-{n}" for n in names) + ".json"
     io.write_json(out / name, result)

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import sys
-import time
 from pathlib import Path
 
 import model
 
 from .. import io, schema
 from ..calibration import global_fit
-from ..cli import Parser, one_line_errors
+from ..cli import Parser, Progress, one_line_errors
 from ..dataset import selection
 from ..dataset.derived import PAPER_DEFINITIONS
 from ..errors import CalibrationError
@@ -42,25 +41,19 @@ def main(argv=None) -> int:
     others = other_data_sets(chosen, args.across)
     out = io.check_writable_dir(args.out or preset_output(chosen.folder, "models"))
     variants = args.laws
-    total, done, began = len(variants) * (1 + len(splits(runs)) + len(others)), [0], time.monotonic()
-
-    def progress():
-        done[0] += 1
-        rate = done[0] / (time.monotonic() - began)
-        print(f"models: {done[0]}/{total} fits ({100 * done[0] / total:.0f}%), {rate:.2f} fits/s, "
-              f"ETA {(total - done[0]) / rate:.0f} s", flush=True)
+    progress = Progress("models: fits", len(variants) * (1 + len(splits(runs)) + len(others)))
 
     print(f"runs: {chosen.label}; across: {', '.join(others) or 'none'}", flush=True)
     stress, weight = global_fit.STRESS_DEFAULT, global_fit.WEIGHT_DEFAULT
     results, not_fitted = [], {}
     for v in variants:
         try:
-            results.append(judge(v, runs, others, stress, weight, progress))
+            results.append(judge(v, runs, others, stress, weight, progress.step))
         except CalibrationError as exc:  # this law cannot be fitted on these runs: the others are still judged
             if v == variants[0]:
                 raise CalibrationError(f"Eq. 13's law (the one the others are judged against): {exc}") from None
             not_fitted[v] = str(exc)
-            done[0] += total // len(variants)  # its fits, none made
+            progress.done += progress.total // len(variants)  # its fits, none made
             print(f"models: {v} not fitted on every run ({exc}): left out", flush=True)
     judgements = judged(results)
     made_from = schema.MadeFrom.of([r.path for r in (*runs, *(r for rs in others.values() for r in rs))],

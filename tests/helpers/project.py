@@ -10,6 +10,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from model import kernel_cache
 from pipeline.paths import ROOT
 
 #: the lane's test: the lane is started only when it is among the session's tests
@@ -28,7 +29,9 @@ LANE = [("demo",), ("sweep", "PRESET=quick", "THETAS=180 90"), ("sweep-collect",
 
 def project_copy(folder: Path) -> Path:
     """The checkout's files (tracked and new, not ignored) copied into ``folder``; run files hard-linked (never written
-    in place: every writer renames a new file onto its name), and a virtualenv of links to the checkout's."""
+    in place: every writer renames a new file onto its name), a virtualenv of links to the checkout's, and the
+    checkout's folder of compiled kernels for these sources linked (``model.kernel_cache``: the copy's kernels compile
+    once for the session, not once per copy)."""
     listed = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=ROOT,
                             capture_output=True, check=True).stdout.decode().split("\0")
     for name in filter(None, listed):
@@ -46,6 +49,10 @@ def project_copy(folder: Path) -> Path:
         if entry.name != ".installed":
             (venv / entry.name).symlink_to(entry.resolve())
     (venv / ".installed").touch()  # newer than the copied pyproject.toml: Make builds no virtualenv here
+    kernels = Path(kernel_cache.folder())
+    kernels.mkdir(parents=True, exist_ok=True)
+    (folder / "model/__pycache__").mkdir()
+    (folder / "model/__pycache__" / kernels.name).symlink_to(kernels)
     return folder
 
 

@@ -24,6 +24,20 @@ def test_the_cache_folder_follows_every_source_of_the_package(tmp_path, monkeypa
     assert kernel_cache.folder(copy).startswith(str(tmp_path / "user" / "numba-"))
 
 
+def test_a_kernel_is_placed_by_its_module_within_the_package_not_by_the_disk(monkeypatch):
+    """Two copies of the package with the same sources find their kernels at the same place in the cache folder."""
+    from model import equations
+    from model.laws import compaction
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", "/cache/numba-0123")
+    placed = {name: kernel_cache.InPackageLocator.from_function(f.py_func, f.py_func.__code__.co_filename)
+              for name, f in (("equations", equations.fabric_rates), ("compaction", compaction.gate))}
+    assert placed["equations"].get_cache_path() == "/cache/numba-0123/model"
+    assert placed["compaction"].get_cache_path() == "/cache/numba-0123/model/laws"
+    assert kernel_cache.InPackageLocator.from_function(pytest.approx, pytest.__file__) is None  # not the package's
+    assert kernel_cache.LOCATORS.startswith("model.kernel_cache.InPackageLocator,")
+
+
 def test_numba_setting_is_restored_after_the_import():
     assert model.predict(90).cycle_residual < 1e-10
     assert numba.config.CACHE_DIR != kernel_cache.folder()

@@ -8,9 +8,8 @@ from pathlib import Path
 
 from ... import choices, engines
 from ...cli import Parser, one_line_errors
-from ...errors import SpecError
 from ...paths import RESULTS_DIR, ROOT
-from .local import run_local
+from .local import ranks_and_jobs, run_local
 from .plan import MAX_TASKS, plan, read_plan, write_plan
 from .slurm import apply_overrides, check_slurm, load_cluster_config, submit
 from .status import format_status, status
@@ -53,15 +52,8 @@ def main(argv=None) -> int:
         return subprocess.call(["make", "--no-print-directory", "-C", str(ROOT), "figures", *settings])
     config = load_cluster_config()
     slurm = apply_overrides(config["slurm"], args.slurm, "slurm")
-    ranks = slurm["ranks_per_run"] if args.ranks is None else args.ranks
-    if args.ranks is not None and any(o.startswith("ranks_per_run=") for o in args.slurm) \
-            and args.ranks != slurm["ranks_per_run"]:
-        raise SpecError(f"ranks={args.ranks} and slurm ranks_per_run={slurm['ranks_per_run']} disagree: give one")
-    if not 1 <= ranks <= engines.MAX_RANKS:
-        raise SpecError(f"ranks={ranks} must be between 1 and {engines.MAX_RANKS}")
-    jobs = args.jobs if args.jobs is not None else max(1, config["local"]["jobs"] // ranks)
-    if jobs < 1:
-        raise SpecError(f"jobs={jobs} must be >= 1")
+    ranks, jobs = ranks_and_jobs(args.ranks, args.jobs, slurm["ranks_per_run"],
+                                 any(o.startswith("ranks_per_run=") for o in args.slurm), config["local"]["jobs"])
     sweep = plan(args.preset, args.thetas, args.rotate_ats, args.seeds, args.set, args.results, args.allow_many,
                  args.engine)
     slurm["ranks_per_run"] = ranks

@@ -6,10 +6,26 @@ from __future__ import annotations
 import shlex
 import subprocess
 
-from ... import io
+from ... import engines, io
+from ...errors import SpecError
 from ...paths import ROOT
 from ..state import run_state
 from .plan import Sweep, launcher_command
+
+
+def ranks_and_jobs(ranks: int | None, jobs: int | None, slurm_ranks: int, slurm_ranks_given: bool,
+                   config_jobs: int) -> tuple[int, int]:
+    """MPI ranks per run and runs side by side: the options given, else ``[slurm] ranks_per_run`` and ``[local]
+    jobs`` divided by the ranks; a one-line error where they disagree or fall outside the engine's limits."""
+    if ranks is not None and slurm_ranks_given and ranks != slurm_ranks:
+        raise SpecError(f"ranks={ranks} and slurm ranks_per_run={slurm_ranks} disagree: give one")
+    ranks = slurm_ranks if ranks is None else ranks
+    if not 1 <= ranks <= engines.MAX_RANKS:
+        raise SpecError(f"ranks={ranks} must be between 1 and {engines.MAX_RANKS}")
+    jobs = max(1, config_jobs // ranks) if jobs is None else jobs
+    if jobs < 1:
+        raise SpecError(f"jobs={jobs} must be >= 1")
+    return ranks, jobs
 
 
 def local_makefile(sweep: Sweep, ranks: int = 1) -> str:

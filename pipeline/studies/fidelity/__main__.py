@@ -16,11 +16,8 @@ from pathlib import Path
 
 from ... import choices, engines, io
 from ...cli import Parser, one_line_errors
-from ...errors import SpecError
 from ...paths import FIDELITY_LADDER, fidelity_output, shown
-from ...runs.sweep.local import run_local
-from ...runs.sweep.plan import MAX_TASKS, write_plan
-from ...runs.sweep.slurm import load_cluster_config, submit
+from ...runs.sweep.plan import MAX_TASKS
 from . import ladder, render, table
 from .gather import csv_text, summaries, top_summaries
 
@@ -47,18 +44,9 @@ def main(argv=None) -> int:
     rungs = ladder.rungs(ladder_config, args.engine, args.ladder.name)
     out = io.check_writable_dir(args.out)
     missing = ladder.missing(rungs)
-    if args.run and len(missing) > MAX_TASKS and not args.allow_many:
-        raise SpecError(f"the ladder {args.ladder} asks for {len(missing)} runs, more than {MAX_TASKS}: MANY=1 "
-                        "(--allow-many) if you mean it")
-    if args.run and missing:
-        sweep = ladder.sweep_of(missing, ladder_config["preset"])
-        write_plan(sweep)
-        print(f"running {len(missing)} ladder run(s) as sweep {sweep.ident} ({args.launch}; "
-              f"make sweep-status SWEEP={sweep.ident})", flush=True)
-        if args.launch == "slurm":
-            submit(sweep, load_cluster_config())
-            return 0
-        run_local(sweep, args.jobs)
+    if args.run and missing and ladder.make_runs(missing, ladder_config["preset"], args.launch, args.jobs,
+                                                 args.allow_many, args.ladder) == "submitted":
+        return 0
     entries = summaries(rungs)
     label, top_paths = ladder.top_runs(ladder_config)
     top = (label, top_summaries(top_paths), list(ladder_config["top"].get("checks", []))) if top_paths else None

@@ -22,7 +22,9 @@ from ...config import load_presets
 from ...dataset import lookup, selection
 from ...errors import SpecError
 from ...paths import DATA_ROOTS, FIDELITY_LADDER, RESULTS_DIR, ROOT, first_existing
-from ...runs.sweep.plan import Sweep, Task, make_sweep
+from ...runs.sweep.local import run_local
+from ...runs.sweep.plan import MAX_TASKS, Sweep, Task, make_sweep, write_plan
+from ...runs.sweep.slurm import load_cluster_config, submit
 
 SUMMARY_DIR = ROOT / "data" / "fidelity"
 
@@ -114,3 +116,20 @@ def sweep_of(to_run: list[Rung], preset: str, results: Path = RESULTS_DIR) -> Sw
     tasks = [Task(f"{r.theta_deg:g}", preset, None, tuple(f"{k}={v:g}" for k, v in sorted(r.spec.overrides.items())),
                   run_spec.output_path(r.spec, results), r.spec.label(), r.spec.engine) for r in to_run]
     return make_sweep("fidelity", preset, tasks, results)
+
+
+def make_runs(to_run: list[Rung], preset: str, launch: str, jobs: int, allow_many: bool, source: Path) -> str:
+    """The ladder's missing runs made as one sweep, here (``jobs`` side by side) or submitted to SLURM: "made" or
+    "submitted". More than ``MAX_TASKS`` runs only when ``allow_many``."""
+    if len(to_run) > MAX_TASKS and not allow_many:
+        raise SpecError(f"the ladder {source} asks for {len(to_run)} runs, more than {MAX_TASKS}: MANY=1 "
+                        "(--allow-many) if you mean it")
+    sweep = sweep_of(to_run, preset)
+    write_plan(sweep)
+    print(f"running {len(to_run)} ladder run(s) as sweep {sweep.ident} ({launch}; make sweep-status "
+          f"SWEEP={sweep.ident})", flush=True)
+    if launch == "slurm":
+        submit(sweep, load_cluster_config())
+        return "submitted"
+    run_local(sweep, jobs)
+    return "made"
