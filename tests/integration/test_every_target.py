@@ -10,9 +10,12 @@ import re
 import signal
 import subprocess
 
+import numpy as np
 import pytest
 
+from pipeline.dataset.dem_file import load
 from pipeline.paths import ROOT
+from pipeline.schema import read_metrics
 from tests.helpers.project import LANE, LANE_TEST, make, project_copy
 
 pytestmark = [pytest.mark.yade, pytest.mark.lammps]
@@ -72,26 +75,53 @@ def stop_at_first_checkpoint(project):
     return next((project / "results").glob("tiny-lammps-*/dem/theta090.run")).relative_to(project)
 
 
+def a_run(path, engine: str) -> bool:
+    """Whether ``path`` is a run the pipeline reads, of ``engine``, with samples over its cycle and a contact
+    budget."""
+    run = load(path)
+    return run.engine == engine and len(run.raw["strain"]) > 10 and run.contacts is not None \
+        and bool(np.isfinite(run.raw["strain"]).all())
+
+
+def settings_timed(record: dict) -> bool:
+    """Whether the settings benchmark timed both settings in every round, at positive rates."""
+    rates = record["a_steps_per_second"], record["b_steps_per_second"]
+    return all(len(r) == record["rounds"] and min(r) > 0 for r in rates) and len(record["ratios"]) == record["rounds"]
+
+
+def compared(path, seeds: set[int]) -> bool:
+    """Whether ``path`` is a comparison the pipeline reads, with an error row for every run of ``seeds`` (and no
+    other) and finite errors."""
+    metrics = read_metrics(path)
+    rows = metrics.errors.rows
+    return bool(rows) and {r.seed for r in rows} == seeds \
+        and all(np.isfinite(v) for r in rows for v in r.errors.values())
+
+
 #: the DEM and engine targets at the tiny size, in order (each may read what one before it made): the target, its
 #: variables (a function of the project where they name a file made before), and what its outputs must hold
 DEM_TARGETS = [
-    ("dem", ("THETA=180", "PRESET=tiny"), lambda p, said: (p / "results/tiny/dem/theta180.h5").exists()),
+    ("dem", ("THETA=180", "PRESET=tiny"), lambda p, said: a_run(p / "results/tiny/dem/theta180.h5", "yade")),
     ("dem", ("THETA=180", "PRESET=tiny", "ENGINE=lammps"),
-     lambda p, said: (p / "results/tiny-lammps/dem/theta180.h5").exists()),
+     lambda p, said: a_run(p / "results/tiny-lammps/dem/theta180.h5", "lammps")),
     ("engines", ("PRESET=tiny",), lambda p, said: "tiny (lammps)" in (p / "results/engines/engines.md").read_text()),
     ("bench-lammps-settings", lambda p: (f"RUN_DIR={stop_at_first_checkpoint(p)}",),
-     lambda p, said: (p / "results/bench").is_dir() and any((p / "results/bench").iterdir())),
+     lambda p, said: settings_timed(json.loads((p / "results/bench/lammps_settings.json").read_text()))),
     ("bench-dem", ("PRESETS=tiny", "ENGINES=yade,lammps"),
-     lambda p, said: (p / "results/bench/dem_throughput.md").exists()),
+     lambda p, said: re.search(r"^\| tiny \| \d+ \+ \d+ \| [1-9]\d* / [1-9]\d* \| [1-9]\d* / [1-9]\d* \| [\d.]+× \|",
+                               (p / "results/bench/dem_engines.md").read_text(), re.MULTILINE) is not None),
     ("sweep", ("PRESET=tiny", "THETAS=30 60", "JOBS=2"),
-     lambda p, said: (p / "results/tiny/dem/theta030.h5").exists() and (p / "results/tiny/dem/theta060.h5").exists()),
+     lambda p, said: a_run(p / "results/tiny/dem/theta030.h5", "yade") and a_run(p / "results/tiny/dem/theta060.h5",
+                                                                               "yade")),
     ("runs", (), lambda p, said: "tiny/theta060" in said),
     ("sweep-status", (), lambda p, said: "done" in said),
     # dt_safety 0.2 is the preset's own: its run, made above, is found; the other is made
     ("fidelity", lambda p: tiny_ladder(p),
      lambda p, said: "running 1 ladder run(s)" in said and "2 run(s) of the ladder; 0 not made yet" in said
      and "moved from the `tiny` preset" in (p / "results/fidelity-ladder/table.md").read_text()),
-    ("profile-dem", ("PRESETS=tiny",), lambda p, said: (p / "results/bench/dem_profile.md").exists()),
+    ("profile-dem", ("PRESETS=tiny",),
+     lambda p, said: re.search(r"^\| tiny \| 1 \| \d+ \+ \d+ \| [1-9]\d* \| ",
+                               (p / "results/bench/dem_profile.md").read_text(), re.MULTILINE) is not None),
     # a case past the time-step bound: its verdict in seconds (test_dem_stability runs the cases that pass)
     ("stability", ("CASES=dt2.0",),
      lambda p, said: "| dt2.0 |" in (text := (p / "results/fidelity/stability.md").read_text())
@@ -113,11 +143,11 @@ DATA_TARGETS = [
     ("fit", ("SKIP_CYCLES=1",),
      lambda p, said: "runs: paper (lammps, inertial_number=0.001, cycles from 2 on)" in said
      and (p / PAPER / "fit-skip1/params.json").exists() and not (p / PAPER / "fit").exists()),
-    ("compare", ("SKIP_CYCLES=1",), lambda p, said: (p / PAPER / "compare-skip1/metrics.json").exists()
+    ("compare", ("SKIP_CYCLES=1",), lambda p, said: compared(p / PAPER / "compare-skip1/metrics.json", {1})
      and not (p / PAPER / "compare-skip1/report.md").exists()),
     ("figures", ("SKIP_CYCLES=1",),
      lambda p, said: "## Drift over the cycles" in (p / PAPER / "compare-skip1/report.md").read_text()),
-    ("compare-seed", ("SEED=2",), lambda p, said: (p / PAPER / "compare-seed2/metrics.json").exists()),
+    ("compare-seed", ("SEED=2",), lambda p, said: compared(p / PAPER / "compare-seed2/metrics.json", {2})),
     ("fit-bootstrap", ("BOOT=2",),
      lambda p, said: '"interval_68"' in (p / PAPER / "fit-bootstrap/fit.json").read_text()),
     ("fit-jackknife", ("OVER=angles",),
