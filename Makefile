@@ -72,13 +72,13 @@ FORCE:
 help: ## list the targets
 	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN{FS=":.*## "}{printf "  make %-14s %s\n", $$1, $$2}'
 
-demo: system venv model-cycles demo-dem ## set up everything, then run the pipeline on the small default
-	$(MAKE) --no-print-directory figures PRESET=quick
-	@echo "demo done: model cycles in $(MODEL_DIR)/, DEM runs in results/quick/dem/, fit in results/quick/fit/, figures and report.md in results/quick/"
+demo: system venv model-cycles demo-dem ## set up everything, then run the pipeline on the small default [PRESET=quick] [SET=...]
+	PRESET=$${PRESET:-quick} $(MAKE) --no-print-directory figures
+	@echo "demo done: model cycles in $(MODEL_DIR)/, DEM runs, fit, figures and report.md in the data set's folder (results/quick/ by default)"
 
 # ---------------------------------------------------------------- tests and lint
 test: system system-lammps system-slurm venv lint ## lint, then every test (the real Yade and LAMMPS, a real one-node SLURM): what CI runs
-	$(PY) -m pytest -q --durations=40
+	$(PY) -m pytest -q -n 2 --dist loadfile --durations=40
 test-unit: venv ## the fast unit tests (no Yade, LAMMPS or SLURM, nothing marked slow): under a minute of CPU
 	$(PY) -m pytest -q tests/unit -m "not slow and not yade and not lammps and not slurm"
 test-yade: system system-lammps venv ## the tests that run the real Yade (and LAMMPS)
@@ -144,12 +144,12 @@ model-cycles: $(foreach t,$(MODEL_THETAS),$(MODEL_DIR)/theta$(t).csv) ## model c
 $(MODEL_DIR)/theta%.csv: $(VENV_STAMP) model/*.py
 	$(PY) -m model predict --theta $* --out $@
 
-demo-dem: system venv ## the quick-preset DEM runs of the demo: theta = 180 and 90, both at once
+demo-dem: $(ENGINE_SYSTEM) venv ## the demo's DEM runs, theta = 180 and 90 at once [PRESET=quick] [ENGINE=...] [SET=...]
 	$(MAKE) --no-print-directory -j2 demo-dem-180 demo-dem-90
 
-# one demo run (the launcher itself skips a run that is done and resumes one that was stopped)
+# one demo run, as `make dem THETA=<stem>` (the launcher skips a run that is done and resumes one that was stopped)
 demo-dem-%: | $(VENV_STAMP)
-	$(PY) -m pipeline.runs run --theta $* --preset quick
+	THETA=$* $(TARGETS) dem
 
 # ---------------------------------------------------------------- the data set's files: fit -> compare -> figures
 fit: $(FIT_DIR)/params.json ## calibrate on the data set's runs [PRESET=...] [FIT_FROM=0.005] [STRESS=all] [WEIGHT=angles] [VARIANT=loading] [SKIP_CYCLES=1] -> results/<data set>/fit[-<options>]/

@@ -3,6 +3,7 @@
 of the project when the session starts, so that its DEM runs and fits overlap the other tests, and its test, marked
 ``last``, finds it done."""
 
+import os
 import sys
 from pathlib import Path
 
@@ -12,18 +13,19 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from tests.helpers.project import LANE, LANE_TEST, Lane, project_copy  # noqa: E402  (the project on the path first)
+from tests.helpers.project import LANE, LANE_TEST, Lane  # noqa: E402  (the project on the path first)
 
 
 @pytest.fixture(scope="session", autouse=True)
 def long_lane(request, tmp_path_factory):
-    """The lane, running from the session's start (None when its test is not selected)."""
+    """The lane, running from the session's start (None when its test is not selected). Under pytest-xdist every
+    worker finds the one lane of the session in the folder the workers share, owned by the session's main process
+    (the workers' parent); run alone, the session's process owns it."""
     if not any(item.name == LANE_TEST for item in request.session.items):
-        yield None
-        return
-    lane = Lane(project_copy(tmp_path_factory.mktemp("lane")), LANE)
-    yield lane
-    lane.stop()
+        return None
+    worker = hasattr(request.config, "workerinput")
+    base = tmp_path_factory.getbasetemp()
+    return Lane.start((base.parent if worker else base) / "lane", LANE, os.getppid() if worker else os.getpid())
 
 
 def pytest_collection_modifyitems(items):
