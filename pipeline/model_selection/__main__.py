@@ -66,7 +66,7 @@ def main(argv=None) -> int:
         io.write_bytes(md, markdown(chosen.label, results, judgements, not_fitted).encode())
         schema.write_models_h5(h5, curves(runs, results), made_from)
     for r in results:
-        io.write_params(out / f"params-{r.variant}.json", model.Params.from_dict(r.params),
+        io.write_params(out / f"params-{r.variant}.json", r.params,
                         {"fit": "global (pipeline.model_selection: every run of the default protocol)",
                          "misfit": r.misfit})
     print("\n".join(j.line() for j in judgements))

@@ -38,7 +38,7 @@ def curves(runs: list, results: list[LawScore]) -> dict:
         if not run.default_rotation:
             continue
         if run.theta_deg in (120.0, 150.0):
-            preds = runnable(run, {v: model.Params.from_dict(p) for v, p in sets.items()})
+            preds = runnable(run, sets)
             for c in metrics.memory_curves(run, preds):
                 if c["segment"] == "after the turn to theta":
                     out["memory"].append({"run": run.path.stem, "seed": run.spec.seed, "theta": run.theta_deg,
@@ -46,7 +46,7 @@ def curves(runs: list, results: list[LawScore]) -> dict:
                                           "dem": c["dem"].mean(axis=0),
                                           "model": {v: m[1] for v, m in c["model"].items()}})
         if run.is_reversal:
-            preds = runnable(run, {v: model.Params.from_dict(p) for v, p in full.items()})
+            preds = runnable(run, full)
             out["jump"].append(jump_curve(run, preds))
     return out
 

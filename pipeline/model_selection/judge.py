@@ -42,7 +42,7 @@ def judge(variant: str, runs: list, other_runs: dict[str, list], stress: str, we
             scores.append(SplitScore(split.name, None, None, str(exc), rows, np.inf))
         else:
             rows = [held_out(runs[i], trained.params, train_noise, stress, {}) for i in split.test]
-            scores.append(SplitScore(split.name, trained.params.to_dict(), trained.misfit, None, rows, pooled(rows)))
+            scores.append(SplitScore(split.name, trained.params, trained.misfit, None, rows, pooled(rows)))
         progress()
     across = []
     for label, others in other_runs.items():
@@ -50,8 +50,8 @@ def judge(variant: str, runs: list, other_runs: dict[str, list], stress: str, we
         trained, there_noise = fit(there, variant, stress, weight)
         here = [held_out(r, trained.params, noise, stress) for r in runs]
         back = [held_out(r, full.params, there_noise, stress) for r in others]
-        across.append(AcrossScore(label, trained.params.to_dict(), here, pooled(here), back, pooled(back)))
+        across.append(AcrossScore(label, trained.params, here, pooled(here), back, pooled(back)))
         progress()
-    return LawScore(variant, params.to_dict(), list(full.names), full.values.tolist(), full.standard_errors.tolist(),
+    return LawScore(variant, params, list(full.names), full.values.tolist(), full.standard_errors.tolist(),
                     full.misfit, **information(full, global_fit.fitted_residuals(data)),
                     own_reversal=own_reversal(params), splits=scores, across=across)

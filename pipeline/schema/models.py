@@ -7,6 +7,7 @@ import dataclasses
 import json
 from pathlib import Path
 
+import model
 from model import json_text
 
 from .. import io
@@ -49,7 +50,7 @@ class SplitScore(Record):
     WHAT = "split score"
 
     name: str
-    params: dict | None
+    params: model.Params | None
     misfit: float | None
     error: str | None
     rows: list[HeldOut]
@@ -64,7 +65,7 @@ class AcrossScore(Record):
     WHAT = "score across cells"
 
     other: str
-    params_there: dict
+    params_there: model.Params
     here_from_there: list[HeldOut]
     rms_noise_here: float
     there_from_here: list[HeldOut]
@@ -80,7 +81,7 @@ class LawScore(Record):
     WHAT = "law's score"
 
     variant: str
-    params: dict
+    params: model.Params
     free: list
     values: list
     standard_errors: list
