@@ -1,5 +1,5 @@
 """``python -m tests.helpers.lane FOLDER OWNER``: run the lane's commands (``FOLDER/commands.json``) one after the
-other in ``FOLDER/project`` at nice 19, each in a process group of its own; append each one's record to
+other in ``FOLDER/project``, each in a process group of its own; append each one's record to
 ``FOLDER/done.jsonl``; mark ``FOLDER/ended`` after the last, or after the first that fails. When process ``OWNER``
 (the test session) is gone, the running command's group is killed and the lane ends."""
 
@@ -25,7 +25,7 @@ def run(args: list[str], project: Path, owner: int) -> tuple[int, str, float] | 
     tic = time.monotonic()
     out = project.parent / "output.txt"
     with open(out, "w") as sink:
-        proc = subprocess.Popen(["nice", "-n", "19", "make", "--no-print-directory", *args], cwd=project,
+        proc = subprocess.Popen(["make", "--no-print-directory", *args], cwd=project,
                                 stdout=sink, stderr=subprocess.STDOUT, process_group=0)
         while proc.poll() is None:
             if not alive(owner):

@@ -85,11 +85,11 @@ class Done:
 class Lane:
     """``make`` commands run one after the other in a copy of the project by a process of their own
     (``tests/helpers/lane.py``), from the moment it is started: work too long to wait for in turn (a target's DEM
-    runs) overlaps the rest of the session, at the lowest priority (nice 19, which the DEM launcher passes to its
-    scenes' scheduler groups), so that it takes the cores the session leaves idle. The first failing command ends
-    the lane. Its folder holds the copy (``project``), a record per command done and a mark when it ends; the
-    process ends its command and itself when the session's process (``owner``) is gone. ``start`` makes it once for
-    every worker of a session (``tests/conftest.py``): the first caller starts it, the others find it."""
+    runs) overlaps the rest of the session, at the priority of the session's workers (at nice 19 the two workers
+    starved it, and its last minutes ran alone on one core: ``docs/results/test-suite.md``). The first failing
+    command ends the lane. Its folder holds the copy (``project``), a record per command done and a mark when it
+    ends; the process ends its command and itself when the session's process (``owner``) is gone. ``start`` makes it
+    once for every worker of a session (``tests/conftest.py``): the first caller starts it, the others find it."""
 
     def __init__(self, folder: Path):
         self.folder, self.project = folder, folder / "project"
