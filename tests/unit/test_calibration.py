@@ -136,6 +136,7 @@ def test_runs_are_found_in_results_first_then_in_the_reference_dataset(tmp_path)
                                                                results / "p/dem/theta180.h5"]
 
 
+@pytest.mark.slow  # fits and checks of several seconds each
 def test_own_reversal_runs_table_2_and_names_why_a_law_that_runs_away_fails():
     """``definitions.own_reversal``, the fit-from table's column: Table 2's own cycle keeps |A| at its steady value;
     a fabric law with a positive start rate cannot give a cycle, and the reason names the fabric."""

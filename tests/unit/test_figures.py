@@ -399,6 +399,7 @@ def test_the_report_names_the_fitted_law_and_prints_every_parameter_it_owns():
     assert "Eq. 13 as written" in law_sentence(model.PAPER)
 
 
+@pytest.mark.slow  # fits and checks of several seconds each
 def test_a_product_whose_inputs_changed_or_that_mixes_two_fits_is_refused(tmp_path):
     """Every stage that reads a product checks what made it, whatever the file times say: a params.json edited by
     hand, one from another fit beside this fit.json, a fit whose run changed or is gone, and a comparison whose
@@ -444,6 +445,7 @@ def test_a_product_whose_inputs_changed_or_that_mixes_two_fits_is_refused(tmp_pa
         draw(tmp_path / "compare", tmp_path / "fit", tmp_path / "out")
 
 
+@pytest.mark.slow  # fits and checks of several seconds each
 def test_a_fit_copied_from_another_fit_is_refused_by_the_figures_in_one_line(compared, tmp_path):
     """fit.json or fit.h5 of another fit beside the compared one (another data set's, copied in): the figures name
     the foreign file and what remakes it; the same files, untouched, draw."""

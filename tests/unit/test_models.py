@@ -49,6 +49,7 @@ def test_a_split_with_nothing_to_predict_or_nothing_to_fit_is_not_made():
         inputs.other_data_sets(None, ["none", "reduced"])
 
 
+@pytest.mark.slow  # fits and checks of several seconds each
 def test_a_law_that_cannot_run_the_held_out_cycle_fails_the_test(tmp_path):
     run = synthetic_run(tmp_path, theta=180.0, name="rev", n_cycles=2, noise=0.002)
     data, noise = global_fit.prepare([run])
