@@ -1,8 +1,8 @@
 """The targets `make help` names, run through `make` end to end at the smallest scale that exercises them, in a copy
-of the project (results of this checkout are never touched). Which test runs which target is ``RUN_HERE``: the long
-ones (the demo and what follows it on its data set) run in a lane started with the session (``tests/conftest.py``),
-whose test runs last; ``RUN_BY_CI`` are the ones CI's `make test` is made of. A new target fails the first test until
-it is placed."""
+of the project (results of this checkout are never touched): the DEM and engine targets at the tiny size here, the
+data targets on the committed data in ``test_data_targets.py``, the long ones (the demo and what follows it on its
+data set) in the lane (``test_lane.py``). Which test runs which target is ``tests/helpers/targets.py``'s
+``RUN_HERE``; a new target fails the first test until it is placed."""
 
 import json
 import os
@@ -14,27 +14,11 @@ import numpy as np
 import pytest
 
 from pipeline.dataset.dem_file import load
-from pipeline.paths import ROOT
-from pipeline.schema import read_metrics
-from tests.helpers.project import LANE, LANE_TEST, make, project_copy
+from tests.helpers.project import make, project_copy
+from tests.helpers.targets import RUN_BY_CI, RUN_HERE
 
 pytestmark = [pytest.mark.yade, pytest.mark.lammps]
 
-RUN_HERE = {
-    "help": "test_every_target_is_run_here_or_by_ci",
-    **dict.fromkeys(("dem", "engines", "bench-lammps-settings", "bench-dem", "sweep", "runs", "sweep-status",
-                     "fidelity", "profile-dem", "stability"),
-                    "test_a_dem_or_engine_target_runs_at_the_tiny_size"),
-    **dict.fromkeys(("fit", "compare", "figures", "compare-seed", "fit-bootstrap", "fit-jackknife", "fit-angles",
-                     "fit-definitions", "fidelity-table", "data-card", "clean"),
-                    "test_a_data_target_runs_on_the_committed_data"),
-    # the demo (its DEM runs, demo-dem, first), what follows it on its data set, and the studies of committed data
-    **dict.fromkeys(("demo", "demo-dem", "sweep-collect", "fit-from", "fit-profile", "models", "bench", "versus",
-                     "cells", "jump", "budget", "model-cycles"), LANE_TEST),
-}
-assert {args[0] for args in LANE} <= set(RUN_HERE)
-RUN_BY_CI = ("test", "test-unit", "test-yade", "test-cluster", "lint", "venv", "system", "system-venv",
-             "system-lammps", "system-slurm")
 #: a ladder of two tiny runs (seconds each), for `make fidelity LADDER=...`
 TINY_LADDER = """preset = "tiny"
 thetas = [180.0]
@@ -89,15 +73,6 @@ def settings_timed(record: dict) -> bool:
     return all(len(r) == record["rounds"] and min(r) > 0 for r in rates) and len(record["ratios"]) == record["rounds"]
 
 
-def compared(path, seeds: set[int]) -> bool:
-    """Whether ``path`` is a comparison the pipeline reads, with an error row for every run of ``seeds`` (and no
-    other) and finite errors."""
-    metrics = read_metrics(path)
-    rows = metrics.errors.rows
-    return bool(rows) and {r.seed for r in rows} == seeds \
-        and all(np.isfinite(v) for r in rows for v in r.errors.values())
-
-
 #: the DEM and engine targets at the tiny size, in order (each may read what one before it made): the target, its
 #: variables (a function of the project where they name a file made before), and what its outputs must hold
 DEM_TARGETS = [
@@ -136,43 +111,5 @@ def test_a_dem_or_engine_target_runs_at_the_tiny_size(project, target, variables
     assert holds(project, said), said[-2000:]
 
 
-PAPER = "results/paper-lammps-e29c082a"
-#: the targets of the committed data, in order (a comparison and figures read the fit before them; clean last)
-DATA_TARGETS = [
-    # a fit with other options than the defaults: its fit, comparison and report in folders of their own
-    ("fit", ("SKIP_CYCLES=1",),
-     lambda p, said: "runs: paper (lammps, inertial_number=0.001, cycles from 2 on)" in said
-     and (p / PAPER / "fit-skip1/params.json").exists() and not (p / PAPER / "fit").exists()),
-    ("compare", ("SKIP_CYCLES=1",), lambda p, said: compared(p / PAPER / "compare-skip1/metrics.json", {1})
-     and not (p / PAPER / "compare-skip1/report.md").exists()),
-    ("figures", ("SKIP_CYCLES=1",),
-     lambda p, said: "## Drift over the cycles" in (p / PAPER / "compare-skip1/report.md").read_text()),
-    ("compare-seed", ("SEED=2",), lambda p, said: compared(p / PAPER / "compare-seed2/metrics.json", {2})),
-    ("fit-bootstrap", ("BOOT=2",),
-     lambda p, said: '"interval_68"' in (p / PAPER / "fit-bootstrap/fit.json").read_text()),
-    ("fit-jackknife", ("OVER=angles",),
-     lambda p, said: '"over": "angles"' in (p / PAPER / "fit-jackknife-angles/fit.json").read_text()),
-    ("fit-angles", ("ANGLES=180 90",),
-     lambda p, said: '"variant"' not in (p / PAPER / "fit-angles-180-90/params.json").read_text()),
-    ("fit-angles", ("ANGLES=180 90", "VARIANT=jump"),  # another law beside Eq. 13's, in a folder of its own
-     lambda p, said: '"variant": "jump"' in (p / PAPER / "fit-angles-180-90-jump/params.json").read_text()),
-    ("fit-definitions", ("SKIP_CYCLES=1",),  # beside the fit of the same cycles, not over the default's table
-     lambda p, said: "cycles from 2 on" in (p / PAPER / "fit-skip1/definitions.md").read_text()
-     and not (p / PAPER / "fit/definitions.md").exists()),
-    ("fidelity-table", (), lambda p, said: "run(s) of the ladder" in said),
-    ("data-card", (), lambda p, said: (p / "data/reference/README.md").read_text()
-     == (ROOT / "data/reference/README.md").read_text()),
-    ("clean", (), lambda p, said: not (p / PAPER / "fit").exists() and not (p / PAPER / "compare-seed2").exists()),
-]
-
-
-for table, test in ((DEM_TARGETS, "test_a_dem_or_engine_target_runs_at_the_tiny_size"),
-                    (DATA_TARGETS, "test_a_data_target_runs_on_the_committed_data")):
-    assert {t for t, *_ in table} == {t for t, name in RUN_HERE.items() if name == test}
-
-
-@pytest.mark.parametrize("target, variables, holds", DATA_TARGETS,
-                         ids=[f"{k}-{t[0]}" for k, t in enumerate(DATA_TARGETS)])
-def test_a_data_target_runs_on_the_committed_data(project, target, variables, holds):
-    said = make(project, target, "PRESET=paper", *variables)
-    assert holds(project, said), said[-2000:]
+assert {t for t, *_ in DEM_TARGETS} == {t for t, n in RUN_HERE.items()
+                                       if n == "test_a_dem_or_engine_target_runs_at_the_tiny_size"}
