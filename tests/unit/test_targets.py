@@ -3,6 +3,7 @@ Makefile reads, and the one-line refusal of a bad value. Nothing here runs a sta
 
 import os
 import re
+import shutil
 import subprocess
 import sys
 
@@ -252,12 +253,10 @@ def test_a_run_files_name_never_reaches_make(tmp_path, name):
             assert not mark.exists()
             read = [ROOT / "results" / ".make" / "goals.stamp", *(ROOT / "results" / ".make" / "goals").iterdir()]
             assert all(name not in p.read_text() for p in read)
-    finally:
-        for path in made:
-            path.unlink(missing_ok=True)
-        (ROOT / "results" / f"tiny-{name}" / "dem").rmdir() if (ROOT / "results" / f"tiny-{name}" / "dem").exists() \
-            else None
-        (ROOT / "results" / f"tiny-{name}").rmdir() if (ROOT / "results" / f"tiny-{name}").exists() else None
+    finally:  # what the name made below each folder, whole (a name holding the mark's path makes nested folders)
+        for base, path in zip((ROOT / "results" / "tiny" / "dem", ROOT / "results"), made, strict=True):
+            top = base / path.relative_to(base).parts[0]
+            shutil.rmtree(top) if top.is_dir() else top.unlink(missing_ok=True)
 
 
 @pytest.mark.parametrize("kind", ["fifo", "folder"])
