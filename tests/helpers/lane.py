@@ -1,4 +1,4 @@
-"""``python -m tests.helpers.lane FOLDER OWNER``: run the lane's commands (``FOLDER/commands.json``) one after the
+"""``python tests/helpers/lane.py FOLDER OWNER``: run the lane's commands (``FOLDER/commands.json``) one after the
 other in ``FOLDER/project``, each in a process group of its own; append each one's record to
 ``FOLDER/done.jsonl``; mark ``FOLDER/ended`` after the last, or after the first that fails. When process ``OWNER``
 (the test session) is gone, the running command's group is killed and the lane ends."""

@@ -15,6 +15,8 @@ from pathlib import Path
 from model import kernel_cache
 from pipeline.paths import ROOT
 
+#: the lane's process, run as a script (the package's helpers, which import the model, are not its)
+LANE_SCRIPT = Path(__file__).with_name("lane.py")
 #: the lane's test: the lane is started only when it is among the session's tests
 LANE_TEST = "test_the_long_targets_run_in_a_lane_beside_the_session"
 #: the demo's runs in the tests: the `quick` cell at five times its inertial number, its contacts tracked every 0.005
@@ -103,7 +105,7 @@ class Lane:
             return cls(folder)
         project_copy(folder / "project")
         (folder / "commands.json").write_text(json.dumps(commands))
-        subprocess.Popen([sys.executable, "-m", "tests.helpers.lane", str(folder), str(owner)], cwd=ROOT,
+        subprocess.Popen([sys.executable, str(LANE_SCRIPT), str(folder), str(owner)], cwd=ROOT,
                          stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                          start_new_session=True)
         return cls(folder)
