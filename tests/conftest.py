@@ -1,7 +1,7 @@
 """Every test's path to the project; the tests marked ``last`` run after every other; the lane of long targets
-(``tests/integration/test_every_target.py``): `make demo` and what a user runs on its data set next, started in a copy
-of the project when the session starts, so that its DEM runs and fits overlap the other tests, and its test, marked
-``last``, finds it done."""
+(``tests/helpers/project.py``, its test ``tests/integration/test_lane.py``): `make demo` and what a user runs on its
+data set next, started in a copy of the project when the session starts, so that its DEM runs and fits overlap the
+other tests, and its test, marked ``last``, finds it done."""
 
 import os
 import sys
