@@ -9,7 +9,8 @@ Every parameter is dimensionless. Names follow the paper:
                                      c2(S) = c2_coef * S**c2_exponent
 
 A parameter set names its fabric law, ``variant`` (``model.laws``, the registry): ``rk2025`` is Eq. 13 as written;
-every other owns at most two parameters (four where it joins two laws), declared in its module, and reduces to
+every other owns at most two parameters a fit determines (with those read off the DEM, held at their measured
+value: at most four in all, also where it joins two laws), declared in its module, and reduces to
 Eq. 13 where they vanish (``docs/model.md``, "Variants").
 """
 

@@ -1,6 +1,7 @@
 """The fabric laws, each a module that owns its parameters and its compiled parts, chosen once by name.
 
-A law is Eq. 13 (paper Table 1) with at most two parameters of its own, or several such laws together
+A law is Eq. 13 (paper Table 1) with at most two parameters of its own that a fit determines (and any it reads off
+the DEM, ``Parameter.measured``: at most four in all), or several such laws together
 (``elastic_compaction``), and reduces to it where they vanish (``docs/model.md``, "Variants"). Its module declares
 ``NAME``, ``PARAMETERS`` (``Parameter`` records: name, the value where the law is Eq. 13, where a fit starts, the
 closed range the law is bounded in, the meaning), the sets its checks run with, and any of its parts, each compiled
@@ -33,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import jit
-from . import compaction, dispatch, elastic, elastic_compaction, jump, loading, memory, rk2025
+from . import compaction, dispatch, elastic, elastic_compaction, jump, lasting, loading, memory, rk2025, turn_compaction
 from .law import BASE, DECLARED, OWN, Law, ReferenceParts, make_law
 from .law import reference_parts as _reference_parts
 from .parameter import Parameter
@@ -47,7 +48,7 @@ def _registry(*modules) -> dict[str, Law]:
 
 
 #: the registry: every fabric law, Eq. 13's first (its code is its place here)
-LAWS = _registry(rk2025, loading, memory, jump, elastic, compaction, elastic_compaction)
+LAWS = _registry(rk2025, loading, memory, jump, elastic, compaction, elastic_compaction, lasting, turn_compaction)
 DEFAULT = rk2025.NAME
 CODE = {name: float(law.code) for name, law in LAWS.items()}
 LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array

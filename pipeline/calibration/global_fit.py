@@ -38,8 +38,9 @@ FREE = ("C", "n", "m", "a1", "b1", "a2", "b2")
 
 
 def free_names(variant: str = model.params.DEFAULT_VARIANT) -> tuple[str, ...]:
-    """The parameters refined for the fabric law ``variant``: ``FREE`` and the parameters it adds."""
-    return FREE + model.params.VARIANTS[variant]
+    """The parameters refined for the fabric law ``variant``: ``FREE`` and the parameters it adds, but those it reads
+    off the DEM (``Parameter.measured``: held at their measured value)."""
+    return FREE + tuple(q.name for q in model.laws.law_parameters(variant) if not q.measured)
 
 
 def start_of(variant: str, **given) -> model.Params:

@@ -22,7 +22,11 @@ def test_every_law_declares_parameters_in_range_whose_neutral_values_are_eq13(na
     which holds no part of the fabric, joins the step size control)."""
     own = laws.law_parameters(name)
     joined = laws.LAWS[name].joins  # a law joining two owns both laws' parameters, no other
-    assert (len(own) <= 2 if not joined else own == sum((laws.law_parameters(j) for j in joined), ()))
+    fitted = [q for q in own if not q.measured]  # those read off the DEM are held at their measured value
+    assert (len(fitted) <= 2 and len(own) <= 4 if not joined
+            else own == sum((laws.law_parameters(j) for j in joined), ()) and len(own) <= 4)
+    shared = [(q, other) for law in laws.LAWS.values() for other in law.parameters for q in own if q.name == other.name]
+    assert all((q.low, q.high) == (other.low, other.high) for q, other in shared)  # one range per name
     assert len({q.name for q in own}) == len(own)
     tolerance = laws.state_tolerance(name)  # the update's tolerance on each state variable, never tighter than A's
     assert len(tolerance) == len(laws.state_names(name)) and all(t >= 1.0 for t in tolerance)
