@@ -12,6 +12,7 @@ import model
 from model import Params, laws, periodic_cycle, predict
 from model.laws.law import make_law
 from model.solver import _fabric, _initial_state
+from pipeline.calibration.global_fit import FREE, free_names, start_of
 
 MODEL = Path(model.__file__).parent
 
@@ -104,3 +105,13 @@ def test_a_joined_law_is_placed_from_its_parts_and_two_owners_of_one_part_are_re
                                  SPEED_EXAMPLE={}, LEAVES_A_REVERSAL=True)
     with pytest.raises(TypeError, match="joins two parts that each define removal"):
         make_law(both, 7, dict(model.laws.LAWS))
+
+
+def test_a_parameter_read_off_the_dem_is_held_by_the_fit():
+    """The fit refines a law's parameters but those it reads off the DEM (``Parameter.measured``), which it holds at
+    their measured value, its start."""
+    for name, law in laws.LAWS.items():
+        measured = [q for q in law.parameters if q.measured]
+        assert free_names(name) == FREE + tuple(q.name for q in law.parameters if not q.measured)
+        assert all(getattr(start_of(name), q.name) == q.start for q in measured)
+    assert any(q.measured for q in laws.law_parameters("lasting"))
