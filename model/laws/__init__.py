@@ -34,7 +34,19 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import jit
-from . import compaction, dispatch, elastic, elastic_compaction, jump, lasting, loading, memory, rk2025, turn_compaction
+from . import (
+    compaction,
+    dispatch,
+    elastic,
+    elastic_compaction,
+    jump,
+    lasting,
+    lasting_turn,
+    loading,
+    memory,
+    rk2025,
+    turn_compaction,
+)
 from .law import BASE, DECLARED, OWN, Law, ReferenceParts, make_law
 from .law import reference_parts as _reference_parts
 from .parameter import Parameter
@@ -48,7 +60,8 @@ def _registry(*modules) -> dict[str, Law]:
 
 
 #: the registry: every fabric law, Eq. 13's first (its code is its place here)
-LAWS = _registry(rk2025, loading, memory, jump, elastic, compaction, elastic_compaction, lasting, turn_compaction)
+LAWS = _registry(rk2025, loading, memory, jump, elastic, compaction, elastic_compaction, lasting, turn_compaction,
+                 lasting_turn)
 DEFAULT = rk2025.NAME
 CODE = {name: float(law.code) for name, law in LAWS.items()}
 LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
