@@ -135,7 +135,7 @@ versus: venv ## any two data sets, seed against seed and cycle by cycle: A=prese
 cells: venv ## the reduced cell against the paper's (its data set, config/datasets.toml), seed against seed -> results/cells/cells.md
 jump: venv ## the reversal jump: fabric and wall stress right after each change of direction, every run -> results/jump/
 stability: system venv ## the DEM on stiff and extreme cases, small cells (about 15 min; CASES=baseline,dt0.5 for some) -> results/fidelity/stability.md
-budget: venv ## what the contacts do after each change of direction (made, lost, kept; networks; persistence) against Eq. 13 [PRESET] [ENGINE] -> results/<data set>/budget/
+budget: venv ## what the contacts do after each change of direction (made, lost, kept; networks; persistence) against Eq. 13 and make models' laws [PRESET] [ENGINE] -> results/<data set>/budget/
 models: venv ## every fabric law fitted and judged on runs it was not fitted on [PRESET] [ACROSS=reduced, or none] [LAWS=rk2025,elastic] -> results/<data set>/models/
 $(STAGES): check
 	$(TARGETS) $@

@@ -52,10 +52,13 @@ from ..dataset.lookup import every_seed
 from ..errors import PipelineError
 from ..paths import preset_output
 from ..spec import ENGINES
+from . import law_terms
 
 #: windows of nominal strain after a change: the jump (dense samples) first, then the slow memory
 WINDOWS = ((0.0, 0.0005), (0.0005, 0.001), (0.001, 0.002), (0.002, 0.005), (0.005, 0.02), (0.02, 0.05),
            (0.05, 0.1), (0.1, 0.2), (0.2, 0.4))
+#: the first window where the laws' own terms are set beside the DEM's (the jump's windows before it)
+LAW_WINDOWS_FROM = 4
 #: the state before a change: the mean over this much strain before it
 BEFORE = 0.02
 MEASURED = ("made", "lost", "kept", "crossed")
@@ -113,6 +116,7 @@ class BudgetGroup:
     events: int
     windows: list[WindowBudget]
     curves: dict[str, list[float]]  # cumulative fractions against strain after the change, mean over events
+    laws: list[law_terms.LawTerms] = dataclasses.field(default_factory=list)  # each fitted law's own terms
 
 
 def event_frame(phi_old: float, phi_new: float) -> tuple[np.ndarray, np.ndarray, float]:
@@ -333,8 +337,9 @@ def group_label(run) -> str:
     return label if run.default_rotation else f"{label} at {run.spec.rotate_at_strain:g}"
 
 
-def budget_groups(runs: list, params: model.Params) -> list[BudgetGroup]:
-    """``BudgetGroup`` of each protocol among ``runs`` (those with a contact budget)."""
+def budget_groups(runs: list, params: model.Params, laws: tuple[Path, ...] = ()) -> list[BudgetGroup]:
+    """``BudgetGroup`` of each protocol among ``runs`` (those with a contact budget), with the own terms of the laws
+    whose parameter files are ``laws`` (``law_terms``)."""
     by_protocol: dict[tuple, list] = {}
     for run in runs:
         by_protocol.setdefault((run.theta_deg, run.spec.rotate_at_strain), []).append(run)
@@ -345,8 +350,9 @@ def budget_groups(runs: list, params: model.Params) -> list[BudgetGroup]:
             continue
         has_memory = abs(math.sin(math.radians(theta))) >= MEMORY_MIN_SIN
         windows = [window_stats(events, lo, hi, has_memory) for lo, hi in WINDOWS]
+        own = [law_terms.law_terms(path, theta, rotate_at, WINDOWS, has_memory) for path in laws]
         groups.append(BudgetGroup(group_label(members[0]), theta, rotate_at, sorted({str(r.path) for r in members}),
-                                  len(events), windows, curves(events, has_memory)))
+                                  len(events), windows, curves(events, has_memory), own))
     return groups
 
 
@@ -370,6 +376,8 @@ def markdown(label: str, params_source: str, groups: list[BudgetGroup]) -> str:
                 lines.append(f"| {w.lo:g}–{w.hi:g} | " + " | ".join(
                     r[n].text(2, g.events) for n in (*COLUMNS, "total", *EQ13, "eq13_total")) + " |")
             lines.append("")
+        if g.laws:
+            lines += law_terms.markdown_rows(g, g.laws, LAW_WINDOWS_FROM)
         comp = "memory" if g.windows[0].memory else "shear"
         lines += [f"The {comp} fraction at each window's end, and who holds it:", "",
                   "| strain | A | strong | weak | survivors compressed | neutral | stretched | persistence all "
@@ -462,6 +470,9 @@ def main(argv=None) -> int:
     parser.add_argument("--params", type=Path, help="Eq. 13's parameters (default: fitted on the data set's runs)")
     parser.add_argument("--spacing", type=Path, nargs="+", metavar="RUN.h5",
                         help="compare runs of one spec tracked at different spacings instead")
+    parser.add_argument("--laws", type=Path, nargs="*", metavar="PARAMS.json",
+                        help="laws whose own terms to set beside the DEM's (default: `make models`' fits of the data "
+                             "set, results/<data set>/models/params-*.json, where it has run)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<data set>/budget)")
     args = parser.parse_args(argv)
     if args.spacing:
@@ -472,17 +483,21 @@ def main(argv=None) -> int:
         io.write_text(out / "spacing.md", spacing_markdown(runs))
         print(f"wrote {out / 'spacing.md'}")
         return 0
+    for path in args.laws or ():
+        io.read_params(path)  # a bad file is a one-line error before the long work
     chosen, runs = choose(args)
     out = io.check_writable_dir(args.out or preset_output(chosen.folder, "budget"))
     print(f"budget: {len(runs)} run(s) of {chosen.label} with a contact budget", flush=True)
+    laws = tuple(args.laws if args.laws is not None else law_terms.law_params(preset_output(chosen.folder, "models")))
     params, source = eq13_params(chosen, args.params)
-    groups = budget_groups(runs, params)
+    groups = budget_groups(runs, params, laws)
     from . import near
 
     shells = near.near_groups(runs)
     from .. import schema
 
-    made_from = schema.MadeFrom.of([r.path for r in runs], {"data_set": chosen.folder, "params_source": source})
+    made_from = schema.MadeFrom.of([r.path for r in runs] + list(laws), {"data_set": chosen.folder,
+                                                                          "params_source": source})
     record = {"schema_version": 2, "data_set": chosen.folder, "params": params.to_dict(), "params_source": source,
               "windows": [list(w) for w in WINDOWS], "groups": [dataclasses.asdict(g) for g in groups],
               "near_windows": [list(w) for w in near.WINDOWS], "near": [dataclasses.asdict(g) for g in shells],

@@ -65,6 +65,26 @@ def test_the_followed_fractions_start_at_one_and_the_memory_fades(run):
     assert last["memory_strong"].mean == pytest.approx(0.4 * last["memory_A"].mean)
 
 
+def test_a_laws_own_terms_on_its_cycle_are_the_run_it_made(run, tmp_path, capsys):
+    """Eq. 13's parameters, given as a law's (``--laws``): on its own cycle its total is the run's measured total (the
+    run is its cycle), its recovery the recovery the budget evaluates on the run's states, its input on the memory
+    none; a file that is not a parameter set fails in one line before any work."""
+    path = tmp_path / "params-rk2025.json"
+    path.write_text(model.PAPER.to_json())
+    (group,) = budget.budget_groups([run], model.PAPER, (path,))
+    (law,) = group.laws
+    assert law.variant == "rk2025" and not law.error and len(law.windows) == len(group.windows)
+    for w, own in zip(group.windows, law.windows, strict=True):
+        if w.lo < 0.05:
+            continue
+        assert own.total == pytest.approx(w.memory["total"].mean, rel=0.1, abs=0.05), (w.lo, w.hi)
+        assert own.recovery == pytest.approx(w.memory["recovery"].mean, rel=0.1, abs=0.05)
+        assert own.input == pytest.approx(0.0, abs=1e-9) and own.own == 0.0
+    (tmp_path / "bad.json").write_text("{}")
+    assert budget.main(["--laws", str(tmp_path / "bad.json"), "--out", str(tmp_path)]) == 2
+    assert "bad.json" in capsys.readouterr().err
+
+
 def test_a_run_without_a_contact_budget_is_refused_in_one_line(tmp_path, capsys):
     raw, meta = synthetic_raw(180.0, n_cycles=1)
     write_raw(tmp_path / "raw.npz", raw, meta)
