@@ -115,3 +115,19 @@ def test_a_parameter_read_off_the_dem_is_held_by_the_fit():
         assert free_names(name) == FREE + tuple(q.name for q in law.parameters if not q.measured)
         assert all(getattr(start_of(name), q.name) == q.start for q in measured)
     assert any(q.measured for q in laws.law_parameters("lasting"))
+
+
+def test_the_lasting_laws_reduce_to_the_laws_they_extend():
+    """``lasting`` with gamma_n = gamma_e is ``elastic``; ``lasting_turn`` with k = 0 is ``lasting``, with kappa = 0
+    ``turn_compaction`` whose gamma_r is gamma_n (to the integrator's tolerance: their states differ in length)."""
+    K = {"elastic_fabric": -0.012, "elastic_strain": 0.005}
+    pairs = [(Params(variant="lasting", **K, lasting_strain=0.005), Params(variant="elastic", **K)),
+             (Params(variant="lasting_turn", **K, lasting_strain=0.4, turn_gain=0.0),
+              Params(variant="lasting", **K, lasting_strain=0.4)),
+             (Params(variant="lasting_turn", elastic_fabric=0.0, elastic_strain=0.005, lasting_strain=0.4,
+                     turn_gain=150.0), Params(variant="turn_compaction", turn_gain=150.0, turn_strain=0.4))]
+    for law, reduced in pairs:
+        a, b = predict(150, params=law), predict(150, params=reduced)
+        assert np.max(np.abs(a.A - b.A)) < 1e-8 and np.max(np.abs(a.tau - b.tau)) < 1e-7
+    far = predict(150, params=Params(variant="lasting", **K, lasting_strain=0.5))
+    assert np.max(np.abs(far.A - predict(150, params=pairs[0][1]).A)) > 1e-4  # gamma_n acts
