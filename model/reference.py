@@ -32,7 +32,7 @@ def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params, X=None, phi: float
     lam = S**params.persistence_exponent
     law = law_parts(params)
     removed = law.removal(A, Dd / nD, X, phi)
-    return (beta1 * Dd + beta2 * nD * removed) / lam - A @ W + W @ A + nD * law.extra(A, Dd / nD)
+    return (beta1 * Dd + beta2 * nD * removed) / lam - A @ W + W @ A + nD * law.extra(A, Dd / nD, X, phi)
 
 
 def jump(L: np.ndarray, params: Params) -> np.ndarray:
