@@ -14,8 +14,8 @@ from .params import Params
 
 
 def law_parts(params: Params) -> laws.ReferenceParts:
-    """The fabric law's parts on 3x3 tensors (``model.laws``), with the set's own parameters."""
-    return laws.reference_parts(params.variant, params.law_dict())
+    """The fabric law's parts on 3x3 tensors (``model.laws``), with the set's own parameters and the model's."""
+    return laws.reference_parts(params.variant, {**params.to_dict(), **params.law_dict()})
 
 
 def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params, X=None, phi: float = 0.0) -> np.ndarray:

@@ -42,8 +42,10 @@ class Part:
     params_at: int
 
     def values(self, values: dict) -> dict:
-        """The part's own parameters of a law's ``values``."""
-        return {q.name: values[q.name] for q in self.module.PARAMETERS}
+        """The part's own parameters of a law's ``values``, and the model's it reads (``MODEL_VALUES``) where
+        ``values`` holds them (``model.reference`` gives them)."""
+        model = {name: values[name] for name in getattr(self.module, "MODEL_VALUES", ()) if name in values}
+        return {q.name: values[q.name] for q in self.module.PARAMETERS} | model
 
 
 @dataclasses.dataclass(frozen=True)
