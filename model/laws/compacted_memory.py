@@ -1,8 +1,8 @@
 """The "compacted_memory" law: the part of A the new shear does not load, N (the "memory" law's), lost at a rate of
 its own that the packing's compaction slows, as the DEM loses it. In the paper cell's contact budget the old
 direction's normal part decays first order after every turn, at a rate r per unit strain that falls linearly with
-the packing's rise over its steady value, r = r0 (1 - k dPhi): 12-17 after 30 degrees (dPhi 0.0004), 9 after 90
-(0.0045), 5-6 after 120 (0.007), 3 after 150 (0.0105), over 0.02-0.2 strain; r0 = 14 and k = 80 are read off these
+the packing's rise over its steady value, r = r0 (1 - k dPhi): 12-13 after 30 degrees (dPhi 0.0004), 9 after 90
+(0.0045), 5-6 after 120 (0.007), 3 after 150 (0.0105), over 0.05-0.2 strain; r0 = 14 and k = 80 are read off these
 (``docs/results/models.md``), where Eq. 13's recovery of N follows S instead (slow, then fast, then gone). Here a
 share s of N leaves beta2's removal and is removed at that rate:
 
