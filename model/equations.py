@@ -108,7 +108,7 @@ def fabric_rates(y, Dh, Wn, p):
     beta2 = p[A2] + p[B2] * S
     r11, r22, r12, r13, r23 = laws.removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
     s11, s22, s12, s13, s23 = spin_rate(w12, w13, w23, a11, a22, a12, a13, a23)
-    e11, e22, e12, e13, e23 = laws.extra_rate(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
+    e11, e22, e12, e13, e23 = laws.extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p)
     j11, j22, j12, j13, j23 = s11 + e11, s22 + e22, s12 + e12, s13 + e13, s23 + e23
     n11 = beta1 * d11 + beta2 * r11 + lam * j11
     n22 = beta1 * d22 + beta2 * r22 + lam * j22

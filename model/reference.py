@@ -14,8 +14,8 @@ from .params import Params
 
 
 def law_parts(params: Params) -> laws.ReferenceParts:
-    """The fabric law's parts on 3x3 tensors (``model.laws``), with the set's own parameters and the model's."""
-    return laws.reference_parts(params.variant, {**params.to_dict(), **params.law_dict()})
+    """The fabric law's parts on 3x3 tensors (``model.laws``), with the set's own parameters."""
+    return laws.reference_parts(params.variant, params.law_dict())
 
 
 def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params, X=None, phi: float = 0.0) -> np.ndarray:
@@ -32,7 +32,7 @@ def fabric_rate(A: np.ndarray, L: np.ndarray, params: Params, X=None, phi: float
     lam = S**params.persistence_exponent
     law = law_parts(params)
     removed = law.removal(A, Dd / nD, X, phi)
-    return (beta1 * Dd + beta2 * nD * removed) / lam - A @ W + W @ A + nD * law.extra(A, Dd / nD, X, phi)
+    return (beta1 * Dd + beta2 * nD * removed) / lam - A @ W + W @ A + nD * law.extra(A, Dd / nD)
 
 
 def jump(L: np.ndarray, params: Params) -> np.ndarray:

@@ -11,7 +11,7 @@ its own) and taking, after its own arguments, ``s`` and ``q``: where its state a
 
 - ``removal(y, a.., d.., p, s, q)``: what beta2 |D'| removes in place of A (Eq. 13's recovery term), packed (11, 22,
   12, 13, 23), ``y`` the kernels' state;
-- ``extra_rate(y, a.., d.., p, s, q)``: a rate per unit |D'| t added beside the Jaumann spin (scaled by Lambda as it
+- ``extra_rate(a.., d.., p, s, q)``: a rate per unit |D'| t added beside the Jaumann spin (scaled by Lambda as it
   is), packed alike;
 - ``offset(p, s, q)``: kappa, where the fabric of Eqs. 14 and 18 is the state A plus kappa D'/|D'|;
 - a state of its own (``STATE``, its names; ``STATE_BOUNDS``, the range each lies in, which ``model.update`` checks;
@@ -23,11 +23,10 @@ its own) and taking, after its own arguments, ``s`` and ``q``: where its state a
   for a part K of the fabric that relaxes fast (``model.stepper``);
 
 and for the independent reference (``model.reference``, plain numpy on 3x3 tensors) ``reference_removal(A, Dh,
-values, X, phi)``, ``reference_extra(A, Dh, values, X, phi)``, ``reference_offset``, and for a state
-``reference_start``, ``reference_state_rate`` and ``reference_fabric``. A part a law leaves out is Eq. 13's (A,
-zero, zero, no state). The kernels call the dispatchers below, generated from the registry
-(``model.laws.dispatch``): nothing outside ``LAWS`` names a law. Adding a law is its module and its line in
-``LAWS`` (``docs/extending.md``).
+values, X, phi)``, ``reference_extra``, ``reference_offset``, and for a state ``reference_start``,
+``reference_state_rate`` and ``reference_fabric``. A part a law leaves out is Eq. 13's (A, zero, zero, no state).
+The kernels call the dispatchers below, generated from the registry (``model.laws.dispatch``): nothing outside
+``LAWS`` names a law. Adding a law is its module and its line in ``LAWS`` (``docs/extending.md``).
 """
 
 from __future__ import annotations
@@ -36,7 +35,6 @@ import numpy as np
 
 from ..jit import jit
 from . import (
-    compacted_memory,
     compaction,
     dispatch,
     elastic,
@@ -63,7 +61,7 @@ def _registry(*modules) -> dict[str, Law]:
 
 #: the registry: every fabric law, Eq. 13's first (its code is its place here)
 LAWS = _registry(rk2025, loading, memory, jump, elastic, compaction, elastic_compaction, lasting, turn_compaction,
-                 lasting_turn, compacted_memory)
+                 lasting_turn)
 DEFAULT = rk2025.NAME
 CODE = {name: float(law.code) for name, law in LAWS.items()}
 LAW_INDEX = OWN - 1  # where the law's code sits in the parameter array
@@ -159,9 +157,9 @@ def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
 
 
 @jit
-def extra_rate(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
+def extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p):
     """The law's rate beside the spin, per unit |D'| t (Eq. 13: none)."""
-    return _EXTRA(int(p[LAW_INDEX]), (y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p))
+    return _EXTRA(int(p[LAW_INDEX]), (a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p))
 
 
 @jit

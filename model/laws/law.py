@@ -42,10 +42,8 @@ class Part:
     params_at: int
 
     def values(self, values: dict) -> dict:
-        """The part's own parameters of a law's ``values``, and the model's it reads (``MODEL_VALUES``) where
-        ``values`` holds them (``model.reference`` gives them)."""
-        model = {name: values[name] for name in getattr(self.module, "MODEL_VALUES", ()) if name in values}
-        return {q.name: values[q.name] for q in self.module.PARAMETERS} | model
+        """The part's own parameters of a law's ``values``."""
+        return {q.name: values[q.name] for q in self.module.PARAMETERS}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,8 +90,8 @@ class Law:
 
 @dataclasses.dataclass(frozen=True)
 class ReferenceParts:
-    """A law's parts on 3x3 tensors for ``model.reference``: ``removal(A, Dh, X, phi)``, ``extra(A, Dh, X, phi)``
-    (per unit |D'| t), ``offset`` (kappa), and for a law with a state X of its own (a flat array; None for none)
+    """A law's parts on 3x3 tensors for ``model.reference``: ``removal(A, Dh, X, phi)``, ``extra(A, Dh)`` (per unit
+    |D'| t), ``offset`` (kappa), and for a law with a state X of its own (a flat array; None for none)
     ``state_start(Dh, phi)``, ``state_rate(X, A, phi, L)`` (dX/dt) and ``state_fabric(X)`` (the part of the fabric
     it holds, 3x3). A part the law leaves out is Eq. 13's: A, zero, zero, no state."""
 
@@ -121,9 +119,9 @@ def reference_parts(law: Law, values: dict) -> ReferenceParts:
             return p.module.reference_removal(A, Dh, p.values(values), mine(p, X), phi)
         return A
 
-    def extra(A, Dh, X, phi):
+    def extra(A, Dh):
         for p in law.defining("reference_extra"):
-            return p.module.reference_extra(A, Dh, p.values(values), mine(p, X), phi)
+            return p.module.reference_extra(A, Dh, p.values(values))
         return np.zeros((3, 3))
 
     def state_start(Dh, phi):

@@ -63,7 +63,7 @@ def removal(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, s, q):
 
 
 @jit
-def extra_rate(y, a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, s, q):
+def extra_rate(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23, p, s, q):
     """-memory_share memory_rate N."""
     rate = p[q] * p[q + 1]
     q11, q22, q12, q13, q23 = neutral_part(a11, a22, a12, a13, a23, d11, d22, d33, d12, d13, d23)
@@ -81,5 +81,5 @@ def reference_removal(A, Dh, values, X, phi):
     return A - values["memory_share"] * reference_neutral(A, Dh)
 
 
-def reference_extra(A, Dh, values, X, phi):
+def reference_extra(A, Dh, values):
     return -values["memory_share"] * values["memory_rate"] * reference_neutral(A, Dh)
