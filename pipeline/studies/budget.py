@@ -337,9 +337,9 @@ def group_label(run) -> str:
     return label if run.default_rotation else f"{label} at {run.spec.rotate_at_strain:g}"
 
 
-def budget_groups(runs: list, params: model.Params, laws: tuple[Path, ...] = ()) -> list[BudgetGroup]:
+def budget_groups(runs: list, params: model.Params, laws: tuple = ()) -> list[BudgetGroup]:
     """``BudgetGroup`` of each protocol among ``runs`` (those with a contact budget), with the own terms of the laws
-    whose parameter files are ``laws`` (``law_terms``)."""
+    ``laws`` ((parameters, where from) pairs: ``law_terms``)."""
     by_protocol: dict[tuple, list] = {}
     for run in runs:
         by_protocol.setdefault((run.theta_deg, run.spec.rotate_at_strain), []).append(run)
@@ -350,7 +350,7 @@ def budget_groups(runs: list, params: model.Params, laws: tuple[Path, ...] = ())
             continue
         has_memory = abs(math.sin(math.radians(theta))) >= MEMORY_MIN_SIN
         windows = [window_stats(events, lo, hi, has_memory) for lo, hi in WINDOWS]
-        own = [law_terms.law_terms(path, theta, rotate_at, WINDOWS, has_memory) for path in laws]
+        own = [law_terms.law_terms(law, source, theta, rotate_at, WINDOWS, has_memory) for law, source in laws]
         groups.append(BudgetGroup(group_label(members[0]), theta, rotate_at, sorted({str(r.path) for r in members}),
                                   len(events), windows, curves(events, has_memory), own))
     return groups
@@ -471,8 +471,8 @@ def main(argv=None) -> int:
     parser.add_argument("--spacing", type=Path, nargs="+", metavar="RUN.h5",
                         help="compare runs of one spec tracked at different spacings instead")
     parser.add_argument("--laws", type=Path, nargs="*", metavar="PARAMS.json",
-                        help="laws whose own terms to set beside the DEM's (default: `make models`' fits of the data "
-                             "set, results/<data set>/models/params-*.json, where it has run)")
+                        help="laws whose own terms to set beside the DEM's (default: every law of `make models`' "
+                             "results/<data set>/models/models.json, where it has run)")
     parser.add_argument("--out", type=Path, help="output folder (default results/<data set>/budget)")
     args = parser.parse_args(argv)
     if args.spacing:
@@ -483,20 +483,19 @@ def main(argv=None) -> int:
         io.write_text(out / "spacing.md", spacing_markdown(runs))
         print(f"wrote {out / 'spacing.md'}")
         return 0
-    for path in args.laws or ():
-        io.read_params(path)  # a bad file is a one-line error before the long work
+    given = law_terms.fitted_laws(args.laws, Path()) if args.laws is not None else None  # checked before long work
     chosen, runs = choose(args)
     out = io.check_writable_dir(args.out or preset_output(chosen.folder, "budget"))
     print(f"budget: {len(runs)} run(s) of {chosen.label} with a contact budget", flush=True)
-    laws = tuple(args.laws if args.laws is not None else law_terms.law_params(preset_output(chosen.folder, "models")))
+    laws, law_files = given or law_terms.fitted_laws(None, preset_output(chosen.folder, "models"))
     params, source = eq13_params(chosen, args.params)
-    groups = budget_groups(runs, params, laws)
+    groups = budget_groups(runs, params, tuple(laws))
     from . import near
 
     shells = near.near_groups(runs)
     from .. import schema
 
-    made_from = schema.MadeFrom.of([r.path for r in runs] + list(laws), {"data_set": chosen.folder,
+    made_from = schema.MadeFrom.of([r.path for r in runs] + law_files, {"data_set": chosen.folder,
                                                                           "params_source": source})
     record = {"schema_version": 2, "data_set": chosen.folder, "params": params.to_dict(), "params_source": source,
               "windows": [list(w) for w in WINDOWS], "groups": [dataclasses.asdict(g) for g in groups],

@@ -4,7 +4,7 @@ state's part (``model.terms``) on the memory fraction (the shear fraction where 
 the budget's windows and frame (``pipeline.studies.budget``). The DEM's exchange (made + lost) is what its contacts
 made and lost carry, against a law's input and recovery; its kept, what the contacts that stay carry, against the
 spin and the own state's part. A law whose total follows the DEM's with other terms fits the sum with the wrong
-terms. The laws are ``make models``' fits on every run (``params-<variant>.json``).
+terms. The laws are ``make models``' fits on every run (its ``models.json``), or parameter files.
 """
 
 from __future__ import annotations
@@ -51,22 +51,31 @@ class LawTerms:
     error: str = ""
 
 
-def law_params(folder: Path) -> list[Path]:
-    """``make models``' parameter files in ``folder`` (none where it has not run)."""
-    return sorted(folder.glob("params-*.json")) if folder.is_dir() else []
+def fitted_laws(paths: list[Path] | None, models_folder: Path) -> tuple[list[tuple[model.Params, str]], list[Path]]:
+    """The laws to set beside the DEM (each with where it came from) and the files read: the parameter files
+    ``paths``, or else every law of ``make models``' ``models.json`` in ``models_folder`` (its fit on every run), or
+    none where it has not run. A bad file is a one-line ``PipelineError``."""
+    if paths is not None:
+        return [(io.read_params(path), str(path)) for path in paths], list(paths)
+    source = models_folder / "models.json"
+    if not source.is_file():
+        return [], []
+    from ..schema.models import read_models
+
+    return [(law.params, f"{source} ({law.variant})") for law in read_models(source).variants], [source]
 
 
-def law_terms(path: Path, theta: float, rotate_at: float, windows, has_memory: bool) -> LawTerms:
-    """``LawTerms`` of the parameters at ``path`` after the turn from 0 to ``theta`` at ``rotate_at``."""
+def law_terms(params: model.Params, source: str, theta: float, rotate_at: float, windows,
+              has_memory: bool) -> LawTerms:
+    """``LawTerms`` of ``params`` (from ``source``) after the turn from 0 to ``theta`` at ``rotate_at``."""
     from .budget import components, event_frame
 
-    params = io.read_params(path)
     before = 0.02
     strains = np.arange(rotate_at - before, rotate_at + windows[-1][1] + SAMPLE / 2, SAMPLE)
     try:
         cycle = model.predict(theta, rotate_at=rotate_at, params=params, times=strains)
     except model.SolverError as exc:
-        return LawTerms(params.variant, str(path), [], str(exc))
+        return LawTerms(params.variant, source, [], str(exc))
     after = strains >= rotate_at - 1e-12
     L = np.array([model.shear_velocity_gradient(theta)] * int(after.sum()))
     terms = fabric_terms(cycle.A[after], cycle.law_state[after], L, params)
@@ -84,7 +93,7 @@ def law_terms(path: Path, theta: float, rotate_at: float, windows, has_memory: b
         pick = (gamma[1:] > lo + 1e-9) & (gamma[1:] <= hi + 1e-9)
         values = {name: float(fractions[name][pick].sum() / step[pick].sum()) for name in TERMS[:-1]}
         rates.append(TermRates(**values, total=sum(values.values())))
-    return LawTerms(params.variant, str(path), rates)
+    return LawTerms(params.variant, source, rates)
 
 
 def markdown_rows(g, laws: list[LawTerms], first: int) -> list[str]:

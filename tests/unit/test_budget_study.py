@@ -8,7 +8,7 @@ import model
 from dem.core.rawfile import write_raw
 from dem.core.schema import contact_fields
 from pipeline.dataset.dem_file import load, write_h5
-from pipeline.studies import budget
+from pipeline.studies import budget, law_terms
 from tests.helpers.synthetic import synthetic_raw
 
 
@@ -71,7 +71,9 @@ def test_a_laws_own_terms_on_its_cycle_are_the_run_it_made(run, tmp_path, capsys
     none; a file that is not a parameter set fails in one line before any work."""
     path = tmp_path / "params-rk2025.json"
     path.write_text(model.PAPER.to_json())
-    (group,) = budget.budget_groups([run], model.PAPER, (path,))
+    laws, read = law_terms.fitted_laws([path], tmp_path)
+    assert read == [path] and law_terms.fitted_laws(None, tmp_path) == ([], [])  # no make models here: no law
+    (group,) = budget.budget_groups([run], model.PAPER, tuple(laws))
     (law,) = group.laws
     assert law.variant == "rk2025" and not law.error and len(law.windows) == len(group.windows)
     for w, own in zip(group.windows, law.windows, strict=True):
