@@ -68,9 +68,9 @@ def fitted_laws(paths: list[Path] | None, models_folder: Path) -> tuple[list[tup
 def law_terms(params: model.Params, source: str, theta: float, rotate_at: float, windows,
               has_memory: bool) -> LawTerms:
     """``LawTerms`` of ``params`` (from ``source``) after the turn from 0 to ``theta`` at ``rotate_at``."""
-    from .budget import components, event_frame
+    from .budget import BEFORE as before
+    from .budget import E2, components, event_frame
 
-    before = 0.02
     strains = np.arange(rotate_at - before, rotate_at + windows[-1][1] + SAMPLE / 2, SAMPLE)
     try:
         cycle = model.predict(theta, rotate_at=rotate_at, params=params, times=strains)
@@ -80,7 +80,7 @@ def law_terms(params: model.Params, source: str, theta: float, rotate_at: float,
     L = np.array([model.shear_velocity_gradient(theta)] * int(after.sum()))
     terms = fabric_terms(cycle.A[after], cycle.law_state[after], L, params)
     s_new, t, t_old = event_frame(0.0, theta)
-    a0 = float(-model.shear_direction(0.0) @ cycle.A[~after].mean(axis=0) @ np.array([0.0, 1.0, 0.0]))
+    a0 = float(-model.shear_direction(0.0) @ cycle.A[~after].mean(axis=0) @ E2)
     gamma = strains[after] - rotate_at
     step = np.diff(gamma)
     part = 1 if has_memory else 0
